@@ -1,0 +1,78 @@
+"""The `Hand` description every hand model provides.
+
+A hand is described, not simulated, here: which MJCF builds it, which site is
+its tool-centre point (TCP), which bodies are fingers, and how one scalar
+"synergy" s in [0, 1] (0 = open, 1 = closed) maps to its actuator commands,
+so planners and the protocol can treat a parallel jaw and a five-finger hand
+alike. Simulation lives in `manigrasp.sim`.
+
+Frame convention (DESIGN.md): in the TCP frame, z is the approach direction
+(from the hand toward the object) and y is the closing direction of a parallel
+jaw (finger 1 toward finger 2); x = y cross z.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Literal
+
+import mujoco
+import numpy as np
+
+HandKind = Literal["parallel", "dexterous"]
+
+
+@dataclass(frozen=True)
+class Hand:
+    """Metadata and model factory of one hand.
+
+    Attributes:
+        name: registry name, e.g. "parallel_jaw".
+        kind: "parallel" (two opposing jaws) or "dexterous".
+        build_spec: returns a fresh `mujoco.MjSpec` of the hand alone. Its
+            worldbody holds exactly one top-level body, `root_body`, with no
+            joint: `manigrasp.sim` mounts it on a floating base.
+        root_body: name of that top-level body.
+        tcp_site: name of the TCP site (z = approach, y = closing).
+        finger_bodies: bodies that count as fingers for the "two distinct
+            fingers must touch" success rule; every hand geom that should
+            count as touching belongs to one of these bodies or descendants.
+        actuators: names of the hand's actuators, in the order of `open_ctrl`.
+        open_ctrl: (n_act,) actuator commands of the open pre-shape.
+        closed_ctrl: (n_act,) actuator commands of the fully closed shape.
+        max_width: jaw opening [m] at s = 0 (for dexterous hands: the widest
+            object the open hand can enclose).
+        max_grip_force: largest grip force the hand can apply [N].
+        mass: total mass of the hand [kg] (computed from the compiled model).
+        source: where the model comes from (our assets, robosuite, user).
+        notes: free-text facts worth showing (fixes applied at load...).
+    """
+
+    name: str
+    kind: HandKind
+    build_spec: Callable[[], mujoco.MjSpec]
+    root_body: str
+    tcp_site: str
+    finger_bodies: tuple[str, ...]
+    actuators: tuple[str, ...]
+    open_ctrl: np.ndarray
+    closed_ctrl: np.ndarray
+    max_width: float
+    max_grip_force: float
+    mass: float
+    source: str = "manigrasp"
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    approach_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    closing_axis: tuple[float, float, float] = (0.0, 1.0, 0.0)
+
+    @property
+    def n_actuators(self) -> int:
+        """Number of actuated degrees of freedom of the hand."""
+        return len(self.actuators)
+
+    def synergy_ctrl(self, s: float) -> np.ndarray:
+        """Actuator commands (n_act,) for synergy s in [0, 1] (0 open, 1 closed)."""
+        s = float(np.clip(s, 0.0, 1.0))
+        return (1.0 - s) * self.open_ctrl + s * self.closed_ctrl
