@@ -1,0 +1,53 @@
+"""The `manigrasp` command line: parse, call the library, print, exit.
+
+Each command group lives in its own module with an ``add_parser(subparsers)``
+function that registers its sub-commands and sets ``func`` on them. A
+`ManigraspError` becomes a one-line message on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from manigrasp import __version__
+from manigrasp.errors import ManigraspError
+
+# Command-group modules, in the order they appear in --help.
+_GROUPS = ("objects", "hands")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level argument parser with every command group."""
+    parser = argparse.ArgumentParser(
+        prog="manigrasp",
+        description="A MuJoCo-based simulated grasping benchmark.",
+    )
+    parser.add_argument("--version", action="version", version=f"manigrasp {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for group in _GROUPS:
+        module = importlib.import_module(f"manigrasp.cli.{group}")
+        module.add_parser(subparsers)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the `manigrasp` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not hasattr(args, "func"):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except ManigraspError as exc:
+        print(f"manigrasp: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("manigrasp: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

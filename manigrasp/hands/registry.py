@@ -1,0 +1,55 @@
+"""The hand registry. Entries are imported lazily, only when loaded."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import cache
+
+from manigrasp.hands.base import Hand
+from manigrasp.registry import Registry, import_attribute
+
+HANDS: Registry[Hand] = Registry("hand")
+
+# name -> "module:factory"; each factory takes no argument and returns a Hand.
+_BUILTIN: dict[str, str] = {
+    "parallel_jaw": "manigrasp.hands.parallel_jaw:make_parallel_jaw",
+    "panda": "manigrasp.hands.robosuite_hands:make_panda",
+    "robotiq_2f85": "manigrasp.hands.robosuite_hands:make_robotiq_2f85",
+    "inspire_right": "manigrasp.hands.robosuite_hands:make_inspire_right",
+    "inspire_left": "manigrasp.hands.robosuite_hands:make_inspire_left",
+    "fourier_right": "manigrasp.hands.robosuite_hands:make_fourier_right",
+    "fourier_left": "manigrasp.hands.robosuite_hands:make_fourier_left",
+}
+
+
+def _lazy(spec: str) -> Callable[[], Hand]:
+    @cache
+    def factory() -> Hand:
+        return import_attribute(spec, "hand")()  # type: ignore[operator]
+
+    return factory
+
+
+for _name, _spec in _BUILTIN.items():
+    HANDS.add(_name, _lazy(_spec))
+
+
+def names() -> tuple[str, ...]:
+    """Names of the registered hands."""
+    return HANDS.names()
+
+
+def load(name: str) -> Hand:
+    """The hand named `name`, or a user hand given as ``module:attribute``.
+
+    A user entry may be a `Hand` or a callable returning one; either way it is
+    validated (TCP site, finger bodies, actuators present) before it is returned.
+    """
+    if name in HANDS:
+        return HANDS.load(name)
+    entry = HANDS.resolve(name) if ":" not in name else import_attribute(name, "hand")
+    hand = entry if isinstance(entry, Hand) else entry()  # type: ignore[operator]
+    from manigrasp.hands.validate import validate_hand
+
+    validate_hand(hand)
+    return hand
