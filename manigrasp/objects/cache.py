@@ -1,0 +1,95 @@
+"""On-disk cache of convex decompositions, safe against kills and corruption.
+
+An entry is one ``.npz`` file named by a key that hashes the mesh content, the
+decomposition parameters and the CoACD version. Writes go to a temporary file
+in the same folder and are moved into place with `os.replace`, so a killed
+build leaves no entry at all. Each entry stores a SHA-256 of its arrays; an
+entry that fails to load or to match its checksum is deleted and reported as
+a miss, so the caller rebuilds it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+CACHE_FORMAT = 1
+
+
+def mesh_digest(mesh: trimesh.Trimesh) -> str:
+    """SHA-256 of a mesh's vertex and face arrays."""
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+    return h.hexdigest()
+
+
+def cache_key(mesh: trimesh.Trimesh, params: dict, tool_version: str) -> str:
+    """Key of a decomposition: mesh content + parameters + tool version."""
+    payload = json.dumps({"mesh": mesh_digest(mesh), "params": params, "tool": tool_version,
+                          "format": CACHE_FORMAT}, sort_keys=True)
+    return hashlib.sha256(payload.encode()).hexdigest()[:32]
+
+
+def _arrays_digest(arrays: dict[str, np.ndarray]) -> str:
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(arrays[name]).tobytes())
+    return h.hexdigest()
+
+
+class HullCache:
+    """Convex hull lists stored under `root`, one file per key."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = Path(root)
+        self.root.mkdir(parents=True, exist_ok=True)
+
+    def path(self, key: str) -> Path:
+        """File of the entry `key` (it may not exist)."""
+        return self.root / f"{key}.npz"
+
+    def get(self, key: str) -> tuple[list[trimesh.Trimesh], dict] | None:
+        """The hulls and metadata stored under `key`, or None (missing or corrupted: deleted)."""
+        path = self.path(key)
+        if not path.exists():
+            return None
+        try:
+            with np.load(path) as data:
+                arrays = {name: data[name] for name in data.files if name not in ("checksum", "meta")}
+                checksum = str(data["checksum"])
+                meta = json.loads(str(data["meta"]))
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, json.JSONDecodeError):
+            path.unlink(missing_ok=True)
+            return None
+        if checksum != _arrays_digest(arrays) or not isinstance(meta, dict):
+            path.unlink(missing_ok=True)
+            return None
+        count = len(arrays) // 2
+        hulls = [trimesh.Trimesh(arrays[f"v{i}"], arrays[f"f{i}"], process=False) for i in range(count)]
+        return hulls, meta
+
+    def put(self, key: str, hulls: list[trimesh.Trimesh], meta: dict) -> Path:
+        """Store `hulls` and a JSON-able `meta` under `key` atomically; returns the entry's path."""
+        arrays: dict[str, np.ndarray] = {}
+        for i, hull in enumerate(hulls):
+            arrays[f"v{i}"] = np.asarray(hull.vertices, dtype=np.float64)
+            arrays[f"f{i}"] = np.asarray(hull.faces, dtype=np.int64)
+        fd, tmp = tempfile.mkstemp(dir=self.root, prefix=f".{key}.", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez(f, checksum=np.array(_arrays_digest(arrays)), meta=np.array(json.dumps(meta)), **arrays)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, self.path(key))
+        finally:
+            Path(tmp).unlink(missing_ok=True)
+        return self.path(key)

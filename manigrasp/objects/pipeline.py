@@ -1,0 +1,189 @@
+"""From a mesh (file, recipe or array) to an `ObjectAsset` ready to simulate.
+
+Steps: read -> scale -> validate and repair -> centre of mass at the origin ->
+mass and inertia -> convex decomposition (cached) -> files and MJCF in the
+cache folder. Every repair is recorded in the asset's metadata.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from manigrasp.objects.asset import ObjectAsset
+from manigrasp.objects.cache import HullCache, cache_key
+from manigrasp.objects.decompose import DecompositionParams, coacd_version, coverage, decompose
+from manigrasp.objects.meshio import load_mesh
+from manigrasp.objects.mjcf import object_mjcf
+from manigrasp.objects.validate import validate_and_repair
+from manigrasp.paths import cache_dir
+
+DEFAULT_DENSITY = 500.0  # [kg/m^3], YCB-like solids without a known mass
+DEFAULT_FRICTION = (0.5, 0.005, 0.0001)  # sliding, torsional [m], rolling [m]
+
+
+@dataclass(frozen=True)
+class MassProperties:
+    """Mass [kg], centre of mass (3,) [m] and inertia about it (3, 3) [kg m^2]."""
+
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+
+
+def mass_properties(mesh: trimesh.Trimesh, mass: float | None, density: float) -> MassProperties:
+    """Mass properties of a closed mesh from a given mass, else from `density` [kg/m^3]."""
+    volume = float(mesh.volume)
+    rho = mass / volume if mass is not None else density
+    if not np.isfinite(rho) or rho <= 0:
+        raise ValueError(f"mass {mass} / density {density} give no positive density")
+    props = mesh.mass_properties  # unit density
+    return MassProperties(
+        mass=rho * volume,
+        com=np.asarray(props["center_mass"], float),
+        inertia=rho * np.asarray(props["inertia"], float),
+    )
+
+
+@dataclass(frozen=True)
+class BuildResult:
+    """One object's build: the asset, whether CoACD ran, and the wall time [s]."""
+
+    asset: ObjectAsset
+    cached: bool
+    seconds: float
+
+
+def build_object(
+    source: str | Path | trimesh.Trimesh,
+    *,
+    name: str | None = None,
+    scale: float = 1.0,
+    mass: float | None = None,
+    density: float = DEFAULT_DENSITY,
+    friction: Sequence[float] = DEFAULT_FRICTION,
+    params: DecompositionParams | None = None,
+    convex_hull_fallback: bool = False,
+    metadata: dict | None = None,
+    cache_root: Path | None = None,
+) -> BuildResult:
+    """Build an object from a mesh file or a `trimesh.Trimesh`.
+
+    Args:
+        source: mesh file (OBJ, STL, PLY, GLB/GLTF) or mesh, in metres after `scale`.
+        name: object name (default: the file's stem).
+        scale: factor applied to the vertices first (0.001 for a mesh in mm).
+        mass: object mass [kg]; if None, from `density` [kg/m^3] and the volume.
+        friction: (sliding, torsional, rolling) of the collision parts.
+        params: CoACD parameters (default `DecompositionParams()`).
+        convex_hull_fallback: use the convex hull of a mesh whose holes cannot be closed.
+        metadata: extra facts stored in the asset's metadata (source, ycb_id...).
+        cache_root: cache folder (default `manigrasp.paths.cache_dir()`).
+    """
+    start = time.perf_counter()
+    params = params or DecompositionParams()
+    label = str(source) if not isinstance(source, trimesh.Trimesh) else (name or "mesh")
+    mesh = load_mesh(source) if not isinstance(source, trimesh.Trimesh) else source.copy()
+    name = name or Path(str(source)).stem
+    if scale != 1.0:
+        mesh.apply_scale(scale)
+    mesh, report = validate_and_repair(mesh, source=label, convex_hull_fallback=convex_hull_fallback)
+    props = mass_properties(mesh, mass, density)
+    mesh.apply_translation(-props.com)
+    root = Path(cache_root) if cache_root is not None else cache_dir()
+    hulls, hull_meta, cached = _hulls(mesh, params, HullCache(root / "coacd"))
+    meta = {
+        **(metadata or {}),
+        "name": name,
+        "source": (metadata or {}).get("source", label),
+        "scale": scale,
+        "repairs": report.repairs,
+        "pieces": report.pieces,
+        "n_hulls": len(hulls),
+        "coverage": hull_meta["coverage"],
+        "decomposition": params.as_dict(),
+        "coacd_version": coacd_version(),
+        "hull_key": hull_meta["key"],
+        "com_offset_m": props.com.tolist(),
+    }
+    asset = _export(name, mesh, hulls, props, tuple(friction), meta, root / "objects")
+    return BuildResult(asset=asset, cached=cached, seconds=time.perf_counter() - start)
+
+
+def build_object_from_mesh(
+    mesh: trimesh.Trimesh, name: str, mass: float | None = None, density: float = DEFAULT_DENSITY
+) -> ObjectAsset:
+    """Shorthand for `build_object(mesh, name=..., mass=..., density=...).asset`."""
+    return build_object(mesh, name=name, mass=mass, density=density).asset
+
+
+def _hulls(
+    mesh: trimesh.Trimesh, params: DecompositionParams, cache: HullCache
+) -> tuple[list[trimesh.Trimesh], dict, bool]:
+    key = cache_key(mesh, params.as_dict(), coacd_version())
+    hit = cache.get(key)
+    if hit is not None:
+        return hit[0], hit[1], True
+    hulls = decompose(mesh, params)
+    meta = {"key": key, "coverage": coverage(mesh, hulls)}
+    cache.put(key, hulls, meta)
+    return hulls, meta, False
+
+
+def _export(
+    name: str,
+    mesh: trimesh.Trimesh,
+    hulls: list[trimesh.Trimesh],
+    props: MassProperties,
+    friction: tuple[float, ...],
+    meta: dict,
+    root: Path,
+) -> ObjectAsset:
+    """Write visual mesh, parts, MJCF and meta.json into a folder of their own."""
+    fingerprint = json.dumps({"hulls": meta["hull_key"], "mass": props.mass, "friction": friction,
+                              "name": name, "meta": meta}, sort_keys=True, default=str)
+    folder = root / f"{name}-{hashlib.sha256(fingerprint.encode()).hexdigest()[:16]}"
+    if not (folder / "meta.json").is_file():
+        _write_folder(folder, name, mesh, hulls, props, friction, meta)
+    return ObjectAsset(
+        name=name,
+        visual_path=folder / "visual.obj",
+        part_paths=tuple(folder / f"part_{i:03d}.obj" for i in range(len(hulls))),
+        mass=props.mass,
+        inertia=props.inertia,
+        extents=np.asarray(mesh.extents, float),
+        volume=float(mesh.volume),
+        mjcf_path=folder / "object.xml",
+        metadata=meta,
+    )
+
+
+def _write_folder(folder: Path, name: str, mesh: trimesh.Trimesh, hulls: list[trimesh.Trimesh],
+                  props: MassProperties, friction: tuple[float, ...], meta: dict) -> None:
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{folder.name}."))
+    try:
+        mesh.export(tmp / "visual.obj")
+        for i, hull in enumerate(hulls):
+            hull.export(tmp / f"part_{i:03d}.obj")
+        parts = [folder / f"part_{i:03d}.obj" for i in range(len(hulls))]
+        xml = object_mjcf(name, folder / "visual.obj", parts, props.mass, props.inertia, friction)
+        (tmp / "object.xml").write_text(xml)
+        (tmp / "meta.json").write_text(json.dumps(meta, indent=2, default=str))
+        try:
+            os.rename(tmp, folder)
+        except OSError:  # another process finished the same folder first
+            if not (folder / "meta.json").is_file():
+                raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

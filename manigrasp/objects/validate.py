@@ -1,0 +1,144 @@
+"""Validate and repair a mesh so it can be simulated, and say what was done.
+
+Checks in order: non-finite vertices (refused), degenerate and duplicate faces
+(removed), inconsistent winding (fixed), open boundaries (holes filled; if that
+fails, refused unless the caller asks for the convex hull), disconnected pieces
+(small debris dropped), zero volume (refused), units (refused with a --scale
+suggestion). Every change is appended to `MeshReport.repairs`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import trimesh
+
+from manigrasp.errors import MeshError, MeshUnitsError
+
+MAX_EXTENT_M = 1.5
+MIN_EXTENT_M = 0.005
+DEBRIS_VOLUME_FRACTION = 0.01
+
+
+@dataclass
+class MeshReport:
+    """What validation found and changed."""
+
+    repairs: list[str] = field(default_factory=list)
+    watertight: bool = False
+    pieces: int = 1
+
+
+def validate_and_repair(
+    mesh: trimesh.Trimesh, *, source: str = "mesh", convex_hull_fallback: bool = False
+) -> tuple[trimesh.Trimesh, MeshReport]:
+    """A repaired copy of `mesh` and the report of what was done.
+
+    Args:
+        mesh: triangle mesh in metres.
+        source: name used in messages (file path or object name).
+        convex_hull_fallback: if holes cannot be closed, use the convex hull
+            instead of refusing (recorded as a repair).
+
+    Raises:
+        MeshError: empty, non-finite, open beyond repair, or zero volume.
+        MeshUnitsError: extents outside [5 mm, 1.5 m].
+    """
+    report = MeshReport()
+    mesh = _clean(mesh.copy(), source, report)
+    mesh = _close(mesh, source, report, convex_hull_fallback)
+    mesh = _drop_debris(mesh, report)
+    if mesh.volume <= 1e-12:
+        raise MeshError(f"{source}: mesh encloses no volume (flat or degenerate)")
+    check_units(mesh, source)
+    report.watertight = bool(mesh.is_watertight)
+    return mesh, report
+
+
+def check_units(mesh: trimesh.Trimesh, source: str = "mesh") -> None:
+    """Refuse extents that say the mesh is not in metres; suggest a scale."""
+    extent = float(np.max(mesh.extents))
+    if MIN_EXTENT_M <= extent <= MAX_EXTENT_M:
+        return
+    scale = suggest_scale(extent)
+    raise MeshUnitsError(
+        f"{source}: largest extent is {extent:g} m, outside [{MIN_EXTENT_M:g}, {MAX_EXTENT_M:g}] m; "
+        f"the mesh is probably not in metres: try --scale {scale:g}"
+    )
+
+
+def suggest_scale(extent: float) -> float:
+    """The power of ten that brings `extent` [m] closest to a hand-sized 0.15 m."""
+    return float(10.0 ** np.round(np.log10(0.15 / extent)))
+
+
+def _clean(mesh: trimesh.Trimesh, source: str, report: MeshReport) -> trimesh.Trimesh:
+    if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
+        raise MeshError(f"{source}: mesh is empty")
+    bad = ~np.isfinite(mesh.vertices).all(axis=1)
+    if bad.any():
+        raise MeshError(f"{source}: {int(bad.sum())} vertices have NaN or infinite coordinates")
+    n_vertices = len(mesh.vertices)
+    mesh.merge_vertices()
+    if len(mesh.vertices) < n_vertices:
+        report.repairs.append(f"merged {n_vertices - len(mesh.vertices)} duplicate vertices")
+    keep = mesh.nondegenerate_faces()
+    if not keep.all():
+        report.repairs.append(f"removed {int((~keep).sum())} degenerate faces")
+        mesh.update_faces(keep)
+    unique = mesh.unique_faces()
+    if not unique.all():
+        report.repairs.append(f"removed {int((~unique).sum())} duplicate faces")
+        mesh.update_faces(unique)
+    mesh.remove_unreferenced_vertices()
+    if len(mesh.faces) == 0:
+        raise MeshError(f"{source}: no non-degenerate faces left")
+    if not mesh.is_winding_consistent:
+        trimesh.repair.fix_winding(mesh)
+        report.repairs.append("made face winding consistent")
+    return mesh
+
+
+def _close(
+    mesh: trimesh.Trimesh, source: str, report: MeshReport, convex_hull_fallback: bool
+) -> trimesh.Trimesh:
+    if not mesh.is_watertight:
+        holes_before = _boundary_edges(mesh)
+        trimesh.repair.fill_holes(mesh)
+        if mesh.is_watertight:
+            report.repairs.append(f"filled holes ({holes_before} open edges closed)")
+        elif convex_hull_fallback:
+            report.repairs.append(f"replaced by its convex hull ({holes_before} open edges could not be closed)")
+            mesh = mesh.convex_hull
+        else:
+            raise MeshError(
+                f"{source}: mesh is open ({_boundary_edges(mesh)} boundary edges) and hole filling failed; "
+                "fix the mesh, or accept its convex hull with --convex-hull"
+            )
+    if mesh.volume < 0:
+        mesh.invert()
+        report.repairs.append("inverted inside-out mesh")
+    trimesh.repair.fix_normals(mesh)
+    return mesh
+
+
+def _boundary_edges(mesh: trimesh.Trimesh) -> int:
+    edges = mesh.edges_sorted
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    return int((counts == 1).sum())
+
+
+def _drop_debris(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
+    pieces = mesh.split(only_watertight=False)
+    report.pieces = len(pieces)
+    if len(pieces) <= 1:
+        return mesh
+    volumes = np.array([abs(p.volume) for p in pieces])
+    keep = volumes >= DEBRIS_VOLUME_FRACTION * volumes.max()
+    dropped = int((~keep).sum())
+    if dropped:
+        report.repairs.append(f"dropped {dropped} small disconnected pieces (<1% of the largest volume)")
+    if keep.sum() > 1:
+        report.repairs.append(f"{int(keep.sum())} disconnected pieces kept as one rigid body")
+    return trimesh.util.concatenate([p for p, k in zip(pieces, keep, strict=True) if k])
