@@ -46,7 +46,7 @@ def load_mesh(path: str | Path) -> trimesh.Trimesh:
     except Exception as exc:  # trimesh raises many types on garbage input
         raise MeshError(f"{path}: cannot read mesh ({type(exc).__name__}: {exc})") from exc
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise MeshError(f"{path}: file holds no triangles")
+        raise MeshError(f"{path}: cannot read mesh: the file holds no triangles")
     return trimesh.Trimesh(np.asarray(loaded.vertices, float), np.asarray(loaded.faces), process=False)
 
 

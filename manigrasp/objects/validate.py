@@ -106,8 +106,10 @@ def _close(
     if not mesh.is_watertight:
         holes_before = _boundary_edges(mesh)
         trimesh.repair.fill_holes(mesh)
+        if not mesh.is_watertight:
+            mesh = _meshfix(mesh)
         if mesh.is_watertight:
-            report.repairs.append(f"filled holes ({holes_before} open edges closed)")
+            report.repairs.append(f"closed holes ({holes_before} open edges)")
         elif convex_hull_fallback:
             report.repairs.append(f"replaced by its convex hull ({holes_before} open edges could not be closed)")
             mesh = mesh.convex_hull
@@ -121,6 +123,18 @@ def _close(
         report.repairs.append("inverted inside-out mesh")
     trimesh.repair.fix_normals(mesh)
     return mesh
+
+
+def _meshfix(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """Manifold reconstruction by MeshFix (fills holes of any shape, removes
+    self-intersections); returns `mesh` unchanged if MeshFix gives nothing."""
+    import pymeshfix
+
+    vertices, faces = pymeshfix.clean_from_arrays(
+        np.ascontiguousarray(mesh.vertices, dtype=np.float64), np.ascontiguousarray(mesh.faces, dtype=np.int32))
+    if len(faces) == 0:
+        return mesh
+    return trimesh.Trimesh(vertices, faces, process=True)
 
 
 def _boundary_edges(mesh: trimesh.Trimesh) -> int:

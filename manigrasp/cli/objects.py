@@ -1,0 +1,128 @@
+"""`manigrasp objects list|show|build`: the object set and the build pipeline."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from manigrasp.cli.output import format_table, print_json
+from manigrasp.errors import ConfigError
+from manigrasp.objects import catalog, recipes
+from manigrasp.objects.catalog import BuildOutcome, ObjectSource
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Register `objects` and its sub-commands."""
+    parser = subparsers.add_parser("objects", help="list, inspect and build objects",
+                                   description="The shipped YCB-like object set and your own meshes.")
+    sub = parser.add_subparsers(dest="objects_command", metavar="SUBCOMMAND", required=True)
+
+    p = sub.add_parser("list", help="the shipped objects: YCB id, extents, mass, volume, built or not")
+    p.add_argument("--json", action="store_true", help="print a JSON list instead of a table")
+    p.set_defaults(func=_list)
+
+    p = sub.add_parser("show", help="one object's metadata (builds it first if needed)")
+    p.add_argument("name", help="shipped object name, e.g. 025_mug or mug")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.set_defaults(func=_show)
+
+    p = sub.add_parser(
+        "build", help="validate, repair, decompose (CoACD, cached) and write MJCF",
+        description="Build shipped objects by name (or --all), a mesh file (--mesh), or a YCB download (--ycb).")
+    p.add_argument("names", nargs="*", metavar="NAME", help="shipped object names")
+    p.add_argument("--all", action="store_true", help="build every shipped object")
+    p.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, GLB/GLTF) to build")
+    p.add_argument("--name", help="name of the --mesh object (default: file stem)")
+    p.add_argument("--scale", type=float, default=1.0, help="scale the --mesh vertices (0.001: mm to m)")
+    p.add_argument("--mass", type=float, help="mass of the --mesh object [kg] (default: from --density)")
+    p.add_argument("--density", type=float, default=500.0, help="density [kg/m^3] when no mass is given")
+    p.add_argument("--convex-hull", action="store_true",
+                   help="accept the convex hull of a mesh whose holes cannot be closed")
+    p.add_argument("--ycb", metavar="FOLDER",
+                   help="a real YCB download (folder of 025_mug/google_16k/textured.obj ...) or one object folder")
+    p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    p.set_defaults(func=_build)
+
+
+def _list(args: argparse.Namespace) -> int:
+    rows = []
+    for name in recipes.names():
+        recipe = recipes.get(name)
+        rows.append({
+            "name": recipe.name, "ycb_id": recipe.ycb_id, "common_name": recipe.common_name,
+            "extents_m": list(recipe.extents_m), "mass_kg": recipe.mass_kg,
+            "volume_m3": float(recipes.build_mesh(recipe).volume), "built": catalog.is_built(name),
+        })
+    if args.json:
+        print_json(rows)
+        return 0
+    headers = ["name", "ycb_id", "extents [mm]", "mass [kg]", "volume [cm^3]", "built"]
+    table = [[r["name"], r["ycb_id"], " x ".join(f"{1000 * e:.0f}" for e in r["extents_m"]),
+              f"{r['mass_kg']:.3f}", f"{1e6 * r['volume_m3']:.0f}", "yes" if r["built"] else "no"] for r in rows]
+    print(format_table(headers, table))
+    return 0
+
+
+def _show(args: argparse.Namespace) -> int:
+    source = catalog.shipped(args.name)
+    recipe = recipes.get(source.name)
+    asset = catalog.build(source).asset
+    info = {
+        "name": asset.name, "ycb_id": recipe.ycb_id, "common_name": recipe.common_name,
+        "extents_m": asset.extents, "mass_kg": asset.mass, "volume_m3": asset.volume,
+        "inertia_kg_m2": asset.inertia, "n_hulls": asset.n_parts, "mjcf": str(asset.mjcf_path),
+        "visual_mesh": str(asset.visual_path), "source": recipe.source, "notes": recipe.notes,
+        "metadata": asset.metadata,
+    }
+    if args.json:
+        print_json(info)
+        return 0
+    for key, value in info.items():
+        if key != "metadata":
+            print(f"{key:14s} {value}")
+    print(f"{'repairs':14s} {asset.metadata.get('repairs') or 'none'}")
+    print(f"{'coverage':14s} {asset.metadata.get('coverage'):.3f} (hull union volume / mesh volume)")
+    return 0
+
+
+def _sources(args: argparse.Namespace) -> list[ObjectSource]:
+    sources = [catalog.shipped(n) for n in (recipes.names() if args.all else args.names)]
+    if args.mesh:
+        from pathlib import Path
+
+        sources.append(ObjectSource(name=args.name or Path(args.mesh).stem, mesh=args.mesh, scale=args.scale,
+                                    mass=args.mass, density=args.density, convex_hull_fallback=args.convex_hull))
+    if args.ycb:
+        from pathlib import Path
+
+        from manigrasp.objects.meshio import ycb_dataset
+
+        folder = Path(args.ycb)
+        folders = [folder] if (folder / "google_16k").is_dir() or (folder / "poisson").is_dir() or (
+            folder / "tsdf").is_dir() else [folder / n for n in ycb_dataset(folder)]
+        sources.extend(catalog.from_ycb_folder(f) for f in folders)
+    if not sources:
+        raise ConfigError("nothing to build: name objects, or use --all, --mesh FILE or --ycb FOLDER")
+    return sources
+
+
+def _build(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    sources = _sources(args)
+    bar = tqdm(total=len(sources), desc="building", unit="obj", file=sys.stderr, disable=None)
+
+    def done(outcome: BuildOutcome) -> None:
+        bar.update(1)
+        if outcome.error:
+            bar.write(f"{outcome.name}: FAILED: {outcome.error}", file=sys.stderr)
+        else:
+            r = outcome.result
+            bar.write(f"{outcome.name}: {r.asset.n_parts} hulls, coverage {r.asset.metadata['coverage']:.2f}, "
+                      f"{r.seconds:.1f} s, {'cached' if r.cached else 'built'}")
+
+    outcomes = catalog.build_many(sources, jobs=max(1, args.jobs), on_done=done)
+    bar.close()
+    failed = [o for o in outcomes if o.error]
+    print(f"{len(outcomes) - len(failed)} built, {len(failed)} failed")
+    return 1 if failed else 0

@@ -1,0 +1,160 @@
+"""The shipped YCB-like set, and building many objects at once.
+
+An object is named in one of three ways (`ObjectSource`): a shipped recipe
+name ("025_mug" or "mug"), a mesh file (with name, scale, mass), or one object
+folder of a real YCB download. `build_many` builds a list of them in parallel
+worker processes with a progress bar; CoACD results are cached on disk.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass
+from multiprocessing import get_context
+from pathlib import Path
+
+from manigrasp.objects import recipes
+from manigrasp.objects.decompose import DecompositionParams, coacd_version
+from manigrasp.objects.meshio import ycb_mesh_file
+from manigrasp.objects.pipeline import DEFAULT_DENSITY, BuildResult, build_object
+from manigrasp.paths import cache_dir
+
+
+@dataclass(frozen=True)
+class ObjectSource:
+    """How to obtain one object: exactly one of `recipe`, `mesh` or `ycb_folder`.
+
+    Attributes:
+        name: object name (for a recipe: its full name).
+        recipe: shipped recipe name.
+        mesh: path of a mesh file.
+        ycb_folder: one object's folder of a real YCB download.
+        scale: factor applied to a mesh file's vertices (0.001 for mm).
+        mass: mass [kg]; None: the recipe's, else from `density`.
+        density: [kg/m^3] when no mass is known.
+        convex_hull_fallback: accept the convex hull of a mesh that cannot be closed.
+    """
+
+    name: str
+    recipe: str | None = None
+    mesh: str | None = None
+    ycb_folder: str | None = None
+    scale: float = 1.0
+    mass: float | None = None
+    density: float = DEFAULT_DENSITY
+    convex_hull_fallback: bool = False
+
+
+def shipped(name: str) -> ObjectSource:
+    """The source of a shipped recipe object (accepts "025_mug" or "mug")."""
+    recipe = recipes.get(name)
+    return ObjectSource(name=recipe.name, recipe=recipe.name, mass=recipe.mass_kg)
+
+
+def from_ycb_folder(folder: str | Path, mass: float | None = None) -> ObjectSource:
+    """The source of one object folder of a real YCB download (e.g. .../025_mug)."""
+    folder = Path(folder)
+    ycb_mesh_file(folder)  # fail early with a clear message
+    return ObjectSource(name=folder.name, ycb_folder=str(folder), mass=mass)
+
+
+def build(source: ObjectSource, params: DecompositionParams | None = None,
+          cache_root: Path | None = None) -> BuildResult:
+    """Build one object from its source."""
+    params = params or DecompositionParams()
+    common = {"name": source.name, "params": params, "cache_root": cache_root}
+    if source.recipe is not None:
+        recipe = recipes.get(source.recipe)
+        meta = {"source": f"recipe ({recipe.source})", "ycb_id": recipe.ycb_id, "common_name": recipe.common_name}
+        result = build_object(recipes.build_mesh(recipe), mass=source.mass or recipe.mass_kg, metadata=meta, **common)
+        _mark_built(source, params, result, cache_root)
+        return result
+    path = source.mesh if source.mesh is not None else ycb_mesh_file(source.ycb_folder or "")
+    return build_object(path, scale=source.scale, mass=source.mass, density=source.density,
+                        convex_hull_fallback=source.convex_hull_fallback, metadata={"source": str(path)}, **common)
+
+
+def _fingerprint(source: ObjectSource, params: DecompositionParams) -> str:
+    recipe = recipes.get(source.recipe or source.name)
+    payload = json.dumps({"recipe": repr(recipe), "source": asdict(source), "params": params.as_dict(),
+                          "coacd": coacd_version()}, sort_keys=True, default=str)
+    return hashlib.sha256(payload.encode()).hexdigest()
+
+
+def _marker(name: str, cache_root: Path | None) -> Path:
+    return (Path(cache_root) if cache_root else cache_dir()) / "objects" / f"{name}.built.json"
+
+
+def _mark_built(source: ObjectSource, params: DecompositionParams, result: BuildResult,
+                cache_root: Path | None) -> None:
+    marker = _marker(source.name, cache_root)
+    tmp = marker.with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_text(json.dumps({"fingerprint": _fingerprint(source, params), "mjcf": str(result.asset.mjcf_path)}))
+    os.replace(tmp, marker)
+
+
+def is_built(name: str, params: DecompositionParams | None = None, cache_root: Path | None = None) -> bool:
+    """Whether the shipped object `name` has an up-to-date build in the cache."""
+    source = shipped(name)
+    marker = _marker(source.name, cache_root)
+    try:
+        data = json.loads(marker.read_text())
+    except (OSError, ValueError):
+        return False
+    return data.get("fingerprint") == _fingerprint(source, params or DecompositionParams()) and Path(
+        data.get("mjcf", "")).is_file()
+
+
+@dataclass(frozen=True)
+class BuildOutcome:
+    """One object of `build_many`: its result, or the error message that stopped it."""
+
+    name: str
+    result: BuildResult | None
+    error: str | None
+
+
+def _build_one(source: ObjectSource, params: DecompositionParams, cache_root: Path | None) -> BuildOutcome:
+    from manigrasp.errors import ManigraspError
+
+    try:
+        return BuildOutcome(source.name, build(source, params, cache_root), None)
+    except ManigraspError as exc:
+        return BuildOutcome(source.name, None, str(exc))
+
+
+def build_many(
+    sources: Sequence[ObjectSource],
+    jobs: int = 1,
+    params: DecompositionParams | None = None,
+    cache_root: Path | None = None,
+    on_done: Callable[[BuildOutcome], None] | None = None,
+) -> list[BuildOutcome]:
+    """Build `sources` with `jobs` worker processes; outcomes in input order.
+
+    A failing object does not stop the others: its outcome carries the error.
+    `on_done` is called in the parent as each object finishes (progress bars).
+    """
+    params = params or DecompositionParams()
+    outcomes: dict[str, BuildOutcome] = {}
+    for outcome in _iter_builds(sources, jobs, params, cache_root):
+        outcomes[outcome.name] = outcome
+        if on_done is not None:
+            on_done(outcome)
+    return [outcomes[s.name] for s in sources]
+
+
+def _iter_builds(sources: Sequence[ObjectSource], jobs: int, params: DecompositionParams,
+                 cache_root: Path | None) -> Iterator[BuildOutcome]:
+    if jobs <= 1 or len(sources) <= 1:
+        for source in sources:
+            yield _build_one(source, params, cache_root)
+        return
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
+        futures = [pool.submit(_build_one, s, params, cache_root) for s in sources]
+        for future in as_completed(futures):
+            yield future.result()

@@ -1,0 +1,188 @@
+"""The mesh -> ObjectAsset pipeline: bad input, repairs, cache, MJCF, CLI errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp.cli import main
+from manigrasp.errors import MeshError, MeshUnitsError
+from manigrasp.objects import build_object
+from manigrasp.objects.cache import HullCache
+from manigrasp.objects.meshio import load_mesh, ycb_dataset
+from manigrasp.objects.validate import validate_and_repair
+
+
+def _write(mesh: trimesh.Trimesh, path: Path) -> Path:
+    mesh.export(path)
+    return path
+
+
+@pytest.fixture
+def broken_meshes(tmp_path: Path) -> dict[str, Path]:
+    """A folder of generated broken meshes, one per failure the pipeline must name."""
+    box = trimesh.creation.box((0.05, 0.04, 0.03))
+    folder = tmp_path / "broken"
+    folder.mkdir()
+    (folder / "empty.stl").write_bytes(b"")
+    (folder / "garbage.stl").write_bytes(np.random.default_rng(0).bytes(300))
+    nan = box.copy()
+    nan.vertices[3] = [np.nan, 0.0, 0.0]
+    (folder / "nan.obj").write_text(
+        "\n".join([f"v {x} {y} {z}" for x, y, z in nan.vertices] + [f"f {a+1} {b+1} {c+1}" for a, b, c in nan.faces]))
+    _write(box.copy().apply_scale(1000.0), folder / "millimetre.stl")
+    # a closed tetrahedron whose four corners lie in one plane: watertight, zero volume
+    flat = trimesh.Trimesh([[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0], [0.015, 0.015, 0]],
+                           [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]], process=False)
+    (folder / "zero_volume.obj").write_text(
+        "\n".join([f"v {x} {y} {z}" for x, y, z in flat.vertices] + [f"f {a+1} {b+1} {c+1}" for a, b, c in flat.faces]))
+    sheet = trimesh.Trimesh([[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0]], [[0, 1, 2]], process=False)
+    _write(sheet, folder / "open_sheet.stl")
+    return {p.stem: p for p in folder.iterdir()}
+
+
+@pytest.mark.parametrize(("case", "error", "phrase"), [
+    ("empty", MeshError, "file is empty"),
+    ("garbage", MeshError, "cannot read mesh"),
+    ("nan", MeshError, "NaN or infinite"),
+    ("millimetre", MeshUnitsError, "try --scale 0.001"),
+    ("zero_volume", MeshError, "no volume"),
+    ("open_sheet", MeshError, "hole filling failed"),
+])
+def test_broken_mesh_gives_the_right_error(broken_meshes, isolated_cache, case, error, phrase):
+    with pytest.raises(error, match=phrase):
+        build_object(broken_meshes[case])
+
+
+def test_broken_mesh_at_the_cli_is_one_line_and_exit_2(broken_meshes, isolated_cache, capsys):
+    code = main(["objects", "build", "--mesh", str(broken_meshes["millimetre"])])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "try --scale 0.001" in err and "Traceback" not in err
+    assert main(["objects", "show", "no_such_object"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "available:" in err
+
+
+def test_scale_option_makes_a_millimetre_mesh_usable(broken_meshes, isolated_cache):
+    asset = build_object(broken_meshes["millimetre"], scale=0.001, mass=0.1).asset
+    np.testing.assert_allclose(sorted(asset.extents), [0.03, 0.04, 0.05], atol=1e-9)
+
+
+def test_open_can_is_closed_and_the_repair_recorded(tmp_path, isolated_cache):
+    can = trimesh.creation.cylinder(0.033, 0.1, sections=48)
+    open_can = trimesh.Trimesh(can.vertices, can.faces[can.face_normals[:, 2] < 0.9], process=False)
+    asset = build_object(_write(open_can, tmp_path / "open_can.stl"), mass=0.35).asset
+    assert any("closed holes" in r for r in asset.metadata["repairs"])
+    assert asset.volume == pytest.approx(can.volume, rel=1e-6)
+
+
+def test_inconsistent_winding_and_duplicates_are_repaired_and_recorded():
+    box = trimesh.creation.box((0.05, 0.05, 0.05))
+    faces = box.faces.copy()
+    faces[0] = faces[0][::-1]
+    faces = np.vstack([faces, faces[5:6]])
+    mesh, report = validate_and_repair(trimesh.Trimesh(box.vertices, faces, process=False))
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert mesh.volume == pytest.approx(0.05**3)
+    assert any("duplicate faces" in r for r in report.repairs)
+    assert any("winding" in r for r in report.repairs)
+
+
+def test_debris_is_dropped_and_recorded():
+    body = trimesh.creation.box((0.1, 0.1, 0.1))
+    speck = trimesh.creation.box((0.002, 0.002, 0.002)).apply_translation([0.2, 0, 0])
+    mesh, report = validate_and_repair(trimesh.util.concatenate([body, speck]))
+    assert mesh.volume == pytest.approx(1e-3)
+    assert report.pieces == 2 and any("dropped 1 small" in r for r in report.repairs)
+
+
+def test_mass_inertia_and_frame_of_a_box():
+    """A 0.1 x 0.06 x 0.04 m box of 0.3 kg: I = m/12 (b^2 + c^2) about each axis, frame at the COM."""
+    box = trimesh.creation.box((0.1, 0.06, 0.04)).apply_translation([0.3, -0.2, 0.1])
+    asset = build_object(box, name="box", mass=0.3).asset
+    a, b, c, m = 0.1, 0.06, 0.04, 0.3
+    expected = np.diag([m / 12 * (b * b + c * c), m / 12 * (a * a + c * c), m / 12 * (a * a + b * b)])
+    np.testing.assert_allclose(asset.inertia, expected, atol=1e-12)
+    visual = trimesh.load(asset.visual_path, force="mesh")
+    np.testing.assert_allclose(visual.center_mass, 0.0, atol=1e-9)
+
+
+def test_mjcf_compiles_with_the_right_mass_and_names(isolated_cache):
+    asset = build_object(trimesh.creation.cylinder(0.03, 0.1), name="can", mass=0.35).asset
+    model = mujoco.MjModel.from_xml_path(str(asset.mjcf_path))
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "object")
+    assert model.body_mass[body] == pytest.approx(0.35)
+    visual = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "object_visual")
+    assert model.geom_contype[visual] == 0 and model.geom_conaffinity[visual] == 0
+    part = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "object_part_000")
+    assert model.geom_friction[part][0] == pytest.approx(0.5)
+    assert model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+
+
+def _count_coacd_calls(monkeypatch) -> list[int]:
+    import coacd
+
+    calls = [0]
+    real = coacd.run_coacd
+
+    def counting(*args, **kwargs):
+        calls[0] += 1
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(coacd, "run_coacd", counting)
+    return calls
+
+
+def test_second_build_calls_coacd_zero_times(isolated_cache, monkeypatch):
+    calls = _count_coacd_calls(monkeypatch)
+    mesh = trimesh.creation.annulus(0.03, 0.05, 0.02)
+    first = build_object(mesh, name="ring", mass=0.1)
+    second = build_object(mesh, name="ring", mass=0.1)
+    assert calls[0] == 1 and not first.cached and second.cached
+    assert second.asset.n_parts == first.asset.n_parts >= 3  # a ring needs several hulls
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage", "flip_bytes"])
+def test_corrupted_cache_entry_is_detected_and_rebuilt(isolated_cache, monkeypatch, damage):
+    calls = _count_coacd_calls(monkeypatch)
+    mesh = trimesh.creation.annulus(0.03, 0.05, 0.02)
+    first = build_object(mesh, name="ring", mass=0.1)
+    entry = HullCache(isolated_cache / "coacd").path(first.asset.metadata["hull_key"])
+    data = entry.read_bytes()
+    if damage == "truncate":
+        entry.write_bytes(data[: len(data) // 2])
+    elif damage == "garbage":
+        entry.write_bytes(b"not a zip file at all")
+    else:  # same size, a few payload bytes changed: only the checksum can tell
+        with np.load(entry) as z:
+            arrays = {k: z[k] for k in z.files}
+        arrays["v0"] = arrays["v0"] + 1e-3
+        with open(entry, "wb") as f:
+            np.savez(f, **arrays)
+    again = build_object(mesh, name="ring", mass=0.1)
+    assert calls[0] == 2 and not again.cached
+    assert HullCache(isolated_cache / "coacd").get(first.asset.metadata["hull_key"]) is not None
+
+
+def test_leftover_temp_file_from_a_killed_write_is_not_an_entry(isolated_cache):
+    cache = HullCache(isolated_cache / "coacd")
+    (cache.root / ".abc.123.tmp").write_bytes(b"half written")
+    assert cache.get("abc") is None
+
+
+def test_ycb_dataset_layout_is_found(tmp_path):
+    box = trimesh.creation.box((0.05, 0.05, 0.1))
+    for name, sub in [("003_cracker_box", "google_16k/textured.obj"), ("004_sugar_box", "poisson/textured.obj"),
+                      ("005_tomato_soup_can", "tsdf/textured.obj")]:
+        (tmp_path / name / Path(sub).parent).mkdir(parents=True)
+        box.export(tmp_path / name / sub)
+    (tmp_path / "README").mkdir()
+    found = ycb_dataset(tmp_path)
+    assert sorted(found) == ["003_cracker_box", "004_sugar_box", "005_tomato_soup_can"]
+    assert found["004_sugar_box"].parts[-2] == "poisson"
+    assert load_mesh(found["003_cracker_box"]).is_watertight
