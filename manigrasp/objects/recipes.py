@@ -132,7 +132,7 @@ def build_mesh(recipe_or_name: Recipe | str) -> trimesh.Trimesh:
 
     Raises:
         UnknownNameError: unknown object name.
-        MeshError: the builder produced something that is not a closed solid.
+        MeshError: the builder produced something that is not one closed solid.
     """
     recipe = get(recipe_or_name) if isinstance(recipe_or_name, str) else recipe_or_name
     return _cached_build(recipe.name, recipe.shape, _freeze(recipe.params)).copy()
@@ -147,6 +147,8 @@ def _cached_build(name: str, shape: str, frozen_params: tuple) -> trimesh.Trimes
     mesh.apply_translation([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]])
     if not (mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0):
         raise MeshError(f"recipe {name!r} ({shape}) did not build a closed solid")
+    if mesh.body_count != 1:
+        raise MeshError(f"recipe {name!r} ({shape}) built {mesh.body_count} separate pieces, not one body")
     return mesh
 
 
