@@ -136,11 +136,13 @@ def mug(
     return solid - cavity.translate((0.0, 0.0, bottom_m))
 
 
-def banana(length_m: float, width_m: float, thickness_m: float, bend_deg: float) -> Manifold:
-    """A curved spindle lying on its side: an elongated ellipsoid bent by `bend_deg`.
+def banana(length_m: float, thickness_m: float, height_m: float, bend_deg: float) -> Manifold:
+    """A curved spindle resting on its convex side: an elongated ellipsoid bent by `bend_deg`.
 
-    The curve lies in the xy plane; the result is scaled to `length_m` (x),
-    `width_m` (y, the bounding width of the curved body) and `thickness_m` (z).
+    The curve lies in the xz plane with both ends up, so the body rocks on its
+    middle with the centre of mass straight above the contact (a stable rest).
+    The result is scaled to `length_m` (x), `thickness_m` (y, the diameter) and
+    `height_m` (z, the bounding height of the curved body).
     """
     half_angle = np.radians(bend_deg) / 2
     bend_radius = 0.5 * length_m / half_angle
@@ -149,10 +151,11 @@ def banana(length_m: float, width_m: float, thickness_m: float, bend_deg: float)
         s, v, w = points[:, 2], points[:, 0], points[:, 1]  # s along the spine, in [-1, 1]
         phi = s * half_angle
         rho = bend_radius - v * thickness_m / 2
-        return np.column_stack([rho * np.sin(phi), bend_radius - rho * np.cos(phi), w * thickness_m / 2])
+        # (x, y, z) = (along, -across, up): the sign keeps the outward winding
+        return np.column_stack([rho * np.sin(phi), -w * thickness_m / 2, bend_radius - rho * np.cos(phi)])
 
     spindle = Manifold.sphere(1.0, circular_segments=SEGMENTS).warp_batch(bend)
-    return fit_extents(spindle, (length_m, width_m, thickness_m))
+    return fit_extents(spindle, (length_m, thickness_m, height_m))
 
 
 def scissors(length_m: float, width_m: float, thickness_m: float, blade_thickness_m: float, rim_m: float) -> Manifold:
