@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from scipy.spatial import ConvexHull
 
 from manigrasp.errors import ConfigError, MeshError, UnknownNameError
 from manigrasp.objects import recipes
@@ -110,6 +111,20 @@ def test_mesh_is_a_closed_single_solid_in_the_canonical_frame(name: str) -> None
 @pytest.mark.parametrize("name", NAMES)
 def test_topology_genus(name: str) -> None:
     assert _euler_genus(recipes.build_mesh(name)) == GENUS.get(name, 0)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_canonical_pose_is_a_rest(name: str) -> None:
+    """The centre of mass lies over the support: the hull of the vertices on z = 0, or a single contact point."""
+    mesh = recipes.build_mesh(name)
+    com = mesh.center_mass[:2]
+    support = mesh.vertices[mesh.vertices[:, 2] < 1e-7, :2]
+    if len(support) == 1:
+        np.testing.assert_allclose(com, support[0], atol=1e-6)
+        return
+    hull = ConvexHull(support)
+    # inside every edge's half-plane (hull.equations: outward normal . p + offset <= 0)
+    assert np.all(hull.equations[:, :2] @ com + hull.equations[:, 2] < 0), name
 
 
 def test_build_is_deterministic() -> None:
