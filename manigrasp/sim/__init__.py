@@ -1,0 +1,21 @@
+"""Simulation: scene composition, state reset and contact read-out (the only owner of MjModel/MjData).
+
+    >>> from manigrasp.sim import build_scene
+    >>> scene = build_scene("parallel_jaw", asset)
+    >>> scene.reset(mount=grasp_pose)
+"""
+
+from manigrasp.sim.config import SceneConfig
+from manigrasp.sim.contacts import HandContacts, grip_force, hand_contact_wrench, read_hand_contacts
+from manigrasp.sim.scene import FloatingBase, Scene, build_scene
+
+__all__ = [
+    "FloatingBase",
+    "HandContacts",
+    "Scene",
+    "SceneConfig",
+    "build_scene",
+    "grip_force",
+    "hand_contact_wrench",
+    "read_hand_contacts",
+]

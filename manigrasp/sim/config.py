@@ -1,0 +1,84 @@
+"""`SceneConfig`: the physics and scene parameters of one compiled scene.
+
+Defaults are DESIGN.md's standard protocol: 2 ms steps, `implicitfast`,
+elliptic friction cones, impratio 10, hand-object friction 0.5, gravity on,
+the object resting on a table whose top is the plane z = 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+
+from manigrasp.errors import ConfigError
+
+INTEGRATORS = {
+    "euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+}
+CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """Physics and scene parameters (every number a config field).
+
+    Attributes:
+        timestep: simulation step [s].
+        integrator: one of "euler", "rk4", "implicit", "implicitfast".
+        cone: friction cone, "elliptic" or "pyramidal".
+        impratio: ratio of frictional to normal constraint impedance [-].
+        gravity: (3,) [m/s^2].
+        hand_friction: sliding friction of every hand collision geom; the hand
+            geoms get a higher contact priority than the object and table, so
+            this is the hand-object (and hand-table) friction coefficient [-].
+        hand_torsional_friction: torsional friction of hand geoms [m].
+        hand_condim: contact dimensionality of hand geoms (4: soft finger).
+        hand_gravcomp: compensate the hand's weight in MuJoCo (body gravcomp
+            = 1 on every hand body). If False, `control.ImpedanceController`
+            adds the gravity term itself.
+        table_half_extents: (3,) half sizes of the table box [m]; its top is z = 0.
+        table_friction: sliding friction of the table [-].
+        open_settle_time: simulated time [s] the hand alone is driven with its
+            open command to find its open joint configuration (done once per scene).
+    """
+
+    timestep: float = 0.002
+    integrator: str = "implicitfast"
+    cone: str = "elliptic"
+    impratio: float = 10.0
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    hand_friction: float = 0.5
+    hand_torsional_friction: float = 0.005
+    hand_condim: int = 4
+    hand_gravcomp: bool = True
+    table_half_extents: tuple[float, float, float] = (0.4, 0.4, 0.02)
+    table_friction: float = 0.5
+    open_settle_time: float = 0.5
+
+    def __post_init__(self) -> None:
+        if self.integrator not in INTEGRATORS:
+            raise ConfigError(f"unknown integrator {self.integrator!r}; available: {', '.join(INTEGRATORS)}")
+        if self.cone not in CONES:
+            raise ConfigError(f"unknown cone {self.cone!r}; available: {', '.join(CONES)}")
+        if self.hand_condim not in (1, 3, 4, 6):
+            raise ConfigError(f"hand_condim must be 1, 3, 4 or 6, got {self.hand_condim}")
+        positive = {"timestep": self.timestep, "impratio": self.impratio, "table_friction": self.table_friction}
+        for key, value in positive.items():
+            if not value > 0:
+                raise ConfigError(f"{key} must be > 0, got {value}")
+        if self.hand_friction < 0 or self.open_settle_time < 0:
+            raise ConfigError("hand_friction and open_settle_time must be >= 0")
+        if len(self.gravity) != 3 or len(self.table_half_extents) != 3 or min(self.table_half_extents) <= 0:
+            raise ConfigError("gravity and table_half_extents must have 3 components (extents > 0)")
+
+    def apply(self, option: mujoco.MjOption | object) -> None:
+        """Write the physics options into a spec's or model's `option`."""
+        option.timestep = self.timestep
+        option.integrator = INTEGRATORS[self.integrator]
+        option.cone = CONES[self.cone]
+        option.impratio = self.impratio
+        option.gravity = list(self.gravity)

@@ -1,0 +1,153 @@
+"""Hand contacts read from MuJoCo: where, which way, how hard, which finger, inside the cone or not.
+
+Sign conventions (all world frame): `normal` points from the hand into the
+other geom, and `force` is the force the hand exerts ON the other geom (the
+object or table), so for a squeezing grasp `force . normal > 0`. Forces come
+from `mj_contactForce` (contact frame: normal, tangent1, tangent2, then
+torsional / rolling torques) and are rotated into the world frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
+
+import mujoco
+import numpy as np
+
+if TYPE_CHECKING:
+    from manigrasp.sim.scene import Scene
+
+Other = Literal["object", "table", "any"]
+
+
+@dataclass(frozen=True)
+class HandContacts:
+    """n contacts between the hand and something else, as arrays.
+
+    Attributes:
+        position: (n, 3) contact points [m].
+        normal: (n, 3) unit normals, from the hand into the other geom.
+        force: (n, 3) force of the hand on the other geom [N].
+        torque: (n, 3) torsional (and rolling) torque of the hand on the other geom [N m].
+        normal_force: (n,) force along `normal` [N] (>= 0 for a pushing contact).
+        tangential_force: (n,) magnitude of the tangential force [N].
+        friction: (n,) sliding friction coefficient of each contact [-].
+        cone_ratio: (n,) elliptic cone usage: sqrt(sum (f_t,i / mu_i)^2) / f_n over
+            the contact's frictional components; 1 means on the cone (sliding).
+        in_cone: (n,) True where f_n > 0 and cone_ratio <= 1 + tolerance.
+        finger: (n,) index into `hand.finger_bodies` of the touching finger, -1 for the palm.
+        hand_body: (n,) body id on the hand side.
+        hand_geom: (n,) geom id on the hand side.
+        other_geom: (n,) geom id on the other side.
+        condim: (n,) contact dimensionality.
+    """
+
+    position: np.ndarray
+    normal: np.ndarray
+    force: np.ndarray
+    torque: np.ndarray
+    normal_force: np.ndarray
+    tangential_force: np.ndarray
+    friction: np.ndarray
+    cone_ratio: np.ndarray
+    in_cone: np.ndarray
+    finger: np.ndarray
+    hand_body: np.ndarray
+    hand_geom: np.ndarray
+    other_geom: np.ndarray
+    condim: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.normal_force)
+
+    @property
+    def fingers_touching(self) -> tuple[int, ...]:
+        """Distinct finger indices with a pushing contact (for the two-finger success rule)."""
+        return tuple(sorted({int(f) for f, fn in zip(self.finger, self.normal_force, strict=True)
+                             if f >= 0 and fn > 0}))
+
+
+def _other_mask(scene: Scene, geoms: np.ndarray, other: Other) -> np.ndarray:
+    if other == "object":
+        return np.isin(geoms, scene.object_geoms)
+    if other == "table":
+        return geoms == scene.table_geom
+    if other == "any":
+        return np.ones(len(geoms), bool)
+    raise ValueError(f"other must be 'object', 'table' or 'any', got {other!r}")
+
+
+def _select(scene: Scene, other: Other) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of active hand-`other` contacts and whether the hand is geom1 there."""
+    model, con = scene.model, scene.data.contact
+    if scene.data.ncon == 0:
+        return np.zeros(0, int), np.zeros(0, bool)
+    geom = con.geom
+    is_hand = np.isin(model.geom_bodyid[geom], scene.hand_bodies)
+    hand_first = is_hand[:, 0] & ~is_hand[:, 1]
+    hand_second = is_hand[:, 1] & ~is_hand[:, 0]
+    other_geom = np.where(hand_first, geom[:, 1], geom[:, 0])
+    keep = (hand_first | hand_second) & _other_mask(scene, other_geom, other) & (con.efc_address >= 0)
+    idx = np.flatnonzero(keep)
+    return idx, hand_first[idx]
+
+
+def read_hand_contacts(scene: Scene, other: Other = "object", cone_tolerance: float = 1e-3) -> HandContacts:
+    """Active contacts between the hand and `other` ("object", "table" or "any") in the current state.
+
+    Valid after `mj_step` or `mj_forward`. `cone_tolerance` is the relative slack
+    of the friction-cone test (MuJoCo's soft contacts sit on the cone when sliding).
+    """
+    model, data = scene.model, scene.data
+    idx, hand_first = _select(scene, other)
+    n = len(idx)
+    local = np.zeros((n, 6))
+    for row, i in enumerate(idx):
+        mujoco.mj_contactForce(model, data, int(i), local[row])
+    con = data.contact
+    frames = con.frame[idx].reshape(n, 3, 3)  # rows: normal (geom1 -> geom2), tangent1, tangent2
+    # mj_contactForce gives the force of geom1 on geom2 in the contact frame.
+    sign = np.where(hand_first, 1.0, -1.0)[:, None]
+    force = sign * np.einsum("nij,ni->nj", frames, local[:, :3])
+    torque = sign * np.einsum("nij,ni->nj", frames, local[:, 3:])
+    normal = sign * frames[:, 0, :]
+    geoms = con.geom[idx]
+    hand_geom = np.where(hand_first, geoms[:, 0], geoms[:, 1])
+    dim = con.dim[idx]
+    mu = con.friction[idx]  # (n, 5): tangent1, tangent2, spin, roll1, roll2
+    ratio = _cone_ratio(local, mu, dim)
+    fn = local[:, 0]
+    return HandContacts(
+        position=con.pos[idx].copy(), normal=normal, force=force, torque=torque, normal_force=fn,
+        tangential_force=np.linalg.norm(local[:, 1:3], axis=1), friction=mu[:, 0].copy(), cone_ratio=ratio,
+        in_cone=(fn > 0) & (ratio <= 1.0 + cone_tolerance), finger=scene.finger_of_body[model.geom_bodyid[hand_geom]],
+        hand_body=model.geom_bodyid[hand_geom], hand_geom=hand_geom,
+        other_geom=np.where(hand_first, geoms[:, 1], geoms[:, 0]), condim=dim.copy())
+
+
+def _cone_ratio(local: np.ndarray, mu: np.ndarray, dim: np.ndarray) -> np.ndarray:
+    """Elliptic-cone usage of each contact: ||f_friction / mu|| / f_n (0 for frictionless)."""
+    n_fric = np.clip(dim - 1, 0, 5)
+    comp = np.arange(5)[None, :] < n_fric[:, None]
+    scaled = np.where(comp, local[:, 1:6] / np.where(mu > 0, mu, np.inf), 0.0)
+    norm = np.linalg.norm(scaled, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(local[:, 0] > 0, norm / local[:, 0], np.where(norm > 0, np.inf, 0.0))
+
+
+def grip_force(contacts: HandContacts) -> float:
+    """Grip force [N]: half the total normal force, i.e. the squeeze of each jaw of a two-jaw grasp."""
+    return 0.5 * float(np.sum(np.clip(contacts.normal_force, 0.0, None)))
+
+
+def hand_contact_wrench(scene: Scene, point: np.ndarray, other: Other = "any") -> np.ndarray:
+    """(6,) wrench [N, N m] the hand exerts on `other`, about `point` (3,) [m], world frame.
+
+    This is what a wrist force-torque sensor would measure at `point`, with the
+    sign of "hand pushes on the environment".
+    """
+    c = read_hand_contacts(scene, other)
+    force = c.force.sum(axis=0)
+    torque = c.torque.sum(axis=0) + np.cross(c.position - np.asarray(point, float), c.force).sum(axis=0)
+    return np.concatenate([force, torque])

@@ -1,0 +1,263 @@
+"""`Scene`: one compiled model per (object, hand), reused across trials by resetting.
+
+    >>> scene = build_scene(hands.load("parallel_jaw"), asset)
+    >>> scene.reset(mount=grasp_pose, synergy=0.0)   # hand open, TCP on the grasp pose
+    >>> scene.step(500)
+
+`Scene` is the only owner of `MjModel`/`MjData` (DESIGN.md); controllers take
+its `base` view. Poses are (4, 4) homogeneous matrices in the world frame [m].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from manigrasp.errors import SimulationError
+from manigrasp.hands.base import Hand
+from manigrasp.sim.compose import (
+    BASE_JOINTS,
+    HAND_PREFIX,
+    OBJECT_BODY,
+    TABLE_GEOM,
+    HandFrames,
+    ObjectSource,
+    compile_spec,
+    compose_spec,
+    measure_hand,
+    name_to_id,
+)
+from manigrasp.sim.config import SceneConfig
+from manigrasp.sim.transforms import check_pose, mat_to_quat, pose_matrix, quat_to_mat
+
+_BODY, _SITE, _JOINT, _ACT, _GEOM = (mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtObj.mjOBJ_JOINT,
+                                     mujoco.mjtObj.mjOBJ_ACTUATOR, mujoco.mjtObj.mjOBJ_GEOM)
+
+
+@dataclass(frozen=True)
+class FloatingBase:
+    """The view of a scene that the controllers need (ids into `model`/`data`).
+
+    Attributes:
+        model, data: the scene's MuJoCo model and data (shared, not copied).
+        tcp_site: id of the hand's TCP site.
+        root_body: id of the hand's root body (it carries the six base joints).
+        dofs: (6,) dof addresses of mount/tx..rz (slides, then hinges).
+        actuators: (6,) ids of the base motors (ctrl = generalised force [N, N m]).
+        anchor_joint: id of mount/rx, whose anchor (`data.xanchor`) is the
+            rotation centre of the base: the open hand's centre of mass.
+        mass: mass of the hand [kg].
+        gravcomp: True if MuJoCo compensates the hand's weight (body gravcomp).
+    """
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    tcp_site: int
+    root_body: int
+    dofs: np.ndarray
+    actuators: np.ndarray
+    anchor_joint: int
+    mass: float
+    gravcomp: bool
+
+    def diag_inertia(self) -> np.ndarray:
+        """(6,) joint-space inertia of the base dofs at the current state: mass [kg] x3, then
+        moments of inertia [kg m^2] of the hand about the three hinge axes (valid after `mj_forward`)."""
+        full = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, self.data, full)
+        return full[self.dofs, self.dofs].copy()
+
+
+class Scene:
+    """Table + object + hand on a floating base, compiled once (see `build_scene`)."""
+
+    def __init__(self, hand: Hand, model: mujoco.MjModel, frames: HandFrames, config: SceneConfig) -> None:
+        self.hand, self.model, self.config = hand, model, config
+        self.data = mujoco.MjData(model)
+        self._frames = frames
+        self._root_in_tcp = np.linalg.inv(frames.tcp_in_root)
+        self.root_body = name_to_id(model, _BODY, HAND_PREFIX + hand.root_body, "body")
+        self.tcp_site = name_to_id(model, _SITE, HAND_PREFIX + hand.tcp_site, "site")
+        self.table_geom = name_to_id(model, _GEOM, TABLE_GEOM, "geom")
+        self.hand_actuators = np.array([name_to_id(model, _ACT, HAND_PREFIX + a, "actuator") for a in hand.actuators])
+        base_joints = [name_to_id(model, _JOINT, j, "joint") for j in BASE_JOINTS]
+        self.base = FloatingBase(
+            model=model, data=self.data, tcp_site=self.tcp_site, root_body=self.root_body,
+            dofs=model.jnt_dofadr[base_joints].copy(), actuators=np.array([name_to_id(model, _ACT, j, "actuator")
+                                                                          for j in BASE_JOINTS]),
+            anchor_joint=base_joints[3], mass=float(model.body_subtreemass[self.root_body]),
+            gravcomp=config.hand_gravcomp)
+        self.base_qpos = model.jnt_qposadr[base_joints].copy()
+        self.hand_bodies = np.flatnonzero(model.body_rootid == self.root_body)
+        self.finger_of_body = self._finger_map()
+        self._open_qpos = self._hand_open_qpos()
+        self.object_body = mujoco.mj_name2id(model, _BODY, OBJECT_BODY)
+        self.object_geoms = self._object_geoms()
+        self._object_qpos = self._object_free_qpos()
+        self.object_rest_height = self._rest_height()
+        self.mount = np.eye(4)
+        self.reset()
+
+    # ----------------------------------------------------------------- ids
+    def _finger_map(self) -> np.ndarray:
+        """(nbody,) index into `hand.finger_bodies` of each body's finger, -1 if none."""
+        fingers = {name_to_id(self.model, _BODY, HAND_PREFIX + f, "body"): i
+                   for i, f in enumerate(self.hand.finger_bodies)}
+        out = np.full(self.model.nbody, -1)
+        for body in self.hand_bodies:
+            b = int(body)
+            while b != self.root_body and b not in fingers:
+                b = int(self.model.body_parentid[b])
+            out[body] = fingers.get(b, -1)
+        return out
+
+    def _hand_open_qpos(self) -> list[tuple[int, np.ndarray]]:
+        pairs = []
+        for name, value in self._frames.open_qpos.items():
+            j = name_to_id(self.model, _JOINT, HAND_PREFIX + name, "joint")
+            pairs.append((int(self.model.jnt_qposadr[j]), value))
+        return pairs
+
+    def _object_geoms(self) -> np.ndarray:
+        if self.object_body < 0:
+            return np.zeros(0, int)
+        m = self.model
+        own = m.geom_bodyid == self.object_body
+        return np.flatnonzero(own & ((m.geom_contype != 0) | (m.geom_conaffinity != 0)))
+
+    def _object_free_qpos(self) -> int | None:
+        if self.object_body < 0 or self.model.body_jntnum[self.object_body] == 0:
+            return None
+        j = self.model.body_jntadr[self.object_body]
+        if self.model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE:
+            raise SimulationError("the object's body must have a free joint or no joint")
+        return int(self.model.jnt_qposadr[j])
+
+    def _rest_height(self) -> float:
+        """Height [m] of the object frame above its lowest collision point (identity orientation)."""
+        m, lowest = self.model, np.inf
+        for g in self.object_geoms:
+            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+                mesh = m.geom_dataid[g]
+                pts = m.mesh_vert[m.mesh_vertadr[mesh]:m.mesh_vertadr[mesh] + m.mesh_vertnum[mesh]]
+            else:
+                center, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+                corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+                pts = center + corners * half
+            world = pts @ quat_to_mat(m.geom_quat[g]).T + m.geom_pos[g]
+            lowest = min(lowest, float(world[:, 2].min()))
+        return -lowest if np.isfinite(lowest) else 0.0
+
+    # ------------------------------------------------------------- state
+    def reset(self, mount: np.ndarray | None = None, object_pose: np.ndarray | None = None,
+              synergy: float = 0.0) -> None:
+        """Reset the state: hand open at `mount`, object at `object_pose`, zero velocities.
+
+        Args:
+            mount: (4, 4) TCP pose at zero base joints (default: the current mount).
+            object_pose: (4, 4) object pose (default: resting on the table at x = y = 0).
+            synergy: hand command in [0, 1] (0 open); the joints start at the open shape.
+        """
+        mujoco.mj_resetData(self.model, self.data)
+        if mount is not None:
+            self.set_mount(mount)
+        for adr, value in self._open_qpos:
+            self.data.qpos[adr:adr + len(value)] = value
+        if self.object_body >= 0:
+            self.set_object_pose(object_pose if object_pose is not None else self.object_rest_pose())
+        self.set_synergy(synergy)
+        mujoco.mj_forward(self.model, self.data)
+
+    def set_mount(self, mount: np.ndarray) -> None:
+        """Move the base so that zero base joints put the TCP at `mount` (4, 4); no recompile.
+
+        Edits the root body's `body_pos`/`body_quat`; call `reset` or `forward` afterwards.
+        """
+        mount = check_pose(mount, "mount")
+        root = mount @ self._root_in_tcp
+        self.model.body_pos[self.root_body] = root[:3, 3]
+        self.model.body_quat[self.root_body] = mat_to_quat(root[:3, :3])
+        self.mount = mount.copy()
+
+    def object_rest_pose(self, xy: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+        """(4, 4) pose of the object resting upright on the table at `xy` [m]."""
+        return pose_matrix([xy[0], xy[1], self.object_rest_height])
+
+    def set_object_pose(self, pose: np.ndarray) -> None:
+        """Place the object at `pose` (4, 4) with zero velocity (a fixed object: edit the model)."""
+        pose = check_pose(pose, "object pose")
+        quat = mat_to_quat(pose[:3, :3])
+        if self._object_qpos is None:
+            self.model.body_pos[self.object_body], self.model.body_quat[self.object_body] = pose[:3, 3], quat
+            return
+        adr = self._object_qpos
+        self.data.qpos[adr:adr + 3], self.data.qpos[adr + 3:adr + 7] = pose[:3, 3], quat
+        dof = self.model.jnt_dofadr[self.model.body_jntadr[self.object_body]]
+        self.data.qvel[dof:dof + 6] = 0.0
+
+    def set_synergy(self, s: float) -> None:
+        """Hand actuator commands of synergy `s` in [0, 1] (0 open, 1 closed)."""
+        self.data.ctrl[self.hand_actuators] = self.hand.synergy_ctrl(s)
+
+    def forward(self) -> None:
+        """`mj_forward`: recompute positions, contacts and forces of the current state."""
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, n: int = 1) -> None:
+        """Advance `n` steps of `model.opt.timestep` with the current controls."""
+        for _ in range(n):
+            mujoco.mj_step(self.model, self.data)
+
+    # ------------------------------------------------------------ read-out
+    @property
+    def time(self) -> float:
+        """Simulated time since the last reset [s]."""
+        return float(self.data.time)
+
+    def tcp_pose(self) -> np.ndarray:
+        """(4, 4) world pose of the TCP."""
+        pose = np.eye(4)
+        pose[:3, :3] = self.data.site_xmat[self.tcp_site].reshape(3, 3)
+        pose[:3, 3] = self.data.site_xpos[self.tcp_site]
+        return pose
+
+    def object_pose(self) -> np.ndarray:
+        """(4, 4) world pose of the object frame (its centre of mass for an ObjectAsset)."""
+        if self.object_body < 0:
+            raise SimulationError("this scene has no object")
+        return pose_matrix(self.data.xpos[self.object_body], self.data.xquat[self.object_body])
+
+    def object_mass(self) -> float:
+        """Mass of the object [kg] (0 without an object)."""
+        return float(self.model.body_mass[self.object_body]) if self.object_body >= 0 else 0.0
+
+    def warnings(self) -> dict[str, int]:
+        """MuJoCo warnings raised since the last reset: name -> count (empty if none)."""
+        return {mujoco.mjtWarning(i).name: int(w.number) for i, w in enumerate(self.data.warning) if w.number}
+
+    def is_finite(self) -> bool:
+        """True if positions, velocities and accelerations are all finite."""
+        d = self.data
+        return bool(np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all() and np.isfinite(d.qacc).all())
+
+
+def build_scene(hand: Hand | str, obj: ObjectSource | None = None, config: SceneConfig | None = None) -> Scene:
+    """Compile table + `obj` + `hand` on a floating base into a `Scene`.
+
+    Args:
+        hand: a `Hand` or a hand registry name.
+        obj: an `ObjectAsset`, the path of an object MJCF (a body named
+            ``object`` with a free joint, or no joint for a fixed object), an
+            `MjSpec` of one, or None for no object.
+        config: physics and scene parameters (default: the standard protocol).
+    """
+    if isinstance(hand, str):
+        from manigrasp.hands import load
+
+        hand = load(hand)
+    config = config or SceneConfig()
+    frames = measure_hand(hand, config.open_settle_time)
+    model = compile_spec(compose_spec(hand, frames, obj, config), f"scene of hand {hand.name!r}")
+    return Scene(hand, model, frames, config)
