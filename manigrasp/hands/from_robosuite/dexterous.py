@@ -1,0 +1,267 @@
+"""The five-finger hands that ship with robosuite (GR1's Inspire and Fourier hands), 6 actuators each.
+
+robosuite gives every joint its own servo (12 on the Inspire, 11 on the
+Fourier) and copies one of 6 commands onto them in Python. Here each finger
+is one tendon-driven degree of freedom, as in the real hands (one motor per
+finger, one for the thumb's bend, one for its rotation):
+
+- a fixed tendon per finger, length L = sum(c_i q_i) with c_i proportional to
+  each joint's range, so in free motion (damping-dominated, equal joint
+  damping) the joints flex in proportion and reach their limits together;
+  blocked by an object, the distal joints keep wrapping (an adaptive,
+  underactuated finger);
+- one force-limited position servo per tendon, plus one for thumb rotation;
+- the thumb's rotation joint is re-referenced so that the model's default
+  configuration (qpos0) is the open pre-shape: thumb rotated into opposition,
+  everything else straight. The synergy s then flexes fingers and thumb
+  together (closed = every tendon commanded past its closed stop, so a finger
+  blocked by an object pushes at its force limit).
+
+Frames (the stand-alone model's world frame, right hand; the left mirrors y):
+the palm faces -x, fingers point -z, the opposed thumb sticks out along -x
+above the fingers. TCP: z (approach) = -x, the palm normal; y (closing, from
+finger 1 = thumb toward the other fingers) = -z; x = y cross z runs across
+the palm, the axis of a can held in a power grasp. The TCP sits at the centre
+of the open hand's cavity, the box bounded by the palm, the tip of the opposed
+thumb, the thumb's underside and the fingertips; `max_width` is the smaller
+side of that box (the widest cylinder the open hand encloses).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from manigrasp.hands.base import Hand
+from manigrasp.hands.from_robosuite import build
+from manigrasp.hands.from_robosuite.source import load_gripper_spec
+
+FINGERS = ("index", "middle", "ring", "pinky")
+# Servo stiffness on every tendon [N m/rad]; tendon force limits are per model.
+KP = 5.0
+
+
+@dataclass(frozen=True)
+class FiveFingerModel:
+    """Names and limits of one robosuite five-finger hand (`{f}` = index, middle, ring, pinky)."""
+
+    name: str
+    xml: str
+    root_body: str
+    palm_body: str
+    thumb_rotation: str  # joint
+    thumb_bend: tuple[str, ...]  # joints, proximal first
+    finger_joints: tuple[str, str]  # patterns with {f}: proximal, distal
+    thumb_body: str  # first bending thumb link: its subtree is "the thumb"
+    thumb_tip: str  # body
+    finger_body: str  # pattern with {f}: proximal link, its subtree is "the finger"
+    finger_tip: str  # pattern with {f}
+    finger_torque: float  # tendon force limit of a finger [N m]
+    thumb_torque: float  # tendon force limit of the thumb bend and rotation [N m]
+    link_mass: float | None = None  # if set, the mass of every collision geom [kg]
+
+    def finger_tendon(self, finger: str) -> tuple[str, ...]:
+        return tuple(pattern.format(f=finger) for pattern in self.finger_joints)
+
+
+def _inspire(side: str) -> FiveFingerModel:
+    s = side[0]
+    return FiveFingerModel(
+        name=f"inspire_{side}", xml=f"inspire_{side}_hand.xml", root_body=f"{side}_hand", palm_body=f"{s}_palm",
+        thumb_rotation=f"joint_{s}_thumb_proximal_1",
+        thumb_bend=(f"joint_{s}_thumb_proximal_2", f"joint_{s}_thumb_middle", f"joint_{s}_thumb_distal"),
+        finger_joints=(f"joint_{s}_{{f}}_proximal", f"joint_{s}_{{f}}_distal"),
+        thumb_body=f"{s}_thumb_proximal_2", thumb_tip=f"{s}_thumb_distal",
+        finger_body=f"{s}_{{f}}_proximal", finger_tip=f"{s}_{{f}}_distal",
+        finger_torque=0.6, thumb_torque=0.9)
+
+
+def _fourier(side: str) -> FiveFingerModel:
+    s = side[0].upper()
+    return FiveFingerModel(
+        name=f"fourier_{side}", xml=f"fourier_{side}_hand.xml", root_body=f"{side}_hand", palm_body=f"{side[0]}_palm",
+        thumb_rotation=f"{s}_thumb_proximal_yaw_joint",
+        thumb_bend=(f"{s}_thumb_proximal_pitch_joint", f"{s}_thumb_distal_joint"),
+        finger_joints=(f"{s}_{{f}}_proximal_joint", f"{s}_{{f}}_intermediate_joint"),
+        thumb_body=f"{s}_thumb_proximal_link", thumb_tip=f"{s}_thumb_distal_link",
+        finger_body=f"{s}_{{f}}_proximal_link", finger_tip=f"{s}_{{f}}_intermediate_link",
+        finger_torque=0.6, thumb_torque=0.9,
+        # robosuite's fourier_right_hand.xml gives every link 0.5 kg (a 6 kg hand) where its mirror
+        # fourier_left_hand.xml gives 0.1 kg; the right hand gets the left hand's masses.
+        link_mass=0.1 if side == "right" else None)
+
+
+MODELS = {m.name: m for side in ("right", "left") for m in (_inspire(side), _fourier(side))}
+
+
+def _range(spec: mujoco.MjSpec, joint: str) -> float:
+    low, high = spec.joint(joint).range
+    return float(high - low)
+
+
+def tendons(spec: mujoco.MjSpec, model: FiveFingerModel) -> dict[str, dict[str, float]]:
+    """Actuated tendons: name -> {joint: coefficient}; coefficients are joint range / lead joint range."""
+    chains = {"thumb_bend": model.thumb_bend} | {f: model.finger_tendon(f) for f in FINGERS}
+    out = {"thumb_rotation": {model.thumb_rotation: 1.0}}
+    for name, joints in chains.items():
+        lead = _range(spec, joints[0])
+        out[name] = {joint: _range(spec, joint) / lead for joint in joints}
+    return out
+
+
+def _force_limit(model: FiveFingerModel, tendon: str) -> float:
+    return model.thumb_torque if tendon.startswith("thumb") else model.finger_torque
+
+
+def _closed_length(spec: mujoco.MjSpec, joints: dict[str, float]) -> float:
+    return sum(coef * float(spec.joint(joint).range[1]) for joint, coef in joints.items())
+
+
+def _base_spec(model: FiveFingerModel) -> mujoco.MjSpec:
+    """The robosuite model with 6 tendon servos and the thumb opposed at qpos0; no TCP yet."""
+    spec, _ = load_gripper_spec(model.xml)
+    build.delete_all(spec, spec.actuators)
+    if model.link_mass is not None:
+        for geom in spec.geoms:
+            if geom.contype or geom.conaffinity:
+                geom.mass = model.link_mass
+    opposed = float(spec.joint(model.thumb_rotation).range[1])
+    build.set_joint_default(spec, model.thumb_rotation, opposed)
+    for name, joints in tendons(spec, model).items():
+        force = _force_limit(model, name)
+        closed = _closed_length(spec, joints)
+        high = closed if name == "thumb_rotation" else closed + force / KP
+        build.add_tendon_position_actuator(spec, name, joints, kp=KP, force_limit=force, ctrlrange=(0.0, high))
+    return spec
+
+
+def _spec(model: FiveFingerModel, tcp_pos: tuple[float, float, float]) -> mujoco.MjSpec:
+    spec = _base_spec(model)
+    build.add_tcp_site(spec, model.root_body, tcp_pos, build.quat_from_axes((0, 0, -1), (-1, 0, 0)))
+    return spec
+
+
+def _vertices(mj: mujoco.MjModel, data: mujoco.MjData, bodies: set[int]) -> np.ndarray:
+    """World vertices (n, 3) [m] of the collision meshes of `bodies`."""
+    chunks = []
+    for geom in range(mj.ngeom):
+        if mj.geom_bodyid[geom] not in bodies or not (mj.geom_contype[geom] or mj.geom_conaffinity[geom]):
+            continue
+        mesh = mj.geom_dataid[geom]
+        verts = mj.mesh_vert[mj.mesh_vertadr[mesh]:mj.mesh_vertadr[mesh] + mj.mesh_vertnum[mesh]]
+        chunks.append(data.geom_xpos[geom] + verts @ data.geom_xmat[geom].reshape(3, 3).T)
+    return np.concatenate(chunks)
+
+
+def _subtree(mj: mujoco.MjModel, root: str) -> set[int]:
+    top = mj.body(root).id
+    out = {top}
+    for body in range(top + 1, mj.nbody):
+        if mj.body_parentid[body] in out:
+            out.add(body)
+    return out
+
+
+def cavity(mj: mujoco.MjModel, data: mujoco.MjData, model: FiveFingerModel) -> tuple[np.ndarray, float, float]:
+    """Centre [m] of the open hand's cavity, its depth along -x and its span along -z [m] (at `data`'s pose)."""
+    palm = _vertices(mj, data, {mj.body(model.palm_body).id})
+    thumb = _vertices(mj, data, _subtree(mj, model.thumb_body))
+    tip = _vertices(mj, data, {mj.body(model.thumb_tip).id})
+    finger_tips = [_vertices(mj, data, {mj.body(model.finger_tip.format(f=f)).id}) for f in FINGERS]
+    palm_front, thumb_reach = float(np.max(-palm[:, 0])), float(np.max(-tip[:, 0]))
+    thumb_under = float(np.max(-thumb[:, 2]))
+    finger_reach = min(float(np.max(-v[:, 2])) for v in finger_tips)
+    across = float(np.mean([v[:, 1].mean() for v in finger_tips]))
+    centre = np.array([-(palm_front + thumb_reach) / 2, across, -(thumb_under + finger_reach) / 2])
+    return centre, thumb_reach - palm_front, finger_reach - thumb_under
+
+
+def tip_forces(mj: mujoco.MjModel, data: mujoco.MjData, model: FiveFingerModel,
+               spec: mujoco.MjSpec) -> dict[str, float]:
+    """Fingertip force [N] of each bending tendon at its force limit, at `data`'s pose.
+
+    Statics of the blocked finger: the tendon force f puts torques tau = f c on
+    the finger's joints (c: tendon coefficients), balanced by a force F at the
+    centre of the distal link's collision mesh (the mid-pad contact) through tau = J^T F, so F = pinv(J^T) f c
+    with J the tip's translational Jacobian over the finger's joints.
+    """
+    forces = {}
+    jacp = np.zeros((3, mj.nv))
+    for name, joints in tendons(spec, model).items():
+        if name == "thumb_rotation":
+            continue
+        tip = model.thumb_tip if name == "thumb_bend" else model.finger_tip.format(f=name)
+        body = mj.body(tip).id
+        point = _vertices(mj, data, {body}).mean(axis=0)
+        mujoco.mj_jac(mj, data, jacp, None, point, body)
+        coefs = np.zeros(mj.nv)
+        for joint, coef in joints.items():
+            coefs[mj.jnt_dofadr[mj.joint(joint).id]] = coef
+        forces[name] = _force_limit(model, name) * float(coefs @ coefs) / float(np.linalg.norm(jacp @ coefs))
+    return forces
+
+
+def make(name: str) -> Hand:
+    """The robosuite five-finger hand `name` (inspire_right, inspire_left, fourier_right, fourier_left)."""
+    model = MODELS[name]
+    base = _base_spec(model)
+    mj = base.compile()
+    data = mujoco.MjData(mj)
+    mujoco.mj_kinematics(mj, data)
+    mujoco.mj_comPos(mj, data)
+    centre, depth, span = cavity(mj, data, model)
+    forces = tip_forces(mj, data, model, base)
+    grip = min(forces["thumb_bend"], sum(forces[f] for f in FINGERS))
+    tcp = tuple(float(v) for v in np.round(centre, 4))
+    actuators = tuple(tendons(base, model))
+    # Open: thumb rotation at its opposed stop, every bending tendon at zero length; closed: all at the top.
+    highs = mj.actuator_ctrlrange[:, 1].copy()
+    lows = np.where(np.array(actuators) == "thumb_rotation", highs, 0.0)
+    return Hand(
+        name=name, kind="dexterous", build_spec=lambda: _spec(model, tcp), root_body=model.root_body,
+        tcp_site=build.TCP_SITE,
+        finger_bodies=(model.thumb_body, *(model.finger_body.format(f=f) for f in FINGERS)),
+        actuators=actuators, open_ctrl=lows, closed_ctrl=highs, max_width=min(depth, span),
+        max_grip_force=grip, mass=build.total_mass(mj), source="robosuite",
+        notes=load_gripper_spec(model.xml)[1] + _mass_note(model) + (
+            "12/11 per-joint servos replaced by 6 tendon servos: thumb rotation, thumb bend, index, middle, ring, "
+            "pinky (coefficients proportional to joint ranges; adaptive when a phalanx is blocked)",
+            "thumb rotation re-referenced so qpos0 is the open pre-shape (thumb opposed, fingers straight)",
+            "fingertip forces at the force limits (F = f |c|^2 / |J c|, open pose): "
+            + ", ".join(f"{k} {v:.1f} N" for k, v in forces.items())
+            + "; max_grip_force = min(thumb, sum of the four fingers): the squeeze a thumb-vs-fingers "
+            "opposition sustains",
+            f"open cavity: {1000 * depth:.0f} mm deep (palm to thumb tip), {1000 * span:.0f} mm across "
+            "(thumb underside to shortest fingertip); max_width is the smaller",
+            "finger bodies: one per finger (thumb first), the first bending link, whose subtree is the whole "
+            "finger; listing two phalanges of one finger would let one finger count as two; the palm is not a "
+            "finger",
+        ))
+
+
+def _mass_note(model: FiveFingerModel) -> tuple[str, ...]:
+    if model.link_mass is None:
+        return ()
+    return (f"every link set to {model.link_mass} kg like the mirrored robosuite model (this file gives 0.5 kg)",)
+
+
+def make_inspire_right() -> Hand:
+    """robosuite's Inspire right hand (GR1)."""
+    return make("inspire_right")
+
+
+def make_inspire_left() -> Hand:
+    """robosuite's Inspire left hand (GR1)."""
+    return make("inspire_left")
+
+
+def make_fourier_right() -> Hand:
+    """robosuite's Fourier right hand (GR1)."""
+    return make("fourier_right")
+
+
+def make_fourier_left() -> Hand:
+    """robosuite's Fourier left hand (GR1)."""
+    return make("fourier_left")
