@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2  # 2: convex meshes are their own exact hull
 
 
 def mesh_digest(mesh: trimesh.Trimesh) -> str:

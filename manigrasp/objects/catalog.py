@@ -62,10 +62,20 @@ def from_ycb_folder(folder: str | Path, mass: float | None = None) -> ObjectSour
     return ObjectSource(name=folder.name, ycb_folder=str(folder), mass=mass)
 
 
+def recipe_params(name: str) -> DecompositionParams:
+    """Decomposition settings of a shipped object: the defaults with its recipe's overrides."""
+    return DecompositionParams(**recipes.get(name).decomposition)
+
+
 def build(source: ObjectSource, params: DecompositionParams | None = None,
           cache_root: Path | None = None) -> BuildResult:
-    """Build one object from its source."""
-    params = params or DecompositionParams()
+    """Build one object from its source.
+
+    `params` defaults to `DecompositionParams()`, with a shipped recipe's own
+    overrides applied.
+    """
+    if params is None:
+        params = recipe_params(source.recipe) if source.recipe is not None else DecompositionParams()
     common = {"name": source.name, "params": params, "cache_root": cache_root}
     if source.recipe is not None:
         recipe = recipes.get(source.recipe)
@@ -105,7 +115,7 @@ def is_built(name: str, params: DecompositionParams | None = None, cache_root: P
         data = json.loads(marker.read_text())
     except (OSError, ValueError):
         return False
-    return data.get("fingerprint") == _fingerprint(source, params or DecompositionParams()) and Path(
+    return data.get("fingerprint") == _fingerprint(source, params or recipe_params(source.name)) and Path(
         data.get("mjcf", "")).is_file()
 
 
@@ -118,7 +128,7 @@ class BuildOutcome:
     error: str | None
 
 
-def _build_one(source: ObjectSource, params: DecompositionParams, cache_root: Path | None) -> BuildOutcome:
+def _build_one(source: ObjectSource, params: DecompositionParams | None, cache_root: Path | None) -> BuildOutcome:
     from manigrasp.errors import ManigraspError
 
     try:
@@ -138,8 +148,8 @@ def build_many(
 
     A failing object does not stop the others: its outcome carries the error.
     `on_done` is called in the parent as each object finishes (progress bars).
+    `params` None means each object's own defaults (see `build`).
     """
-    params = params or DecompositionParams()
     outcomes: dict[str, BuildOutcome] = {}
     for outcome in _iter_builds(sources, jobs, params, cache_root):
         outcomes[outcome.name] = outcome
@@ -148,7 +158,7 @@ def build_many(
     return [outcomes[s.name] for s in sources]
 
 
-def _iter_builds(sources: Sequence[ObjectSource], jobs: int, params: DecompositionParams,
+def _iter_builds(sources: Sequence[ObjectSource], jobs: int, params: DecompositionParams | None,
                  cache_root: Path | None) -> Iterator[BuildOutcome]:
     if jobs <= 1 or len(sources) <= 1:
         for source in sources:

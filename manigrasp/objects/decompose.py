@@ -18,6 +18,7 @@ import trimesh
 from manigrasp.errors import DecompositionError
 
 MIN_HULL_VOLUME_M3 = 1e-10  # hulls below this (0.1 mm^3) are numerical slivers
+CONVEX_TOLERANCE = 1e-3  # a mesh within 0.1% of its hull's volume is convex: its hull is its only part
 
 
 @dataclass(frozen=True)
@@ -57,12 +58,23 @@ def coacd_version() -> str:
     return version("coacd")
 
 
+def is_convex(mesh: trimesh.Trimesh) -> bool:
+    """Whether `mesh` fills its convex hull (to `CONVEX_TOLERANCE` of the volume)."""
+    return bool(mesh.volume >= (1.0 - CONVEX_TOLERANCE) * mesh.convex_hull.volume)
+
+
 def decompose(mesh: trimesh.Trimesh, params: DecompositionParams) -> list[trimesh.Trimesh]:
-    """Convex parts of `mesh` by CoACD; each part is a closed convex hull.
+    """Convex parts of `mesh`; each part is a closed convex hull.
+
+    A mesh that is already convex is its own single part (its exact hull: no
+    vertices dropped, so a ball keeps the flat facet it rests on); anything
+    else goes through CoACD.
 
     Raises:
         DecompositionError: CoACD failed or returned no usable hull.
     """
+    if is_convex(mesh):
+        return [mesh.convex_hull]
     import coacd
 
     coacd.set_log_level("error")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import functools
 import inspect
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -29,7 +29,7 @@ from manigrasp.paths import assets_dir
 from manigrasp.registry import nearest, unknown_name_message
 
 _REQUIRED = ("name", "ycb_id", "common_name", "shape", "params", "extents_m", "mass_kg", "source")
-_OPTIONAL = ("notes",)
+_OPTIONAL = ("notes", "decomposition")
 _TOP_LEVEL = ("objects",)
 
 
@@ -47,6 +47,9 @@ class Recipe:
         mass_kg: published mass [kg].
         source: where the figures come from.
         notes: what is approximated, and how.
+        decomposition: CoACD settings that differ from `DecompositionParams`'s
+            defaults for this object (e.g. a thin-walled bowl needs a lower
+            concavity threshold to keep its cavity empty).
     """
 
     name: str
@@ -58,6 +61,7 @@ class Recipe:
     mass_kg: float
     source: str
     notes: str = ""
+    decomposition: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
 
     @property
     def density_kg_m3(self) -> float:
@@ -194,7 +198,17 @@ def _parse_entry(entry: object, index: int) -> Recipe:
         mass_kg=_positive_number(entry["mass_kg"], f"{where}: key 'mass_kg'"),
         source=entry["source"],
         notes=str(entry.get("notes") or ""),
+        decomposition=MappingProxyType(_decomposition(entry.get("decomposition") or {}, where)),
     )
+
+
+def _decomposition(overrides: object, where: str) -> dict[str, Any]:
+    from manigrasp.objects.decompose import DecompositionParams
+
+    if not isinstance(overrides, dict):
+        raise ConfigError(f"{where}: key 'decomposition' must be a mapping")
+    _check_keys(overrides, tuple(DecompositionParams.__dataclass_fields__), (), f"{where}: decomposition")
+    return dict(overrides)
 
 
 def _check_shape(shape: str, params: object, where: str) -> None:

@@ -64,8 +64,21 @@ def cylinder(radius_m: float, height_m: float) -> Manifold:
 
 
 def sphere(radius_m: float) -> Manifold:
-    """A solid ball."""
-    return Manifold.sphere(radius_m, circular_segments=SEGMENTS)
+    """A solid ball that rests on a small flat facet at its bottom pole.
+
+    A revolved UV sphere with N = 16 latitude bands whose rings sit half a
+    step off the poles, so both poles are flat discs (radius about r pi / 2N,
+    3 mm for a tennis ball) instead of single vertices. Dropped on a table, a
+    ball standing on a vertex tips over and rolls on, and one on a facet much
+    smaller than that keeps rocking (MuJoCo has no rolling resistance at
+    condim 4); with 16 bands it is at rest within 0.5 s. The profile is scaled
+    by 1 / cos(pi / 2N) so the extents are exactly 2 r.
+    """
+    n = SEGMENTS // 4
+    phi = -np.pi / 2 + (np.arange(n) + 0.5) * np.pi / n
+    ring = radius_m / np.cos(np.pi / (2 * n)) * np.column_stack([np.cos(phi), np.sin(phi)])
+    profile = [(0.0, ring[0, 1]), *map(tuple, ring), (0.0, ring[-1, 1])]
+    return _revolved(profile)
 
 
 def bottle(
