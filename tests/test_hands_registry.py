@@ -121,6 +121,11 @@ def test_validate_refuses_what_is_not_a_hand() -> None:
         validate_hand({"name": "tiny_gripper"})
 
 
+def test_user_attribute_that_is_not_a_hand_is_refused() -> None:
+    with pytest.raises(HandError, match="is a dict, not a manigrasp.hands.Hand"):
+        hands.load("user_hand_example:NOT_A_HAND")
+
+
 def test_unknown_hand_lists_the_available_ones() -> None:
     with pytest.raises(UnknownNameError, match="robotiq_2f85"):
         hands.load("robotiq")

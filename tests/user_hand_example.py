@@ -65,3 +65,6 @@ def _jointed_root() -> mujoco.MjSpec:
 
 
 JOINTED_ROOT = replace(HAND, build_spec=_jointed_root)
+
+
+NOT_A_HAND = {"name": "tiny_gripper"}  # neither a Hand nor a callable returning one

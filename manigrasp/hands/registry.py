@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import cache
 
+from manigrasp.errors import HandError
 from manigrasp.hands.base import Hand
 from manigrasp.registry import Registry, import_attribute
 
@@ -48,7 +49,10 @@ def load(name: str) -> Hand:
     if name in HANDS:
         return HANDS.load(name)
     entry = HANDS.resolve(name) if ":" not in name else import_attribute(name, "hand")
-    hand = entry if isinstance(entry, Hand) else entry()  # type: ignore[operator]
+    hand = entry if isinstance(entry, Hand) or not callable(entry) else entry()
+    if not isinstance(hand, Hand):
+        raise HandError(f"hand {name!r} is a {type(hand).__name__}, not a manigrasp.hands.Hand "
+                        "(or a callable that returns one)")
     from manigrasp.hands.validate import validate_hand
 
     validate_hand(hand)
