@@ -217,54 +217,58 @@ class GuardedApproach:
 class GripController:
     """Hybrid closing of a hand's synergy: position until contact, then grip-force regulation.
 
-    Position phase: the synergy command ramps toward 1 at `close_speed`. Once
-    the grip force passes `contact_force` the contact synergy s_c is noted;
-    once it passes `switch_fraction` of the target, the force phase begins
-    with the hand's grip stiffness estimated as k = F / (s - s_c) [N per unit
-    synergy], and the synergy follows s = s_switch + (kp e + ki z) / k with
-    e = F_d - F, a loop bandwidth `bandwidth` [1/s] that does not depend on
-    the hand. The synergy is clamped to [0, 1] with anti-windup.
+    Position phase (S = 1): the synergy command ramps toward 1 at
+    `close_speed`. Contact (grip force >= `contact_force`) switches to the
+    force phase (S = 0) at the contact synergy s_c: the synergy follows
+    s = s_c + (kp e + ki z) / k with e = F_d - F [N] and z its time integral,
+    where k = full_force / (1 - s_c) [N per unit synergy] estimates how fast
+    the grip force grows with the command (linear from contact to `full_force`
+    at s = 1), so the loop bandwidth `bandwidth` [1/s] is the same for every
+    hand. The synergy is clamped to [0, 1]; the integral freezes while it is
+    clamped (anti-windup).
 
     Args:
         target_force: grip force to hold [N] (as `manigrasp.sim.grip_force` measures it).
+        full_force: grip force of the fully closed command on an object [N]
+            (a hand's `max_grip_force`).
         close_speed: synergy rate of the position phase [1/s].
         contact_force: grip force that counts as contact [N].
-        switch_fraction: fraction of the target at which force control takes over.
         bandwidth: integral gain of the force loop, normalised by k [1/s].
         kp: proportional gain of the force loop, normalised by k [-].
+        lead: how far the position-phase command may run ahead of the measured hand synergy.
     """
 
-    def __init__(self, target_force: float, close_speed: float = 1.0, contact_force: float = 0.2,
-                 switch_fraction: float = 0.5, bandwidth: float = 10.0, kp: float = 0.1) -> None:
-        if target_force <= 0 or close_speed <= 0 or not 0 < switch_fraction <= 1:
-            raise ConfigError("target_force and close_speed must be > 0 and switch_fraction in (0, 1]")
-        self.target_force, self.close_speed = target_force, close_speed
-        self.contact_force, self.switch_fraction = contact_force, switch_fraction
-        self.bandwidth, self.kp = bandwidth, kp
+    def __init__(self, target_force: float, full_force: float, close_speed: float = 1.0,
+                 contact_force: float = 0.5, bandwidth: float = 10.0, kp: float = 0.1, lead: float = 0.1) -> None:
+        if not 0 < target_force <= full_force or close_speed <= 0 or contact_force <= 0:
+            raise ConfigError("need 0 < target_force <= full_force, close_speed > 0 and contact_force > 0")
+        self.target_force, self.full_force, self.close_speed = target_force, full_force, close_speed
+        self.contact_force, self.bandwidth, self.kp, self.lead = contact_force, bandwidth, kp, lead
         self.reset()
 
     def reset(self, synergy: float = 0.0) -> None:
         """Start a new closing from `synergy` (0 = open)."""
         self.synergy = float(synergy)
         self.mode = "position"
-        self.contact_synergy: float | None = None
-        self.switch_synergy = 0.0
+        self.contact_synergy = np.nan
         self.stiffness = np.nan
         self.pi = ForcePI(self.kp, self.bandwidth, np.inf)
 
-    def update(self, grip_force: float, dt: float) -> float:
-        """New synergy command for the measured `grip_force` [N] after a step `dt` [s]."""
+    def update(self, grip_force: float, dt: float, hand_synergy: float | None = None) -> float:
+        """New synergy command for the measured `grip_force` [N] after a step `dt` [s].
+
+        `hand_synergy` (e.g. `Scene.hand_synergy()`), if given, keeps the
+        position-phase command at most `lead` ahead of where the fingers are, so
+        a slow hand does not find the command already closed at contact.
+        """
         if self.mode == "position":
-            if self.contact_synergy is None and grip_force >= self.contact_force:
-                self.contact_synergy = self.synergy
-            if self.contact_synergy is not None and grip_force >= self.switch_fraction * self.target_force:
-                self.mode = "force"
-                self.switch_synergy = self.synergy
-                self.stiffness = grip_force / max(self.synergy - self.contact_synergy, 1e-3)
-            else:
-                self.synergy = min(1.0, self.synergy + self.close_speed * dt)
+            if grip_force < self.contact_force:
+                ceiling = 1.0 if hand_synergy is None else hand_synergy + self.lead
+                self.synergy = min(1.0, ceiling, self.synergy + self.close_speed * dt)
                 return self.synergy
+            self.mode, self.contact_synergy = "force", self.synergy
+            self.stiffness = self.full_force / max(1.0 - self.synergy, 0.05)
         error = (self.target_force - grip_force) / self.stiffness
         out = self.pi.update(error, dt, push_up_blocked=self.synergy >= 1.0, push_down_blocked=self.synergy <= 0.0)
-        self.synergy = float(np.clip(self.switch_synergy + out[0], 0.0, 1.0))
+        self.synergy = float(np.clip(self.contact_synergy + out[0], 0.0, 1.0))
         return self.synergy

@@ -6,7 +6,7 @@
 """
 
 from manigrasp.sim.config import SceneConfig
-from manigrasp.sim.contacts import HandContacts, grip_force, hand_contact_wrench, read_hand_contacts
+from manigrasp.sim.contacts import HandContacts, grip_force, hand_contact_wrench, read_hand_contacts, to_contacts
 from manigrasp.sim.scene import FloatingBase, Scene, build_scene
 
 __all__ = [
@@ -18,4 +18,5 @@ __all__ = [
     "grip_force",
     "hand_contact_wrench",
     "read_hand_contacts",
+    "to_contacts",
 ]

@@ -54,13 +54,30 @@ class HandFrames:
 
 
 def measure_hand(hand: Hand, settle_time: float) -> HandFrames:
-    """Compile `hand` alone, drive it open for `settle_time` [s] and measure its frames."""
-    model = compile_spec(hand.build_spec(), f"hand {hand.name!r}")
+    """Compile `hand` alone, drive it open for `settle_time` [s] and measure its frames.
+
+    The root body gets a free joint here (gravity off), as in the scene where it
+    moves: a root welded to the world would not filter contacts between the
+    palm and its own fingers (MuJoCo filters parent-child contacts only for
+    moving parents). Measurements are in the root frame, so its drift does not
+    matter. If the joints still move after `settle_time`, it runs up to 3 s more.
+    """
+    spec = hand.build_spec()
+    root_spec = spec.body(hand.root_body)
+    if root_spec is None:
+        raise SimulationError(f"hand {hand.name!r}: root body {hand.root_body!r} not in its MJCF")
+    root_spec.add_freejoint()
+    model = compile_spec(spec, f"hand {hand.name!r}")
     model.opt.gravity[:] = 0.0
     data = mujoco.MjData(model)
     act = [name_to_id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, name, "actuator") for name in hand.actuators]
     data.ctrl[act] = hand.open_ctrl
-    for _ in range(int(round(settle_time / model.opt.timestep))):
+    steps = int(round(settle_time / model.opt.timestep))
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    for _ in range(int(3.0 / model.opt.timestep)):
+        if np.max(np.abs(data.qvel[6:]), initial=0.0) < 1e-4:
+            break
         mujoco.mj_step(model, data)
     mujoco.mj_forward(model, data)
     root = name_to_id(model, mujoco.mjtObj.mjOBJ_BODY, hand.root_body, "body")
@@ -71,7 +88,7 @@ def measure_hand(hand: Hand, settle_time: float) -> HandFrames:
     tcp[:3, 3] = rot_root.T @ (data.site_xpos[site] - data.xpos[root])
     com = rot_root.T @ (data.subtree_com[root] - data.xpos[root])
     open_qpos = {}
-    for j in range(model.njnt):
+    for j in range(1, model.njnt):  # joint 0 is the free joint added above
         adr, width = model.jnt_qposadr[j], qpos_width(model.jnt_type[j])
         open_qpos[model.joint(j).name] = data.qpos[adr:adr + width].copy()
     return HandFrames(tcp_in_root=tcp, com_in_root=com, open_qpos=open_qpos)

@@ -33,6 +33,7 @@ class HandContacts:
         normal_force: (n,) force along `normal` [N] (>= 0 for a pushing contact).
         tangential_force: (n,) magnitude of the tangential force [N].
         friction: (n,) sliding friction coefficient of each contact [-].
+        torsional_friction: (n,) torsional coefficient of each contact [m] (used if condim >= 4).
         cone_ratio: (n,) elliptic cone usage: sqrt(sum (f_t,i / mu_i)^2) / f_n over
             the contact's frictional components; 1 means on the cone (sliding).
         in_cone: (n,) True where f_n > 0 and cone_ratio <= 1 + tolerance.
@@ -50,6 +51,7 @@ class HandContacts:
     normal_force: np.ndarray
     tangential_force: np.ndarray
     friction: np.ndarray
+    torsional_friction: np.ndarray
     cone_ratio: np.ndarray
     in_cone: np.ndarray
     finger: np.ndarray
@@ -120,7 +122,8 @@ def read_hand_contacts(scene: Scene, other: Other = "object", cone_tolerance: fl
     fn = local[:, 0]
     return HandContacts(
         position=con.pos[idx].copy(), normal=normal, force=force, torque=torque, normal_force=fn,
-        tangential_force=np.linalg.norm(local[:, 1:3], axis=1), friction=mu[:, 0].copy(), cone_ratio=ratio,
+        tangential_force=np.linalg.norm(local[:, 1:3], axis=1), friction=mu[:, 0].copy(),
+        torsional_friction=mu[:, 2].copy(), cone_ratio=ratio,
         in_cone=(fn > 0) & (ratio <= 1.0 + cone_tolerance), finger=scene.finger_of_body[model.geom_bodyid[hand_geom]],
         hand_body=model.geom_bodyid[hand_geom], hand_geom=hand_geom,
         other_geom=np.where(hand_first, geoms[:, 1], geoms[:, 0]), condim=dim.copy())
@@ -134,6 +137,26 @@ def _cone_ratio(local: np.ndarray, mu: np.ndarray, dim: np.ndarray) -> np.ndarra
     norm = np.linalg.norm(scaled, axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(local[:, 0] > 0, norm / local[:, 0], np.where(norm > 0, np.inf, 0.0))
+
+
+def to_contacts(contacts: HandContacts) -> list:
+    """The contacts as `manigrasp.contact.Contact` records, for the grasp metrics.
+
+    The model follows MuJoCo's condim: 1 frictionless, 3 hard finger, 4 or 6
+    soft finger (torsional coefficient from the contact); normals already point
+    into the object. Contacts with f_n <= 0 are dropped (not touching).
+    """
+    from manigrasp.contact import Contact, ContactType
+
+    out = []
+    for i in np.flatnonzero(contacts.normal_force > 0):
+        dim = int(contacts.condim[i])
+        kind = ContactType.FRICTIONLESS if dim == 1 else (ContactType.HARD_FINGER if dim == 3
+                                                           else ContactType.SOFT_FINGER)
+        gamma = float(contacts.torsional_friction[i]) if kind is ContactType.SOFT_FINGER else 0.0
+        out.append(Contact(position=contacts.position[i], normal=contacts.normal[i],
+                           mu=float(contacts.friction[i]), kind=kind, gamma=gamma))
+    return out
 
 
 def grip_force(contacts: HandContacts) -> float:

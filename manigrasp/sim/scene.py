@@ -201,6 +201,16 @@ class Scene:
         """Hand actuator commands of synergy `s` in [0, 1] (0 open, 1 closed)."""
         self.data.ctrl[self.hand_actuators] = self.hand.synergy_ctrl(s)
 
+    def hand_synergy(self) -> float:
+        """Where the fingers are, as a synergy in [0, 1]: the mean over hand actuators of
+        (length - open) / (closed - open) of their transmission, clipped (an estimate:
+        a blocked finger stays below its command)."""
+        length = self.data.actuator_length[self.hand_actuators]
+        span = self.hand.closed_ctrl - self.hand.open_ctrl
+        safe = np.where(np.abs(span) > 1e-12, span, 1.0)
+        frac = np.where(np.abs(span) > 1e-12, (length - self.hand.open_ctrl) / safe, 1.0)
+        return float(np.clip(frac, 0.0, 1.0).mean())
+
     def forward(self) -> None:
         """`mj_forward`: recompute positions, contacts and forces of the current state."""
         mujoco.mj_forward(self.model, self.data)
