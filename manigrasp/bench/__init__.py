@@ -1,0 +1,1 @@
+"""The benchmark harness: config, trial enumeration, results store, statistics, report."""

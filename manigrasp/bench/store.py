@@ -1,0 +1,133 @@
+"""The resumable results store: one SQLite row per trial, committed as it finishes.
+
+The primary key is the trial id, so a re-run that re-enumerates the same
+trials skips the stored ones and can never count one twice; each row is its
+own transaction, so a kill -9 loses at most the trial that was running.
+"""
+
+from __future__ import annotations
+
+import math
+import sqlite3
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+from manigrasp.protocol.result import Status, TrialResult
+
+KEY_COLUMNS = ("trial_id", "object", "hand", "planner", "observation", "protocol", "grasp_index")
+
+
+@dataclass(frozen=True)
+class TrialKey:
+    """Identity of one trial in a run."""
+
+    object: str
+    hand: str
+    planner: str
+    observation: str
+    protocol: str
+    grasp_index: int
+
+    @property
+    def trial_id(self) -> str:
+        """A stable, readable id: ``object/hand/planner/observation/protocol/0007``."""
+        return f"{self.object}/{self.hand}/{self.planner}/{self.observation}/{self.protocol}/{self.grasp_index:04d}"
+
+
+def _result_columns() -> list[tuple[str, str]]:
+    sample = TrialResult(status=Status.SUCCESS).flat()
+    kinds = {bool: "INTEGER", int: "INTEGER", float: "REAL", str: "TEXT"}
+    return [(name, kinds.get(type(value), "TEXT")) for name, value in sample.items()]
+
+
+class ResultsStore:
+    """`results.sqlite` of a run directory."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._db = sqlite3.connect(self.path, timeout=60.0)
+        self._db.execute("PRAGMA journal_mode=WAL")
+        self._db.execute("PRAGMA synchronous=FULL")
+        self._columns = _result_columns()
+        cols = ", ".join(f"{n} {t}" for n, t in self._columns)
+        self._db.execute(
+            "CREATE TABLE IF NOT EXISTS trials (trial_id TEXT PRIMARY KEY, object TEXT, hand TEXT, planner TEXT, "
+            f"observation TEXT, protocol TEXT, grasp_index INTEGER, {cols})")
+        self._db.commit()
+
+    def close(self) -> None:
+        """Close the database."""
+        self._db.close()
+
+    def __enter__(self) -> ResultsStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def done_ids(self) -> set[str]:
+        """Ids of the trials already stored."""
+        return {row[0] for row in self._db.execute("SELECT trial_id FROM trials")}
+
+    def add(self, key: TrialKey, result: TrialResult) -> bool:
+        """Store one trial (its own transaction); False if it was already stored."""
+        flat = result.flat()
+        values = [key.trial_id, key.object, key.hand, key.planner, key.observation, key.protocol, key.grasp_index]
+        values += [_sql_value(flat[name]) for name, _ in self._columns]
+        marks = ", ".join("?" * len(values))
+        with self._db:
+            cursor = self._db.execute(f"INSERT OR IGNORE INTO trials VALUES ({marks})", values)
+        return cursor.rowcount == 1
+
+    def rows(self) -> Iterator[dict[str, object]]:
+        """Every stored trial as a flat dict (key columns + `TrialResult.flat()` columns)."""
+        cursor = self._db.execute("SELECT * FROM trials ORDER BY trial_id")
+        names = [d[0] for d in cursor.description]
+        for row in cursor:
+            yield {n: _py_value(v, n) for n, v in zip(names, row, strict=True)}
+
+    def results(self) -> Iterator[tuple[TrialKey, TrialResult]]:
+        """Every stored trial as (key, result)."""
+        key_fields = [f.name for f in fields(TrialKey)]
+        for row in self.rows():
+            key = TrialKey(**{k: row[k] for k in key_fields})  # type: ignore[arg-type]
+            rest = {k: v for k, v in row.items() if k not in KEY_COLUMNS}
+            yield key, TrialResult.from_flat(rest)
+
+    def count(self) -> int:
+        """Number of stored trials."""
+        return int(self._db.execute("SELECT COUNT(*) FROM trials").fetchone()[0])
+
+
+def _sql_value(value: object) -> object:
+    """SQLite stores NaN as NULL (infinity round-trips as REAL)."""
+    return None if isinstance(value, float) and math.isnan(value) else value
+
+
+def _py_value(value: object, name: str) -> object:
+    if value is None:
+        return "" if name in ("detail", "last_phase", "fingers_in_contact") else math.nan
+    return value
+
+
+def export(rows: Iterable[dict[str, object]], path: Path) -> Path:
+    """Write rows to ``.csv`` or ``.parquet`` (by the suffix of `path`)."""
+    rows = list(rows)
+    path = Path(path)
+    if path.suffix == ".parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        pq.write_table(pa.Table.from_pylist(rows), path)
+    elif path.suffix == ".csv":
+        import csv
+
+        with path.open("w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(rows[0]) if rows else list(KEY_COLUMNS))
+            writer.writeheader()
+            writer.writerows(rows)
+    else:
+        raise ValueError(f"unknown export format {path.suffix!r}: use .csv or .parquet")
+    return path

@@ -1,0 +1,109 @@
+"""What one trial returns: a status from a fixed vocabulary and its measurements.
+
+A failure is a status, never a missing row or a score: every trial the
+harness enumerates ends as exactly one `TrialResult`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from enum import StrEnum
+
+
+class Status(StrEnum):
+    """Outcome of one trial (DESIGN.md, "The standard protocol")."""
+
+    SUCCESS = "success"
+    PREGRASP_COLLISION = "pregrasp_collision"
+    NO_CONTACT = "no_contact"
+    SLIPPED_LIFT = "slipped_lift"
+    DROPPED_PERTURB = "dropped_perturb"
+    UNSTABLE = "unstable"
+    PLANNER_ERROR = "planner_error"
+    INVALID_GRASP = "invalid_grasp"
+    TIMEOUT = "timeout"
+
+
+PHASES = ("settle", "pregrasp", "approach", "close", "lift", "perturb")
+
+
+@dataclass(frozen=True)
+class GraspMetrics:
+    """Analytic quality of a set of contacts (NaN where not computed or undefined).
+
+    Attributes:
+        n_contacts: number of contacts the metrics were computed on.
+        force_closure: 1.0 / 0.0, NaN when not computed.
+        epsilon_l1: Ferrari-Canny epsilon with the L1 wrench set (0 without closure).
+        min_friction: smallest friction coefficient giving force closure (inf: never).
+    """
+
+    n_contacts: int = 0
+    force_closure: float = math.nan
+    epsilon_l1: float = math.nan
+    min_friction: float = math.nan
+
+
+@dataclass(frozen=True)
+class TrialResult:
+    """One trial's outcome.
+
+    Attributes:
+        status: success or the failure mode.
+        detail: more about the status: the perturbation direction of a
+            `dropped_perturb` ("+x"...), the message of a planner error.
+        last_phase: the last phase passed ("" if none), one of `PHASES`.
+        max_translation_m: largest displacement of the object relative to the hand after closing [m].
+        max_rotation_deg: largest rotation of the object relative to the hand after closing [deg].
+        fingers_in_contact: finger bodies touching the object at the end.
+        grip_force_n: grip force after closing [N] (normal forces summed over contacts / 2 for two jaws).
+        planned: metrics of the planner's contacts.
+        simulated: metrics of the contacts the simulation produced after closing.
+        planning_time_s: the planner's time for this candidate [s].
+        sim_steps: physics steps simulated.
+        sim_time_s: simulated time [s].
+        wall_time_s: wall-clock time of the trial [s] (the only non-reproducible field).
+        seed: the trial's seed.
+    """
+
+    status: Status
+    detail: str = ""
+    last_phase: str = ""
+    max_translation_m: float = math.nan
+    max_rotation_deg: float = math.nan
+    fingers_in_contact: tuple[str, ...] = ()
+    grip_force_n: float = math.nan
+    planned: GraspMetrics = field(default_factory=GraspMetrics)
+    simulated: GraspMetrics = field(default_factory=GraspMetrics)
+    planning_time_s: float = math.nan
+    sim_steps: int = 0
+    sim_time_s: float = 0.0
+    wall_time_s: float = math.nan
+    seed: int = 0
+
+    @property
+    def success(self) -> bool:
+        """Whether the trial passed."""
+        return self.status is Status.SUCCESS
+
+    def flat(self) -> dict[str, object]:
+        """A flat dict (metrics prefixed planned_/sim_) for tables and the results store."""
+        row = asdict(self)
+        row["status"] = self.status.value
+        row["fingers_in_contact"] = ",".join(self.fingers_in_contact)
+        for prefix, key in (("planned", "planned"), ("sim", "simulated")):
+            for name, value in row.pop(key).items():
+                row[f"{prefix}_{name}"] = value
+        return row
+
+    @classmethod
+    def from_flat(cls, row: dict[str, object]) -> TrialResult:
+        """Inverse of `flat`."""
+        row = dict(row)
+        metrics = {}
+        for prefix, key in (("planned", "planned"), ("sim", "simulated")):
+            metrics[key] = GraspMetrics(**{n: row.pop(f"{prefix}_{n}") for n in GraspMetrics.__dataclass_fields__})
+        fingers = str(row.pop("fingers_in_contact") or "")
+        return cls(status=Status(row.pop("status")), fingers_in_contact=tuple(f for f in fingers.split(",") if f),
+                   **metrics, **row)  # type: ignore[arg-type]

@@ -1,0 +1,45 @@
+"""Statistics with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from manigrasp.bench.stats import lower_than_baseline, roc_auc, wilson_interval
+
+
+def test_wilson_interval_matches_the_closed_form():
+    """Wilson: (p + z^2/2n +- z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n); for 8/10 at 95 %: [0.4902, 0.9433]."""
+    low, high = wilson_interval(8, 10)
+    z, n, p = 1.959963984540054, 10, 0.8
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    assert low == pytest.approx(centre - half, abs=1e-9) and high == pytest.approx(centre + half, abs=1e-9)
+    assert low == pytest.approx(0.4902, abs=1e-4)
+
+
+def test_wilson_interval_edges():
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    low, high = wilson_interval(0, 20)
+    assert low == 0.0 and 0.1 < high < 0.2
+    low, high = wilson_interval(20, 20)
+    assert high == pytest.approx(1.0) and 0.8 < low < 0.9
+
+
+def test_two_proportion_test_flags_a_real_drop_and_not_noise():
+    drop = lower_than_baseline(50, 100, 80, 100)
+    assert drop.difference == pytest.approx(-0.3) and drop.p_value < 1e-4
+    # z = -0.3 / sqrt(0.65 * 0.35 * 0.02) = -4.447
+    assert drop.z == pytest.approx(-0.3 / np.sqrt(0.65 * 0.35 * 0.02))
+    assert lower_than_baseline(78, 100, 80, 100).p_value > 0.3
+    assert lower_than_baseline(90, 100, 80, 100).p_value > 0.9  # higher is never "lower"
+
+
+def test_roc_auc_known_values():
+    labels = np.array([0, 0, 1, 1], bool)
+    assert roc_auc(np.array([0.1, 0.2, 0.3, 0.4]), labels) == 1.0
+    assert roc_auc(np.array([0.4, 0.3, 0.2, 0.1]), labels) == 0.0
+    assert roc_auc(np.array([0.1, 0.3, 0.2, 0.4]), labels) == 0.75  # 3 of 4 pairs ordered
+    assert roc_auc(np.array([0.5, 0.5, 0.5, 0.5]), labels) == 0.5
+    assert np.isnan(roc_auc(np.array([0.1, 0.2]), np.array([1, 1], bool)))
+    assert roc_auc(np.array([np.nan, 0.1, 0.2, 0.3, 0.4]), np.r_[True, labels]) == 1.0
