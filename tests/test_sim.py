@@ -1,0 +1,125 @@
+"""Scene composition, reset/mount without recompiling, and contact read-out against statics."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp.control import ImpedanceController, default_gains
+from manigrasp.errors import ConfigError, SimulationError
+from manigrasp.objects import build_object
+from manigrasp.sim import SceneConfig, build_scene, grip_force, read_hand_contacts, to_contacts
+from manigrasp.sim.compose import BASE_JOINTS
+from manigrasp.sim.transforms import quat_to_mat
+
+TOP_GRASP = np.diag([1.0, -1.0, -1.0])
+
+
+@pytest.fixture(scope="module")
+def box_scene(tmp_path_factory: pytest.TempPathFactory):
+    asset = build_object(trimesh.creation.box((0.05, 0.05, 0.05)), name="box", mass=0.3,
+                         cache_root=tmp_path_factory.mktemp("objects")).asset
+    return build_scene("parallel_jaw", asset)
+
+
+def test_names_are_prefixed_per_part(box_scene) -> None:
+    m = box_scene.model
+    for name in ("hand/palm", "hand/finger1", "object/object"):
+        assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name) >= 0
+    assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "table/top") >= 0
+    joints = [m.joint(j).name for j in range(m.body_jntadr[box_scene.root_body],
+                                               m.body_jntadr[box_scene.root_body] + m.body_jntnum[box_scene.root_body])]
+    assert tuple(joints) == BASE_JOINTS
+    assert not m.jnt_limited[[m.joint(j).id for j in BASE_JOINTS]].any()  # no leak from the hand's childclass
+
+
+def test_reset_puts_tcp_on_mount_without_recompiling(box_scene) -> None:
+    model = box_scene.model
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        mount = np.eye(4)
+        mount[:3, :3] = quat_to_mat(rng.normal(size=4))
+        mount[:3, 3] = rng.uniform(-0.2, 0.2, 3) + [0, 0, 0.4]
+        box_scene.reset(mount=mount)
+        assert box_scene.model is model
+        np.testing.assert_allclose(box_scene.tcp_pose(), mount, atol=1e-9)
+        np.testing.assert_allclose(box_scene.data.qpos[box_scene.base_qpos], 0.0)
+    with pytest.raises(ValueError, match="proper rotation"):
+        box_scene.set_mount(np.diag([1.0, 1.0, -1.0, 1.0]))
+
+
+def test_object_rests_on_table(box_scene) -> None:
+    far = np.eye(4)
+    far[:3, 3] = [0.0, 0.0, 0.5]
+    box_scene.reset(mount=far)
+    assert box_scene.object_rest_height == pytest.approx(0.025, abs=1e-6)
+    start = box_scene.object_pose()
+    ctrl = ImpedanceController(box_scene.base, default_gains(box_scene.base))
+    ctrl.set_target(far)
+    for _ in range(250):
+        ctrl.apply()
+        box_scene.step()
+    assert np.linalg.norm(box_scene.object_pose()[:3, 3] - start[:3, 3]) < 1e-3
+    assert box_scene.warnings() == {} and box_scene.is_finite()
+
+
+def _grasp_and_lift(scene) -> None:
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = TOP_GRASP, [0.0, 0.0, 0.025]
+    scene.reset(mount=pose, synergy=1.0)
+    ctrl = ImpedanceController(scene.base, default_gains(scene.base))
+    ctrl.set_target(pose)
+    for i in range(900):
+        if i >= 300:
+            pose[2, 3] = 0.025 + min(0.05, 0.05 * (i - 300) / 200)
+            ctrl.set_target(pose)
+        ctrl.apply()
+        scene.step()
+
+
+def test_contact_forces_hold_the_object_weight(box_scene) -> None:
+    _grasp_and_lift(box_scene)
+    c = read_hand_contacts(box_scene)
+    weight = box_scene.object_mass() * 9.81
+    total = c.force.sum(axis=0)
+    assert total[2] == pytest.approx(weight, rel=0.02)  # the hand carries the object: sign and size
+    assert np.all(np.abs(total[:2]) < 0.02 * weight)
+    assert c.fingers_touching == (0, 1)
+    assert grip_force(c) == pytest.approx(box_scene.hand.max_grip_force, rel=0.02)
+    # Normals point from the hand into the object, forces lie in their friction cones.
+    centre = box_scene.object_pose()[:3, 3]
+    assert np.all(np.einsum("ij,ij->i", c.normal, centre - c.position) > 0)
+    assert np.all(c.in_cone) and np.all(c.friction == pytest.approx(0.5))
+    assert np.all(c.normal_force > 0)
+
+
+def test_to_contacts_gives_soft_finger_records(box_scene) -> None:
+    _grasp_and_lift(box_scene)
+    records = to_contacts(read_hand_contacts(box_scene))
+    assert len(records) >= 2
+    assert {r.kind.value for r in records} == {"soft_finger"}
+    assert all(r.mu == pytest.approx(0.5) and r.gamma > 0 for r in records)
+
+
+def test_fixed_object_and_bad_object_mjcf(tmp_path) -> None:
+    fixed = mujoco.MjSpec.from_string('<mujoco><worldbody><body name="object" pos="0 0 0.02">'
+                                      '<geom type="box" size="0.02 0.02 0.02"/></body></worldbody></mujoco>')
+    scene = build_scene("parallel_jaw", fixed)
+    assert scene.model.body_jntnum[scene.object_body] == 0
+    bad = tmp_path / "bad.xml"
+    bad.write_text('<mujoco><worldbody><body name="thing"><geom size="0.01"/></body></worldbody></mujoco>')
+    with pytest.raises(SimulationError, match="no body named 'object'.*thing"):
+        build_scene("parallel_jaw", bad)
+
+
+def test_config_is_validated() -> None:
+    with pytest.raises(ConfigError, match="implicitfast"):
+        SceneConfig(integrator="implicitfst")
+    with pytest.raises(ConfigError, match="timestep"):
+        SceneConfig(timestep=0.0)
+    model = build_scene("parallel_jaw", config=SceneConfig(timestep=0.001, impratio=5.0)).model
+    assert model.opt.timestep == 0.001 and model.opt.impratio == 5.0
+    assert model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
