@@ -60,6 +60,7 @@ class TrialResult:
         grip_force_n: grip force after closing [N] (normal forces summed over contacts / 2 for two jaws).
         planned: metrics of the planner's contacts.
         simulated: metrics of the contacts the simulation produced after closing.
+        score: the planner's score of this candidate (NaN if none).
         planning_time_s: the planner's time for this candidate [s].
         sim_steps: physics steps simulated.
         sim_time_s: simulated time [s].
@@ -76,6 +77,7 @@ class TrialResult:
     grip_force_n: float = math.nan
     planned: GraspMetrics = field(default_factory=GraspMetrics)
     simulated: GraspMetrics = field(default_factory=GraspMetrics)
+    score: float = math.nan
     planning_time_s: float = math.nan
     sim_steps: int = 0
     sim_time_s: float = 0.0
