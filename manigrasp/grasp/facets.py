@@ -42,6 +42,8 @@ from manigrasp.grasp._exterior import wedge_outer, wedge_rows
 Faces = dict[int, np.ndarray]
 """weight -> (B, n_faces, C(d, weight)) k-vectors of one contact's candidate faces."""
 
+ROUNDING = 1e-12
+"""Epsilons below ROUNDING x the largest primitive wrench norm are rounding noise, reported as 0."""
 ELEMENT_BUDGET = 1_000_000
 """Largest candidates x primitives array scored at once: grasps are chunked so the
 working set stays in cache (measured: 1e6 is ~2x faster than 4e6 on 3 hard fingers)."""
@@ -145,6 +147,8 @@ def _support_pair(u: np.ndarray, w: np.ndarray, n: int, norm: str) -> tuple[np.n
 
 def _min_value(u: np.ndarray, w: np.ndarray, n: int, norm: str, floor: np.ndarray) -> np.ndarray:
     """min over candidates of min(h(u), h(-u)) / |u| per grasp, ignoring |u| <= floor (B,)."""
+    if u.shape[1] == 0:  # e.g. a single contact: no 6-point hyperplane to pick
+        return np.full(u.shape[0], np.inf)
     length = np.sqrt(np.einsum("bci,bci->bc", u, u))
     valid = length > floor[:, None]
     hi, lo = _support_pair(u, w, n, norm)
@@ -165,7 +169,8 @@ def _epsilon_chunk(w: np.ndarray, kind: ContactType, m: int, norm: str) -> np.nd
     floor = 1e-14 * scale ** (d - 1)
     value = _min_value(top[..., d - 6 :], signed, n, norm, floor)
     best = _min_value(_best_fit(flat, norm), flat, n, norm, np.zeros(b))
-    return np.maximum(np.minimum(value, best), 0.0)
+    eps = np.minimum(value, best)
+    return np.where(eps > ROUNDING * scale, eps, 0.0)
 
 
 def epsilon_enumerated(w: np.ndarray, kind: ContactType, m: int, norm: str) -> np.ndarray:
