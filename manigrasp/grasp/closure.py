@@ -9,7 +9,7 @@ full rank of G is necessary, not sufficient.
 -s e_j are in W for all six axes j. Their hull is a cross-polytope that holds
 a ball of radius s / sqrt(6), and a ball of radius r in W holds those twelve
 points with s = r, so s > 0 exactly when the origin is interior, and
-eps_L1 / 1 >= s / sqrt(6), eps_L1 <= s. Degenerate (flat) wrench sets give s = 0.
+s / sqrt(6) <= eps_L1 <= s. Degenerate (flat) wrench sets give s = 0.
 """
 
 from __future__ import annotations
