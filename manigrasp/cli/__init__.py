@@ -15,7 +15,7 @@ from manigrasp import __version__
 from manigrasp.errors import ManigraspError
 
 # Command-group modules, in the order they appear in --help.
-_GROUPS = ("objects", "hands")
+_GROUPS = ("objects", "hands", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,57 @@
+"""``report.md``: the tables of a run and its plots, for people to read."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from manigrasp.bench import plots
+from manigrasp.bench.report import Report, format_rate
+from manigrasp.bench.store import TrialKey
+from manigrasp.protocol.result import TrialResult
+
+
+def _table(headers: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def _modes(modes: dict[str, int]) -> str:
+    return ", ".join(f"{m} {n}" for m, n in sorted(modes.items(), key=lambda kv: -kv[1])) or "-"
+
+
+def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
+                   meta: dict) -> Path:
+    """Write ``report.md`` and its PNGs into `run_dir`; returns the markdown path."""
+    run_dir = Path(run_dir)
+    images = {
+        "Success rate per object": plots.success_by_object(report, run_dir / "success_by_object.png"),
+        "Success rate per hand and planner": plots.success_by_method(report, run_dir / "success_by_method.png"),
+        "Outcomes": plots.failure_modes(report, run_dir / "failure_modes.png"),
+        "Planning time": plots.planning_times(results, run_dir / "planning_time.png"),
+        "How well each analytic metric predicts success": plots.metric_auc(report, run_dir / "metric_auc.png"),
+    }
+    config = meta.get("config", {})
+    parts = [
+        f"# manigrasp report: {config.get('name', run_dir.name)}",
+        f"Protocol `{config.get('protocol', {}).get('name')}`, seed {meta.get('seed')}, "
+        f"manigrasp {meta.get('versions', {}).get('manigrasp')}, mujoco {meta.get('versions', {}).get('mujoco')}, "
+        f"commit {meta.get('git_commit') or 'unknown'}, started {meta.get('started')}.",
+        f"**Overall: {report.overall.successes}/{report.overall.trials} successes, "
+        f"rate {format_rate(report.overall)}** (95 % Wilson interval).",
+        "## Per hand and planner",
+        _table(["hand", "planner", "observation", "trials", "successes", "rate [95% CI]", "failure modes",
+                "median planning s"],
+               [[h, p, o, r.trials, r.successes, format_rate(r), _modes(r.failure_modes),
+                 f"{r.median_planning_time_s:.3f}"] for (h, p, o), r in report.by_method.items()]),
+        "## Per object",
+        _table(["hand", "planner", "observation", "object", "trials", "successes", "rate [95% CI]", "failure modes"],
+               [[h, p, o, obj, r.trials, r.successes, format_rate(r), _modes(r.failure_modes)]
+                for (h, p, o, obj), r in report.groups.items()]),
+        "## Analytic metrics as predictors of success (ROC AUC; 0.5 = chance)",
+        _table(["metric", "AUC"], [[k, f"{v:.3f}"] for k, v in report.auc.items()]),
+    ]
+    parts += [f"## {title}\n\n![{title}]({path.name})" for title, path in images.items()]
+    out = run_dir / "report.md"
+    out.write_text("\n\n".join(parts) + "\n")
+    return out

@@ -1,0 +1,140 @@
+"""Summaries of a run: success rates with Wilson intervals, failure modes, timing, metric AUCs.
+
+`summarize` turns the stored trials into a `Report` (plain data, JSON-able);
+`write_markdown` writes ``report.md`` with PNG plots beside it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter, defaultdict
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from manigrasp.bench.stats import roc_auc, wilson_interval
+from manigrasp.bench.store import ResultsStore, TrialKey
+from manigrasp.protocol.result import Status, TrialResult
+
+# Metrics whose power to predict physical success is reported (column, higher-is-better sign).
+PREDICTORS = {
+    "epsilon_l1": ("planned", "epsilon_l1", 1.0),
+    "force_closure": ("planned", "force_closure", 1.0),
+    "min_friction": ("planned", "min_friction", -1.0),
+    "sim_epsilon_l1": ("simulated", "epsilon_l1", 1.0),
+    "planner_score": (None, "score", 1.0),
+}
+
+
+@dataclass(frozen=True)
+class Rate:
+    """Trials, successes, their rate and its Wilson 95 % interval, the failure-mode counts."""
+
+    trials: int
+    successes: int
+    success_rate: float
+    ci_low: float
+    ci_high: float
+    failure_modes: dict[str, int] = field(default_factory=dict)
+    median_planning_time_s: float = math.nan
+
+    @classmethod
+    def of(cls, results: list[TrialResult]) -> Rate:
+        """The rate of a list of trial results."""
+        n = len(results)
+        k = sum(r.success for r in results)
+        low, high = wilson_interval(k, n)
+        modes = Counter(_mode(r) for r in results if not r.success)
+        times = [r.planning_time_s for r in results if not math.isnan(r.planning_time_s)]
+        return cls(n, k, k / n if n else math.nan, low, high, dict(sorted(modes.items())),
+                   float(np.median(times)) if times else math.nan)
+
+
+def _mode(result: TrialResult) -> str:
+    if result.status is Status.DROPPED_PERTURB and result.detail:
+        return f"dropped_perturb{result.detail}"
+    return result.status.value
+
+
+@dataclass(frozen=True)
+class Report:
+    """A run's summary: overall, per hand x planner x observation, per group (+ object), AUCs."""
+
+    overall: Rate
+    by_method: dict[tuple[str, str, str], Rate]
+    groups: dict[tuple[str, str, str, str], Rate]
+    auc: dict[str, float]
+
+    def to_json(self) -> dict:
+        """The JSON form printed by ``manigrasp report --json``."""
+        def rate(r: Rate) -> dict:
+            return asdict(r)
+
+        return {
+            "overall": rate(self.overall),
+            "methods": [{"hand": h, "planner": p, "observation": o, **rate(r)}
+                        for (h, p, o), r in self.by_method.items()],
+            "groups": [{"hand": h, "planner": p, "observation": o, "object": obj, **rate(r)}
+                       for (h, p, o, obj), r in self.groups.items()],
+            "auc": self.auc,
+        }
+
+
+def report_from_json(data: dict) -> Report:
+    """Inverse of `Report.to_json` (for baselines committed as JSON)."""
+    fields = Rate.__dataclass_fields__
+
+    def rate(d: dict) -> Rate:
+        return Rate(**{k: d[k] for k in fields if k in d})
+
+    return Report(
+        overall=rate(data["overall"]),
+        by_method={(m["hand"], m["planner"], m["observation"]): rate(m) for m in data.get("methods", [])},
+        groups={(g["hand"], g["planner"], g["observation"], g["object"]): rate(g) for g in data["groups"]},
+        auc=dict(data.get("auc", {})),
+    )
+
+
+def load_results(run_dir: Path) -> list[tuple[TrialKey, TrialResult]]:
+    """Every stored trial of `run_dir`."""
+    with ResultsStore(Path(run_dir) / "results.sqlite") as store:
+        return list(store.results())
+
+
+def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
+    """Aggregate trial results into a `Report`."""
+    by_group: dict[tuple[str, str, str, str], list[TrialResult]] = defaultdict(list)
+    by_method: dict[tuple[str, str, str], list[TrialResult]] = defaultdict(list)
+    for key, result in results:
+        by_group[(key.hand, key.planner, key.observation, key.object)].append(result)
+        by_method[(key.hand, key.planner, key.observation)].append(result)
+    every = [r for _, r in results]
+    return Report(
+        overall=Rate.of(every),
+        by_method={k: Rate.of(v) for k, v in sorted(by_method.items())},
+        groups={k: Rate.of(v) for k, v in sorted(by_group.items())},
+        auc=metric_aucs(every),
+    )
+
+
+def metric_aucs(results: list[TrialResult]) -> dict[str, float]:
+    """ROC AUC of each analytic metric predicting physical success (0.5 = no better than chance).
+
+    Only trials that reached the simulator count (planner errors and invalid grasps have no metrics).
+    """
+    simulated = [r for r in results if r.status not in (Status.PLANNER_ERROR, Status.INVALID_GRASP)]
+    labels = np.array([r.success for r in simulated], bool)
+    out = {}
+    for name, (part, attr, sign) in PREDICTORS.items():
+        values = np.array([getattr(getattr(r, part) if part else r, attr) for r in simulated], float)
+        values = np.where(np.isinf(values), np.sign(values) * 1e9, values)
+        out[name] = roc_auc(sign * values, labels) if len(values) else math.nan
+    return out
+
+
+def format_rate(rate: Rate) -> str:
+    """"0.85 [0.64, 0.95]" style."""
+    if rate.trials == 0:
+        return "-"
+    return f"{rate.success_rate:.2f} [{rate.ci_low:.2f}, {rate.ci_high:.2f}]"

@@ -1,0 +1,82 @@
+"""Enumerating a run: groups (object x hand x planner) and their trials, with seeds.
+
+Seeds derive from the run's seed and the identity of the group or trial
+(names, not positions), so adding an object to a config changes no other
+trial's seed, and a resumed run re-creates exactly the same trials.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from manigrasp.bench.config import BenchConfig, NamedEntry
+from manigrasp.bench.store import TrialKey
+from manigrasp.objects.catalog import ObjectSource
+from manigrasp.sim.config import SceneConfig
+
+
+def stable_seed(root: int, *names: object) -> int:
+    """A 63-bit seed from `root` and identifying names (stable across runs and machines)."""
+    digest = hashlib.sha256(repr((root, *names)).encode()).digest()
+    return int.from_bytes(digest[:8], "little") >> 1
+
+
+@dataclass(frozen=True)
+class Group:
+    """All trials of one object x hand x planner: one planning call, `n_grasps` trials.
+
+    Attributes:
+        object_source: how to build the object.
+        hand: hand name.
+        planner: planner name and parameters.
+        protocol: protocol name and parameters.
+        observation: what the planner sees.
+        scene: physics parameters.
+        n_grasps: candidates requested from the planner = trials of the group.
+        seed: the planning seed of the group.
+        timeout_s: wall-clock budget per trial [s].
+    """
+
+    object_source: ObjectSource
+    hand: str
+    planner: NamedEntry
+    protocol: NamedEntry
+    observation: str
+    scene: SceneConfig
+    n_grasps: int
+    seed: int
+    timeout_s: float
+
+    def key(self, index: int) -> TrialKey:
+        """The key of trial `index` of this group."""
+        return TrialKey(self.object_source.name, self.hand, self.planner.label, self.observation,
+                        self.protocol.name, index)
+
+    def trial_seed(self, index: int) -> int:
+        """Seed of trial `index` (independent of the planning seed)."""
+        return stable_seed(self.seed, "trial", index)
+
+    def rng(self) -> np.random.Generator:
+        """The planner's random generator for this group."""
+        return np.random.default_rng(self.seed)
+
+
+def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
+    """Every group of `config`, in config order (objects, then hands, then planners).
+
+    Object sources are resolved here, so an unknown object or a missing mesh
+    file is an error before any trial runs.
+    """
+    sources = [entry.source(base) for entry in config.objects]
+    out = []
+    for source in sources:
+        for hand in config.hands:
+            for planner in config.planners:
+                seed = stable_seed(config.seed, source.name, hand, planner.label, config.observation)
+                out.append(Group(source, hand, planner, config.protocol, config.observation, config.scene,
+                                 config.grasps_per_object, seed, config.trial_timeout_s))
+    return out

@@ -1,0 +1,107 @@
+"""What runs inside a worker process: plan one group, run one trial.
+
+Each worker keeps its compiled scenes (one per object x hand x physics) and
+reuses them across trials by resetting state, never recompiling per grasp.
+Every failure inside a trial becomes that trial's status; only a broken
+harness raises.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import traceback
+from dataclasses import dataclass
+
+import numpy as np
+
+from manigrasp.bench.observe import observe
+from manigrasp.bench.store import TrialKey
+from manigrasp.bench.trials import Group
+from manigrasp.errors import ManigraspError
+from manigrasp.protocol.result import Status, TrialResult
+
+_SCENES: dict[tuple, object] = {}
+_ASSETS: dict[str, object] = {}
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A group's planning outcome: candidates (best first) or the planner's error.
+
+    Attributes:
+        candidates: the planner's candidates (may be fewer than requested).
+        error: the planner's error message (then `candidates` is empty).
+        planning_time_s: wall time of the planning call [s].
+        object_pose: (4, 4) settled object pose the planner saw.
+    """
+
+    candidates: tuple
+    error: str | None
+    planning_time_s: float
+    object_pose: np.ndarray
+
+
+def _asset(group: Group):
+    from manigrasp.objects import catalog
+
+    name = group.object_source.name
+    if name not in _ASSETS:
+        _ASSETS[name] = catalog.build(group.object_source).asset
+    return _ASSETS[name]
+
+
+def scene_for(group: Group):
+    """The worker's compiled scene for the group's object x hand x physics."""
+    from manigrasp.sim import build_scene
+
+    key = (group.object_source, group.hand, group.scene)
+    if key not in _SCENES:
+        _SCENES[key] = build_scene(group.hand, _asset(group), group.scene)
+    return _SCENES[key]
+
+
+def plan_group(group: Group) -> Plan:
+    """Settle the object, observe it, and ask the group's planner for `n_grasps` candidates."""
+    from manigrasp import planners
+    from manigrasp.protocol import settle_object
+
+    scene = scene_for(group)
+    pose = settle_object(scene)
+    observation = observe(group.observation, _asset(group), pose, scene)
+    start = time.perf_counter()
+    try:
+        planner = planners.load(group.planner.name, **dict(group.planner.params))
+        candidates = planners.plan(planner, observation, scene.hand, group.n_grasps, group.rng())
+    except ManigraspError as exc:
+        return Plan((), str(exc), time.perf_counter() - start, pose)
+    except Exception as exc:  # a user's planner may raise anything: recorded, never fatal
+        return Plan((), f"{type(exc).__name__}: {exc}", time.perf_counter() - start, pose)
+    return Plan(tuple(candidates), None, time.perf_counter() - start, pose)
+
+
+def run_trial(group: Group, index: int, plan: Plan) -> tuple[TrialKey, TrialResult]:
+    """Run trial `index` of `group` with its planned candidate; never raises for a trial's fault."""
+    key, seed = group.key(index), group.trial_seed(index)
+    planning_time = plan.planning_time_s / max(1, len(plan.candidates) or 1)
+    if plan.error is not None:
+        return key, TrialResult(Status.PLANNER_ERROR, detail=plan.error[:500], planning_time_s=planning_time,
+                                seed=seed)
+    if index >= len(plan.candidates):
+        detail = f"planner returned {len(plan.candidates)} of {group.n_grasps} requested candidates"
+        return key, TrialResult(Status.PLANNER_ERROR, detail=detail, planning_time_s=planning_time, seed=seed)
+    from manigrasp.protocol import PROTOCOLS
+
+    start = time.perf_counter()
+    try:
+        protocol = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params))
+        result = protocol.run(scene_for(group), plan.candidates[index], np.random.default_rng(seed),
+                              deadline=time.monotonic() + group.timeout_s, object_pose=plan.object_pose)
+    except Exception as exc:  # a harness or physics bug in one trial must not end the run: record it
+        detail = f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-300:]}"
+        result = TrialResult(Status.UNSTABLE, detail=detail[:800])
+    from dataclasses import replace
+
+    return key, replace(result, seed=seed, planning_time_s=planning_time, score=float(plan.candidates[index].score),
+                        wall_time_s=time.perf_counter() - start if math.isnan(result.wall_time_s)
+                        else result.wall_time_s)
