@@ -104,7 +104,7 @@ def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path) -> P
             by_method.setdefault(label, []).append(result.planning_time_s)
     fig, ax = plt.subplots(figsize=(7, 1.2 + 0.5 * max(1, len(by_method))))
     if by_method:
-        ax.boxplot(list(by_method.values()), vert=False, tick_labels=list(by_method))
+        ax.boxplot(list(by_method.values()), orientation="horizontal", tick_labels=list(by_method))
         ax.set_xscale("log")
     ax.set_xlabel("planning time per candidate [s]")
     fig.tight_layout()
