@@ -1,4 +1,4 @@
-"""Where manigrasp finds its shipped assets and keeps its cache."""
+"""Where manigrasp finds its shipped assets and configs, and keeps its cache."""
 
 from __future__ import annotations
 
@@ -6,22 +6,23 @@ import os
 from pathlib import Path
 
 
-def assets_dir() -> Path:
-    """The shipped `assets/` folder (repository checkout or installed wheel)."""
+def _shipped(folder: str) -> Path:
+    """A shipped folder: ``manigrasp/_<folder>`` in a wheel, or ``<folder>/`` of the checkout."""
     here = Path(__file__).resolve().parent
-    for candidate in (here / "_assets", here.parent / "assets"):
+    for candidate in (here / f"_{folder}", here.parent / folder):
         if candidate.is_dir():
             return candidate
-    raise FileNotFoundError(f"manigrasp assets not found next to {here}")
+    raise FileNotFoundError(f"manigrasp {folder} not found next to {here}")
+
+
+def assets_dir() -> Path:
+    """The shipped `assets/` folder (hand models, object recipes)."""
+    return _shipped("assets")
 
 
 def configs_dir() -> Path:
-    """The shipped benchmark configs (`configs/` of the checkout or the installed wheel)."""
-    here = Path(__file__).resolve().parent
-    for candidate in (here / "_configs", here.parent / "configs"):
-        if candidate.is_dir():
-            return candidate
-    raise FileNotFoundError(f"manigrasp configs not found next to {here}")
+    """The shipped benchmark configs (`configs/`)."""
+    return _shipped("configs")
 
 
 def cache_dir() -> Path:
