@@ -1,5 +1,39 @@
-"""Trial protocols: phases, success criteria and failure modes of one trial."""
+"""Evaluation of one grasp: protocols (phases, success criteria, failure modes) and their registry.
 
+    >>> from manigrasp.protocol import PROTOCOLS, settle_object
+    >>> rest = settle_object(scene)                      # what the planner sees
+    >>> result = PROTOCOLS.load("standard").run(scene, candidate, rng, deadline, object_pose=rest)
+
+Registered: `standard` (lift and perturb, DESIGN.md), `lift`, `six_direction`
+(DexGraspBench), `shake` (ACRONYM-style).
+"""
+
+from manigrasp.protocol import lift as _lift
+from manigrasp.protocol import standard as _standard
+from manigrasp.protocol.base import PROTOCOLS, Grasp, Protocol, as_grasp, load, names
+from manigrasp.protocol.execution import GraspParams
+from manigrasp.protocol.lift import LiftParams, LiftProtocol
 from manigrasp.protocol.result import PHASES, GraspMetrics, Status, TrialResult
+from manigrasp.protocol.settle import settle_object
+from manigrasp.protocol.standard import StandardParams, StandardProtocol
 
-__all__ = ["PHASES", "GraspMetrics", "Status", "TrialResult"]
+del _lift, _standard
+
+__all__ = [
+    "PHASES",
+    "PROTOCOLS",
+    "Grasp",
+    "GraspMetrics",
+    "GraspParams",
+    "LiftParams",
+    "LiftProtocol",
+    "Protocol",
+    "StandardParams",
+    "StandardProtocol",
+    "Status",
+    "TrialResult",
+    "as_grasp",
+    "load",
+    "names",
+    "settle_object",
+]

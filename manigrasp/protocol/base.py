@@ -1,0 +1,119 @@
+"""What a protocol is, the grasp it executes, and the registry of protocols.
+
+A protocol runs one grasp in a compiled `manigrasp.sim.Scene` and returns one
+`TrialResult`; it never raises for a fault of the trial (a NaN pose, a
+diverging simulation, a blown time budget): that is the trial's status.
+
+    >>> protocol = PROTOCOLS.load("standard", perturb_force_multiple=2.0)
+    >>> result = protocol.run(scene, candidate, rng, deadline=time.monotonic() + 30.0, object_pose=rest)
+
+A protocol's parameters are a frozen dataclass built strictly from keyword
+arguments (`manigrasp.config.from_mapping`): a misspelled key is a
+`ConfigError` that names the nearest valid one.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Generic, TypeVar
+
+import numpy as np
+
+from manigrasp.config import from_mapping
+from manigrasp.protocol.result import TrialResult
+from manigrasp.registry import Registry
+from manigrasp.sim import Scene
+
+P = TypeVar("P")
+
+
+@dataclass(frozen=True, eq=False)
+class Grasp:
+    """The part of a planned grasp a protocol executes (a `GraspCandidate` converts to it).
+
+    Nothing is validated here: a non-finite or non-rigid pose must reach the
+    protocol, which records it as `invalid_grasp`.
+
+    Attributes:
+        pose: (4, 4) TCP pose in the world (z approach, y closing) [m].
+        preshape: hand synergy of the open pre-shape in [0, 1] (0 = fully open).
+        width: planned jaw opening at contact [m], or None (informational).
+        contacts: (k, 3) planned contact points in the world [m].
+        contact_normals: (k, 3) unit normals at `contacts`, pointing into the object.
+        planning_time_s: the planner's time for this grasp [s] (NaN: unknown).
+    """
+
+    pose: np.ndarray
+    preshape: float = 0.0
+    width: float | None = None
+    contacts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    contact_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    planning_time_s: float = float("nan")
+
+
+def as_grasp(grasp: Any) -> Grasp:
+    """A `Grasp` from a `Grasp`, a `manigrasp.planners.GraspCandidate` (or anything with a
+    ``pose`` attribute and optionally its other fields), or a bare (4, 4) TCP pose."""
+    if isinstance(grasp, Grasp):
+        return grasp
+    if not hasattr(grasp, "pose"):
+        return Grasp(pose=np.asarray(grasp, dtype=float))
+    contacts = np.asarray(getattr(grasp, "contacts", np.zeros((0, 3))), float).reshape(-1, 3)
+    normals = np.asarray(getattr(grasp, "contact_normals", np.zeros((0, 3))), float).reshape(-1, 3)
+    timing = getattr(grasp, "planning_time_s", float("nan"))
+    return Grasp(pose=np.asarray(grasp.pose, dtype=float), preshape=float(getattr(grasp, "preshape", 0.0) or 0.0),
+                 width=getattr(grasp, "width", None), contacts=contacts, contact_normals=normals,
+                 planning_time_s=float(timing) if timing is not None else float("nan"))
+
+
+class Protocol(ABC, Generic[P]):
+    """One kind of trial. Subclasses set `name` and `Params` and implement `run`.
+
+    Args:
+        params: the protocol's parameters (default: `Params()`).
+    """
+
+    name: ClassVar[str]
+    Params: ClassVar[type]
+
+    def __init__(self, params: P | None = None) -> None:
+        self.params: P = params if params is not None else self.Params()
+
+    @classmethod
+    def from_params(cls, **params: Any) -> Protocol[P]:
+        """Build with keyword parameters, refusing unknown keys (`ConfigError`)."""
+        return cls(from_mapping(cls.Params, params, f"protocol.params ({cls.name})"))
+
+    @abstractmethod
+    def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
+            object_pose: np.ndarray | None = None, seed: int = 0) -> TrialResult:
+        """Execute `grasp` in `scene` and return the trial's result (never raises for a trial fault).
+
+        Args:
+            scene: a compiled scene (it is reset; its model options are restored afterwards).
+            grasp: a `GraspCandidate`, a `Grasp` or a (4, 4) TCP pose in the world.
+            rng: the trial's random generator (for protocols that draw anything).
+            deadline: `time.monotonic()` value after which the trial stops as `timeout`, or None.
+            object_pose: (4, 4) settled object pose (from `settle_object`); None: settle here.
+            seed: the trial's seed, copied into the result.
+        """
+
+
+PROTOCOLS: Registry[Protocol[Any]] = Registry("protocol")
+
+
+def register(cls: type[Protocol[Any]]) -> type[Protocol[Any]]:
+    """Class decorator: register `cls` under `cls.name` with its strict keyword factory."""
+    PROTOCOLS.add(cls.name, cls.from_params)
+    return cls
+
+
+def names() -> tuple[str, ...]:
+    """Names of the registered protocols."""
+    return PROTOCOLS.names()
+
+
+def load(name: str, **params: Any) -> Protocol[Any]:
+    """The protocol `name` (or ``module:attribute``) built with `params` (unknown keys refused)."""
+    return PROTOCOLS.load(name, **params)

@@ -1,0 +1,374 @@
+"""The machinery every protocol shares: stepping with fault checks, and the grasp phases.
+
+`TrialRun` owns the controllers of one trial and steps the scene; every
+`check_every` steps it checks for faults (non-finite state, MuJoCo warnings,
+divergence -> `unstable`; the wall-clock deadline -> `timeout`) and, while a
+phase watches it, the object's motion relative to the hand (-> the phase's
+failure status). A fault ends the trial by raising `Abort`, which the
+protocol turns into its `TrialResult`.
+
+Phases (each a function of a `TrialRun`): `place_pregrasp`, `approach`,
+`close`, `lift`, `hold`. Poses are (4, 4) world matrices [m].
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from manigrasp.control import GripController, ImpedanceController, default_gains
+from manigrasp.errors import ConfigError
+from manigrasp.protocol.base import Grasp
+from manigrasp.protocol.metrics import radius_of_gyration, simulated_metrics
+from manigrasp.protocol.result import GraspMetrics, Status
+from manigrasp.sim import Scene, grip_force, read_hand_contacts
+
+
+@dataclass(frozen=True)
+class GraspParams:
+    """How a grasp is executed and judged (shared by every protocol).
+
+    Attributes:
+        pregrasp_offset: the open hand starts this far back along the approach axis [m].
+        approach_speed: speed of the approach set-point [m/s].
+        approach_settle_s: time held at the grasp pose before closing [s].
+        grip_force: grip force to close to [N]; None: `grip_force_fraction` of the hand's maximum.
+        grip_force_fraction: fraction of `hand.max_grip_force` used when `grip_force` is None [-].
+        close_speed: synergy rate while closing on position [1/s].
+        contact_force: grip force that counts as touching the object [N].
+        close_settle_s: time the grip force is regulated after first contact [s].
+        close_timeout_s: longest closing phase [s]; no contact by then: `no_contact`.
+        translation_threshold: largest object motion relative to the hand [m].
+        rotation_threshold_deg: largest object rotation relative to the hand [deg].
+        min_fingers: distinct finger bodies that must touch the object at the end.
+        impedance_omega: translational natural frequency of the hand's impedance [rad/s].
+        impedance_omega_rot: rotational natural frequency [rad/s].
+        payload_feedforward: add the object's weight as feed-forward once grasped.
+        max_speed: any body faster than this means divergence [m/s].
+        max_angular_speed: any body spinning faster than this means divergence [rad/s].
+        check_every: steps between fault and motion checks.
+        grip_every: steps between updates of the grip-force loop (it runs at 1 / (grip_every dt)).
+        metric_edges: edges of the linearised friction cones in the metrics.
+        metric_friction_tol: tolerance of the smallest-friction-for-closure bisection [-].
+        simulated_min_friction: also compute the smallest friction for closure of the simulated
+            contacts (a bisection of hull computations, ~0.1-0.4 s per trial; off: NaN).
+        torque_scale: length dividing torques in the metrics [m]; None: the object's radius of gyration.
+    """
+
+    pregrasp_offset: float = 0.10
+    approach_speed: float = 0.10
+    approach_settle_s: float = 0.1
+    grip_force: float | None = None
+    grip_force_fraction: float = 0.5
+    close_speed: float = 2.0
+    contact_force: float = 0.5
+    close_settle_s: float = 0.3
+    close_timeout_s: float = 2.0
+    translation_threshold: float = 0.02
+    rotation_threshold_deg: float = 15.0
+    min_fingers: int = 2
+    impedance_omega: float = 40.0
+    impedance_omega_rot: float = 100.0
+    payload_feedforward: bool = True
+    max_speed: float = 20.0
+    max_angular_speed: float = 200.0
+    check_every: int = 10
+    grip_every: int = 5
+    metric_edges: int = 8
+    metric_friction_tol: float = 0.01
+    simulated_min_friction: bool = False
+    torque_scale: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("approach_speed", "close_speed", "contact_force", "close_timeout_s", "translation_threshold",
+                     "rotation_threshold_deg", "impedance_omega", "impedance_omega_rot", "max_speed",
+                     "max_angular_speed"):
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("pregrasp_offset", "approach_settle_s", "close_settle_s"):
+            if not getattr(self, name) >= 0:
+                raise ConfigError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.grip_force is not None and not self.grip_force > 0:
+            raise ConfigError(f"grip_force must be > 0 or None, got {self.grip_force}")
+        if not 0 < self.grip_force_fraction <= 1:
+            raise ConfigError(f"grip_force_fraction must be in (0, 1], got {self.grip_force_fraction}")
+        if self.min_fingers < 0 or self.check_every < 1 or self.grip_every < 1:
+            raise ConfigError("min_fingers must be >= 0, check_every and grip_every >= 1")
+        if self.metric_edges < 4 or self.metric_edges % 2 or not self.metric_friction_tol > 0:
+            raise ConfigError("metric_edges must be even and >= 4, metric_friction_tol > 0")
+        if self.torque_scale is not None and not self.torque_scale > 0:
+            raise ConfigError(f"torque_scale must be > 0 or None, got {self.torque_scale}")
+
+
+class Abort(Exception):
+    """Ends a trial with `status` (and `detail`)."""
+
+    def __init__(self, status: Status, detail: str = "") -> None:
+        super().__init__(f"{status.value}: {detail}")
+        self.status, self.detail = status, detail
+
+
+def relative_motion(reference: np.ndarray, current: np.ndarray) -> tuple[float, float]:
+    """(translation [m], rotation [deg]) between two (4, 4) object-in-hand poses."""
+    shift = float(np.linalg.norm(current[:3, 3] - reference[:3, 3]))
+    cos = (np.trace(reference[:3, :3].T @ current[:3, :3]) - 1.0) / 2.0
+    return shift, math.degrees(math.acos(float(np.clip(cos, -1.0, 1.0))))
+
+
+class TrialRun:
+    """The state of one trial: controllers, step count, faults, motion of the object in the hand.
+
+    Args:
+        scene: the compiled scene (already reset for this trial).
+        params: execution parameters.
+        deadline: `clock()` value after which the trial is a `timeout`, or None.
+        clock: the monotonic clock the deadline refers to.
+    """
+
+    def __init__(self, scene: Scene, params: GraspParams, deadline: float | None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.scene, self.params, self.deadline, self.clock = scene, params, deadline, clock
+        self.dt = float(scene.model.opt.timestep)
+        self.steps = 0
+        self.last_phase = ""
+        self.impedance = self._impedance()
+        self.grip: GripController | None = None
+        self.in_hand: np.ndarray | None = None  # object-in-TCP pose after closing (the reference)
+        self.watch: tuple[np.ndarray, Status, str] | None = None
+        self.max_translation, self.max_rotation = math.nan, math.nan
+        self.grip_force_n = math.nan
+        self.simulated = GraspMetrics()
+        self.torque_scale = params.torque_scale or radius_of_gyration(scene)
+
+    def _impedance(self) -> ImpedanceController:
+        p = self.params
+        return ImpedanceController(self.scene.base, default_gains(self.scene.base, p.impedance_omega,
+                                                                  p.impedance_omega_rot))
+
+    def reset(self, mount: np.ndarray, object_pose: np.ndarray, synergy: float) -> None:
+        """Reset the scene (hand open at `mount`, object at `object_pose`) and the controllers.
+
+        The impedance gains are designed from the hand's inertia at the reset state, so a trial
+        does not depend on what the scene did before it.
+        """
+        self.scene.reset(mount=mount, object_pose=object_pose, synergy=synergy)
+        self.impedance = self._impedance()
+        self.impedance.set_target(mount)
+        self.grip, self.in_hand, self.watch = None, None, None
+
+    # ------------------------------------------------------------ stepping
+    def step(self, n: int, before: Callable[[int], None] | None = None) -> None:
+        """Advance `n` steps under the hand's controllers; `before(i)` runs before step i (set-points)."""
+        scene, model, data = self.scene, self.scene.model, self.scene.data
+        check_every, grip_every = self.params.check_every, self.params.grip_every
+        for i in range(n):
+            if before is not None:
+                before(i)
+            self.impedance.apply()
+            if self.grip is not None and self.steps % grip_every == 0:
+                force = grip_force(read_hand_contacts(scene))
+                scene.set_synergy(self.grip.update(force, grip_every * self.dt, scene.hand_synergy()))
+            mujoco.mj_step(model, data)
+            self.steps += 1
+            if self.steps % check_every == 0:
+                self.check()
+        self.check()
+
+    def hold_for(self, seconds: float) -> None:
+        """Step for `seconds` [s] with the current set-points."""
+        self.step(self.n_steps(seconds))
+
+    def n_steps(self, seconds: float) -> int:
+        """Steps in `seconds` [s] (rounded up)."""
+        return int(math.ceil(seconds / self.dt - 1e-9))
+
+    def check(self) -> None:
+        """Raise `Abort` on a fault, a blown deadline, or too much motion of the object in the hand."""
+        scene = self.scene
+        if not scene.is_finite():
+            raise Abort(Status.UNSTABLE, "non-finite simulation state (NaN or inf)")
+        if scene.data.warning.number.any():
+            warnings = scene.warnings()
+            raise Abort(Status.UNSTABLE, "MuJoCo warning: " + ", ".join(f"{k} x{v}" for k, v in warnings.items()))
+        cvel = np.abs(scene.data.cvel)
+        speed, spin = float(cvel[:, 3:].max()), float(cvel[:, :3].max())
+        if speed > self.params.max_speed or spin > self.params.max_angular_speed:
+            raise Abort(Status.UNSTABLE, f"divergence: a body moves at {speed:.3g} m/s, {spin:.3g} rad/s")
+        if self.deadline is not None and self.clock() > self.deadline:
+            raise Abort(Status.TIMEOUT, f"wall-clock deadline exceeded in phase after {self.last_phase or 'start'!r}")
+        if self.in_hand is not None:
+            self._track()
+
+    def object_in_hand(self) -> np.ndarray:
+        """(4, 4) object pose in the TCP frame."""
+        return np.linalg.inv(self.scene.tcp_pose()) @ self.scene.object_pose()
+
+    def _track(self) -> None:
+        current = self.object_in_hand()
+        shift, angle = relative_motion(self.in_hand, current)
+        self.max_translation = max(shift, 0.0 if math.isnan(self.max_translation) else self.max_translation)
+        self.max_rotation = max(angle, 0.0 if math.isnan(self.max_rotation) else self.max_rotation)
+        if self.watch is not None:
+            reference, status, detail = self.watch
+            shift, angle = relative_motion(reference, current)
+            p = self.params
+            if shift > p.translation_threshold or angle > p.rotation_threshold_deg:
+                raise Abort(status, f"{detail}: object moved {100 * shift:.1f} cm / {angle:.1f} deg in the hand")
+
+    # ------------------------------------------------------------- helpers
+    def fingers_touching(self) -> tuple[str, ...]:
+        """Names of the finger bodies pushing on the object now."""
+        fingers = read_hand_contacts(self.scene).fingers_touching
+        return tuple(self.scene.hand.finger_bodies[i] for i in fingers)
+
+    def hold_target(self, pose: np.ndarray) -> None:
+        """Hold the TCP at `pose` (keeps the current feed-forward)."""
+        self.impedance.set_target(pose, feedforward=self.impedance.feedforward)
+
+    def payload(self) -> np.ndarray:
+        """(6,) world wrench holding the object's weight (zero when not enabled)."""
+        out = np.zeros(6)
+        if self.params.payload_feedforward:
+            out[:3] = -self.scene.object_mass() * self.scene.model.opt.gravity
+        return out
+
+
+def check_grasp(grasp: Grasp) -> str | None:
+    """Why `grasp` cannot be executed (a non-finite or non-rigid pose, a bad pre-shape), or None."""
+    pose = np.asarray(grasp.pose, float)
+    if pose.shape == (7,):
+        if not np.isfinite(pose).all():
+            return "grasp pose (pos, quat) is not finite"
+        if abs(np.linalg.norm(pose[3:]) - 1.0) > 1e-3:
+            return f"grasp quaternion is not a unit quaternion (norm {np.linalg.norm(pose[3:]):.4g})"
+        return None
+    if pose.shape != (4, 4):
+        return f"grasp pose must be (4, 4) or (7,) (pos, quat), got shape {pose.shape}"
+    if not np.isfinite(pose).all():
+        return "grasp pose is not finite"
+    rot = pose[:3, :3]
+    if not np.allclose(pose[3], [0, 0, 0, 1]) or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-5) \
+            or np.linalg.det(rot) < 0:
+        return "grasp pose is not a rigid transform (rotation block not orthonormal with det +1)"
+    if not (np.isfinite(grasp.preshape) and 0.0 <= grasp.preshape <= 1.0):
+        return f"pre-shape must be in [0, 1], got {grasp.preshape}"
+    return None
+
+
+def grasp_matrix(grasp: Grasp) -> np.ndarray:
+    """(4, 4) TCP pose of a grasp that passed `check_grasp` (a (7,) pos+quat becomes a matrix)."""
+    from manigrasp.sim.transforms import pose_matrix
+
+    pose = np.asarray(grasp.pose, float)
+    return pose_matrix(pose[:3], pose[3:]) if pose.shape == (7,) else pose.copy()
+
+
+# ----------------------------------------------------------------- phases
+def pregrasp_pose(pose: np.ndarray, offset: float) -> np.ndarray:
+    """(4, 4) `pose` moved `offset` [m] back along its approach (z) axis."""
+    out = pose.copy()
+    out[:3, 3] -= offset * out[:3, 2]
+    return out
+
+
+def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, preshape: float) -> np.ndarray:
+    """Reset with the open hand at the pre-grasp pose of `pose`; any hand contact: `pregrasp_collision`."""
+    start = pregrasp_pose(pose, run.params.pregrasp_offset)
+    run.reset(start, object_pose, preshape)
+    touching = read_hand_contacts(run.scene, "any")
+    if len(touching):
+        other = "the object" if np.isin(touching.other_geom, run.scene.object_geoms).any() else "the table"
+        raise Abort(Status.PREGRASP_COLLISION, f"the open hand at the pre-grasp pose touches {other}")
+    run.hold_target(start)
+    run.last_phase = "pregrasp"
+    return start
+
+
+def approach(run: TrialRun, start: np.ndarray, goal: np.ndarray) -> None:
+    """Move the impedance set-point in a straight line from `start` to `goal`, then settle there."""
+    delta = goal[:3, 3] - start[:3, 3]
+    distance = float(np.linalg.norm(delta))
+    n = max(1, run.n_steps(distance / run.params.approach_speed))
+    run.impedance.set_target(start, velocity=np.concatenate([delta / (n * run.dt), np.zeros(3)]))
+    target = run.impedance.target
+
+    def setpoint(i: int) -> None:
+        target[:3, 3] = start[:3, 3] + delta * (i + 1) / n
+
+    run.step(n, setpoint)
+    run.hold_target(goal)
+    run.hold_for(run.params.approach_settle_s)
+    run.last_phase = "approach"
+
+
+def close(run: TrialRun, preshape: float) -> None:
+    """Close to the grip force (position until contact, then force); no contact: `no_contact`.
+
+    Afterwards the object's pose in the hand is the reference of all later motion,
+    and the grip force and simulated-contact metrics are recorded.
+    """
+    p, hand = run.params, run.scene.hand
+    target = p.grip_force if p.grip_force is not None else p.grip_force_fraction * hand.max_grip_force
+    grip = GripController(min(target, hand.max_grip_force), hand.max_grip_force, close_speed=p.close_speed,
+                          contact_force=p.contact_force)
+    grip.reset(preshape)
+    run.grip = grip
+    chunk, elapsed, touched_at = max(1, p.check_every), 0, None
+    limit = run.n_steps(p.close_timeout_s)
+    while elapsed < limit:
+        run.step(chunk)
+        elapsed += chunk
+        if grip.mode == "force" and touched_at is None:
+            touched_at = elapsed
+        if touched_at is not None and elapsed - touched_at >= run.n_steps(p.close_settle_s):
+            break
+        if grip.mode == "position" and run.scene.hand_synergy() > 0.995:
+            break
+    contacts = read_hand_contacts(run.scene)
+    if grip.mode == "position" or len(contacts.fingers_touching) == 0:
+        raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
+    run.grip_force_n = grip_force(contacts)
+    run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,
+                                      p.simulated_min_friction)
+    run.in_hand = run.object_in_hand()
+    run.max_translation, run.max_rotation = 0.0, 0.0
+    run.last_phase = "close"
+
+
+def lift(run: TrialRun, height: float, speed: float, hold_s: float) -> None:
+    """Raise the set-point `height` [m] at `speed` [m/s], hold `hold_s` [s]; slipping: `slipped_lift`."""
+    scene = run.scene
+    start_tcp, start_z = scene.tcp_pose(), float(scene.object_pose()[2, 3])
+    start_tcp[:3, :3] = run.impedance.target[:3, :3]
+    run.watch = (run.in_hand, Status.SLIPPED_LIFT, "lift")
+    n = max(1, run.n_steps(height / speed))
+    run.impedance.set_target(start_tcp, velocity=np.array([0, 0, height / (n * run.dt), 0, 0, 0]),
+                             feedforward=run.payload())
+    target = run.impedance.target
+
+    def setpoint(i: int) -> None:
+        target[2, 3] = start_tcp[2, 3] + height * (i + 1) / n
+
+    run.step(n, setpoint)
+    end = target.copy()
+    run.hold_target(end)
+    run.hold_for(hold_s)
+    risen = float(scene.object_pose()[2, 3]) - start_z
+    if risen < height - run.params.translation_threshold:
+        raise Abort(Status.SLIPPED_LIFT, f"object left behind: it rose {100 * risen:.1f} cm of {100 * height:.0f}")
+    run.watch = None
+    run.last_phase = "lift"
+
+
+def require_fingers(run: TrialRun, status: Status) -> tuple[str, ...]:
+    """The fingers touching the object; fewer than `min_fingers`: abort with `status`."""
+    fingers = run.fingers_touching()
+    if len(fingers) < run.params.min_fingers:
+        raise Abort(status, f"only {len(fingers)} finger(s) touch the object at the end "
+                            f"(need {run.params.min_fingers})")
+    return fingers

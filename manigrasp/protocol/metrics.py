@@ -1,0 +1,90 @@
+"""Analytic grasp quality of the planned contacts and of the contacts the simulation produced.
+
+Both are computed with the same contact model as the scene's hand geoms
+(MuJoCo condim 1: frictionless, 3: hard finger, 4/6: soft finger), the same
+friction, about the object's centre of mass, with torques divided by the
+object's radius of gyration sqrt(trace(I) / 2m) [m] unless a `torque_scale`
+is given. NaN means "not computed" (no planned contacts, or the metric is
+undefined for these contacts), never a score.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from manigrasp.contact import Contact, ContactError, ContactType
+from manigrasp.grasp import GraspError, ferrari_canny, force_closure, min_friction_for_closure
+from manigrasp.protocol.result import GraspMetrics
+from manigrasp.sim import Scene, read_hand_contacts, to_contacts
+
+
+def radius_of_gyration(scene: Scene) -> float:
+    """The object's radius of gyration sqrt(trace(I) / 2m) [m]: its RMS distance from the centre of mass."""
+    mass = scene.object_mass()
+    inertia = scene.model.body_inertia[scene.object_body]
+    return float(np.sqrt(np.sum(inertia) / (2.0 * mass))) if mass > 0 else 1.0
+
+
+def contact_metrics(contacts: Sequence[Contact], center: np.ndarray, torque_scale: float, edges: int = 8,
+                    friction_tol: float = 0.01, min_friction: bool = True) -> GraspMetrics:
+    """Force closure, Ferrari-Canny epsilon (L1) and the smallest friction for closure of `contacts`.
+
+    Args:
+        contacts: the contacts (normals into the object).
+        center: (3,) point torques are taken about (the object's centre of mass) [m].
+        torque_scale: characteristic length dividing torques [m].
+        edges: edges of the linearised friction cones.
+        friction_tol: tolerance of the smallest-friction bisection [-].
+        min_friction: compute the smallest friction for closure (else NaN).
+    """
+    n = len(contacts)
+    if n == 0:
+        return GraspMetrics(n_contacts=0, force_closure=0.0, epsilon_l1=0.0, min_friction=math.inf)
+    try:
+        closure = force_closure(contacts, center, torque_scale, m=edges)
+        epsilon = ferrari_canny(contacts, center, torque_scale, norm="L1", m=edges) if closure else 0.0
+        mu_min = min_friction_for_closure(contacts, center, torque_scale, tol=friction_tol, m=edges) \
+            if min_friction and contacts[0].kind is not ContactType.FRICTIONLESS else math.nan
+    except (GraspError, ContactError, ValueError) as exc:  # degenerate input: not computed, recorded as NaN
+        del exc
+        return GraspMetrics(n_contacts=n)
+    return GraspMetrics(n_contacts=n, force_closure=float(closure), epsilon_l1=float(epsilon),
+                        min_friction=float(mu_min))
+
+
+def _contact_type(condim: int) -> ContactType:
+    if condim == 1:
+        return ContactType.FRICTIONLESS
+    return ContactType.HARD_FINGER if condim == 3 else ContactType.SOFT_FINGER
+
+
+def planned_metrics(scene: Scene, points: np.ndarray, normals: np.ndarray, center: np.ndarray,
+                    torque_scale: float, edges: int = 8, friction_tol: float = 0.01) -> GraspMetrics:
+    """Metrics of planned contacts `points`, `normals` (k, 3) with the scene's hand contact model.
+
+    Returns all-NaN metrics when there are no planned contacts or they are not finite.
+    """
+    points, normals = np.asarray(points, float).reshape(-1, 3), np.asarray(normals, float).reshape(-1, 3)
+    if len(points) == 0 or len(points) != len(normals) or not (np.isfinite(points).all()
+                                                               and np.isfinite(normals).all()):
+        return GraspMetrics()
+    cfg = scene.config
+    kind = _contact_type(cfg.hand_condim)
+    gamma = cfg.hand_torsional_friction if kind is ContactType.SOFT_FINGER else 0.0
+    norms = np.linalg.norm(normals, axis=1, keepdims=True)
+    if np.any(norms < 1e-9):
+        return GraspMetrics(n_contacts=len(points))
+    contacts = [Contact(position=p, normal=nrm, mu=cfg.hand_friction, kind=kind, gamma=gamma)
+                for p, nrm in zip(points, normals / norms, strict=True)]
+    return contact_metrics(contacts, center, torque_scale, edges, friction_tol)
+
+
+def simulated_metrics(scene: Scene, torque_scale: float, edges: int = 8, friction_tol: float = 0.01,
+                      min_friction: bool = False) -> GraspMetrics:
+    """Metrics of the hand-object contacts in the scene's current state, about the object's centre of mass."""
+    contacts = to_contacts(read_hand_contacts(scene, "object"))
+    return contact_metrics(contacts, scene.data.xipos[scene.object_body].copy(), torque_scale, edges,
+                           friction_tol, min_friction)

@@ -1,0 +1,65 @@
+"""`execute`: the frame around every protocol's phases (validation, settle, faults, the result)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from manigrasp.errors import SimulationError
+from manigrasp.protocol.base import Grasp, as_grasp
+from manigrasp.protocol.execution import Abort, GraspParams, TrialRun, check_grasp, grasp_matrix
+from manigrasp.protocol.metrics import planned_metrics
+from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
+from manigrasp.protocol.settle import settle_object
+from manigrasp.sim import Scene
+
+Body = Callable[[TrialRun, np.ndarray, np.ndarray, Grasp], tuple[str, ...]]
+"""A protocol's phases: (run, grasp pose (4, 4), object rest pose (4, 4), grasp) -> fingers touching at the end.
+It returns only on success and raises `Abort` for every failure."""
+
+
+def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline: float | None,
+            object_pose: np.ndarray | None, seed: int, clock: Callable[[], float] = time.monotonic) -> TrialResult:
+    """Run `body` as one trial and turn its outcome, or its `Abort`, into a `TrialResult`.
+
+    An invalid grasp (non-finite pose, non-rigid rotation, non-unit quaternion,
+    pre-shape outside [0, 1]) is `invalid_grasp` before anything is simulated;
+    a `SimulationError` inside the trial is `unstable`.
+    """
+    start = time.perf_counter()
+    grasp = as_grasp(grasp)
+    problem = check_grasp(grasp)
+    if problem is not None:
+        return TrialResult(Status.INVALID_GRASP, detail=problem, planning_time_s=grasp.planning_time_s,
+                           wall_time_s=time.perf_counter() - start, seed=seed)
+    run = TrialRun(scene, params, deadline, clock)
+    status, detail, fingers, planned = Status.SUCCESS, "", (), GraspMetrics()
+    try:
+        rest = settle_object(scene) if object_pose is None else np.asarray(object_pose, float)
+        run.last_phase = "settle"
+        pose = grasp_matrix(grasp)
+        center = (rest @ np.append(scene.model.body_ipos[scene.object_body], 1.0))[:3]
+        planned = planned_metrics(scene, grasp.contacts, grasp.contact_normals, center, run.torque_scale,
+                                  params.metric_edges, params.metric_friction_tol)
+        fingers = body(run, pose, rest, grasp)
+    except Abort as abort:
+        status, detail = abort.status, abort.detail
+        fingers = _fingers_now(run)
+    except SimulationError as exc:
+        status, detail = Status.UNSTABLE, str(exc)
+    dt = float(scene.model.opt.timestep)
+    return TrialResult(status=status, detail=detail, last_phase=run.last_phase,
+                       max_translation_m=run.max_translation, max_rotation_deg=run.max_rotation,
+                       fingers_in_contact=tuple(fingers), grip_force_n=run.grip_force_n, planned=planned,
+                       simulated=run.simulated, planning_time_s=grasp.planning_time_s, sim_steps=run.steps,
+                       sim_time_s=run.steps * dt, wall_time_s=time.perf_counter() - start, seed=seed)
+
+
+def _fingers_now(run: TrialRun) -> tuple[str, ...]:
+    """Fingers touching the object in the state the trial ended in (none if that state is not finite)."""
+    if run.steps == 0 or not run.scene.is_finite():
+        return ()
+    return run.fingers_touching()
