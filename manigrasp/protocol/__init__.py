@@ -9,15 +9,19 @@ Registered: `standard` (lift and perturb, DESIGN.md), `lift`, `six_direction`
 """
 
 from manigrasp.protocol import lift as _lift
+from manigrasp.protocol import shake as _shake
+from manigrasp.protocol import six_direction as _six_direction
 from manigrasp.protocol import standard as _standard
 from manigrasp.protocol.base import PROTOCOLS, Grasp, Protocol, as_grasp, load, names
 from manigrasp.protocol.execution import GraspParams
 from manigrasp.protocol.lift import LiftParams, LiftProtocol
 from manigrasp.protocol.result import PHASES, GraspMetrics, Status, TrialResult
 from manigrasp.protocol.settle import settle_object
+from manigrasp.protocol.shake import ShakeParams, ShakeProtocol
+from manigrasp.protocol.six_direction import SixDirectionParams, SixDirectionProtocol
 from manigrasp.protocol.standard import StandardParams, StandardProtocol
 
-del _lift, _standard
+del _lift, _shake, _six_direction, _standard
 
 __all__ = [
     "PHASES",
@@ -28,6 +32,10 @@ __all__ = [
     "LiftParams",
     "LiftProtocol",
     "Protocol",
+    "ShakeParams",
+    "ShakeProtocol",
+    "SixDirectionParams",
+    "SixDirectionProtocol",
     "StandardParams",
     "StandardProtocol",
     "Status",

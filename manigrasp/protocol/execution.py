@@ -306,11 +306,11 @@ def approach(run: TrialRun, start: np.ndarray, goal: np.ndarray) -> None:
     run.last_phase = "approach"
 
 
-def close(run: TrialRun, preshape: float) -> None:
+def close(run: TrialRun, preshape: float, metrics: bool = True) -> None:
     """Close to the grip force (position until contact, then force); no contact: `no_contact`.
 
     Afterwards the object's pose in the hand is the reference of all later motion,
-    and the grip force and simulated-contact metrics are recorded.
+    and (with `metrics`) the grip force and simulated-contact metrics are recorded.
     """
     p, hand = run.params, run.scene.hand
     target = p.grip_force if p.grip_force is not None else p.grip_force_fraction * hand.max_grip_force
@@ -332,11 +332,13 @@ def close(run: TrialRun, preshape: float) -> None:
     contacts = read_hand_contacts(run.scene)
     if grip.mode == "position" or len(contacts.fingers_touching) == 0:
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
-    run.grip_force_n = grip_force(contacts)
-    run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,
-                                      p.simulated_min_friction)
+    if metrics:
+        run.grip_force_n = grip_force(contacts)
+        run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,
+                                          p.simulated_min_friction)
     run.in_hand = run.object_in_hand()
-    run.max_translation, run.max_rotation = 0.0, 0.0
+    if math.isnan(run.max_translation):  # kept over several closings (six_direction)
+        run.max_translation, run.max_rotation = 0.0, 0.0
     run.last_phase = "close"
 
 

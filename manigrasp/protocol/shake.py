@@ -1,0 +1,101 @@
+"""`shake`: lift, then shake along and about the approach axis (ACRONYM-style).
+
+Phases: as `lift` (pre-grasp, approach, close, lift 10 cm, hold 0.5 s), then
+`shake_cycles` cycles of a sinusoidal set-point at `shake_frequency`: the TCP
+moves +-`shake_amplitude` along its approach axis and turns
++-`shake_angle_deg` about it, in phase (peak acceleration 4 pi^2 f^2 A:
+3.2 m/s^2 for the defaults). The object moving more than the thresholds in
+the hand since the shaking began: `dropped_perturb` (detail "shake"). Success
+also needs `min_fingers` fingers touching at the end.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from manigrasp.errors import ConfigError
+from manigrasp.protocol.base import Grasp, Protocol, register
+from manigrasp.protocol.execution import TrialRun, require_fingers
+from manigrasp.protocol.lift import LiftParams, grasp_and_lift
+from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.protocol.trial import execute
+from manigrasp.sim import Scene
+
+
+@dataclass(frozen=True)
+class ShakeParams(LiftParams):
+    """`LiftParams` (with a 0.5 s hold) plus the shaking.
+
+    Attributes:
+        shake_amplitude: translation amplitude along the approach axis [m].
+        shake_angle_deg: rotation amplitude about the approach axis [deg].
+        shake_frequency: [Hz].
+        shake_cycles: number of periods.
+    """
+
+    hold_s: float = 0.5
+    shake_amplitude: float = 0.02
+    shake_angle_deg: float = 15.0
+    shake_frequency: float = 2.0
+    shake_cycles: int = 3
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not (self.shake_amplitude >= 0 and self.shake_angle_deg >= 0 and self.shake_frequency > 0
+                and self.shake_cycles >= 1):
+            raise ConfigError("shake amplitudes must be >= 0, frequency > 0 and cycles >= 1")
+
+
+def _about(axis: np.ndarray, angle: float) -> np.ndarray:
+    """(3, 3) rotation by `angle` [rad] about the unit `axis` (3,)."""
+    quat, mat = np.empty(4), np.empty(9)
+    mujoco.mju_axisAngle2Quat(quat, axis, angle)
+    mujoco.mju_quat2Mat(mat, quat)
+    return mat.reshape(3, 3)
+
+
+def shake(run: TrialRun, p: ShakeParams) -> None:
+    """Oscillate the set-point along and about its approach axis (module docstring)."""
+    centre = run.impedance.target.copy()
+    axis = centre[:3, 2].copy()
+    omega, angle = 2 * math.pi * p.shake_frequency, math.radians(p.shake_angle_deg)
+    n = run.n_steps(p.shake_cycles / p.shake_frequency)
+    run.watch = (run.object_in_hand(), Status.DROPPED_PERTURB, "shake")
+    target, twist = run.impedance.target, run.impedance.target_velocity
+
+    def setpoint(i: int) -> None:
+        t = (i + 1) * run.dt
+        s, c = math.sin(omega * t), math.cos(omega * t)
+        target[:3, 3] = centre[:3, 3] + p.shake_amplitude * s * axis
+        target[:3, :3] = _about(axis, angle * s) @ centre[:3, :3]
+        twist[:3] = p.shake_amplitude * omega * c * axis
+        twist[3:] = angle * omega * c * axis
+
+    run.step(n, setpoint)
+    run.hold_target(centre)
+    run.watch = None
+    run.last_phase = "perturb"
+
+
+@register
+class ShakeProtocol(Protocol[ShakeParams]):
+    """Lift and shake (see the module docstring)."""
+
+    name = "shake"
+    Params = ShakeParams
+
+    def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
+            object_pose: np.ndarray | None = None, seed: int = 0) -> TrialResult:
+        p = self.params
+
+        def body(run: TrialRun, pose: np.ndarray, rest: np.ndarray, g: Grasp) -> tuple[str, ...]:
+            grasp_and_lift(run, pose, rest, g)
+            shake(run, p)
+            return require_fingers(run, Status.DROPPED_PERTURB)
+
+        return execute(scene, grasp, p, body, deadline, object_pose, seed)

@@ -1,0 +1,96 @@
+"""`six_direction`: the gravity-free six-direction test of DexGraspBench, so results can be compared.
+
+Phases: pre-grasp check as in `standard` (the open hand 10 cm back along the
+approach axis must touch nothing, table included); then gravity is switched
+off and the table made non-colliding, and for each of +x, -x, +y, -y, +z, -z
+(world) from a fresh reset: the open hand at the grasp pose squeezes to the
+grip force (`no_contact` if it closes on air), then a force of 10 m g_0
+(g_0 = 9.81 m/s^2, the object's weight on Earth) pushes the object's centre
+of mass for 2 s; the object moving more than 5 cm or 15 deg relative to the
+hand fails the trial as `dropped_perturb` (detail = the direction). Success
+also needs `min_fingers` fingers touching at the end of the last direction.
+The scene's gravity and table are restored afterwards, whatever happens.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from manigrasp.errors import ConfigError
+from manigrasp.protocol.base import Grasp, Protocol, register
+from manigrasp.protocol.execution import GraspParams, TrialRun, close, place_pregrasp, require_fingers
+from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.protocol.standard import DIRECTIONS
+from manigrasp.protocol.trial import execute
+from manigrasp.sim import Scene
+
+STANDARD_GRAVITY = 9.81  # [m/s^2]
+
+
+@dataclass(frozen=True)
+class SixDirectionParams(GraspParams):
+    """`GraspParams` (thresholds 5 cm / 15 deg) plus the external force.
+
+    Attributes:
+        force_multiple: force magnitude in units of m g_0 [-] (DexGraspBench: 10).
+        force_s: duration of each direction's force [s].
+        directions: world directions, in order.
+        disable_table: make the table non-colliding during the test (DexGraspBench has no table).
+    """
+
+    translation_threshold: float = 0.05
+    force_multiple: float = 10.0
+    force_s: float = 2.0
+    directions: tuple[str, ...] = ("+x", "-x", "+y", "-y", "+z", "-z")
+    disable_table: bool = True
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not (self.force_multiple >= 0 and self.force_s > 0):
+            raise ConfigError("force_multiple must be >= 0 and force_s > 0")
+        bad = [d for d in self.directions if d not in DIRECTIONS]
+        if bad:
+            raise ConfigError(f"unknown direction(s) {bad}; available: {', '.join(DIRECTIONS)}")
+
+
+def six_directions(run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
+    """The protocol's phases (module docstring); returns the fingers touching at the end."""
+    p: SixDirectionParams = run.params  # type: ignore[assignment]
+    scene, model = run.scene, run.scene.model
+    place_pregrasp(run, pose, rest, grasp.preshape)
+    saved = (model.opt.gravity.copy(), int(model.geom_contype[scene.table_geom]),
+             int(model.geom_conaffinity[scene.table_geom]))
+    force = p.force_multiple * scene.object_mass() * STANDARD_GRAVITY
+    try:
+        model.opt.gravity[:] = 0.0
+        if p.disable_table:
+            model.geom_contype[scene.table_geom] = model.geom_conaffinity[scene.table_geom] = 0
+        for i, name in enumerate(p.directions):
+            run.reset(pose, rest, grasp.preshape)
+            close(run, grasp.preshape, metrics=i == 0)
+            run.watch = (run.in_hand, Status.DROPPED_PERTURB, name)
+            scene.data.xfrc_applied[scene.object_body, :3] = force * np.asarray(DIRECTIONS[name], float)
+            run.hold_for(p.force_s)
+            scene.data.xfrc_applied[scene.object_body] = 0.0
+            fingers = require_fingers(run, Status.DROPPED_PERTURB)
+        run.last_phase = "perturb"
+        return fingers if p.directions else ()
+    finally:
+        scene.data.xfrc_applied[scene.object_body] = 0.0
+        model.opt.gravity[:] = saved[0]
+        model.geom_contype[scene.table_geom], model.geom_conaffinity[scene.table_geom] = saved[1], saved[2]
+
+
+@register
+class SixDirectionProtocol(Protocol[SixDirectionParams]):
+    """DexGraspBench's six-direction test (see the module docstring)."""
+
+    name = "six_direction"
+    Params = SixDirectionParams
+
+    def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
+            object_pose: np.ndarray | None = None, seed: int = 0) -> TrialResult:
+        return execute(scene, grasp, self.params, six_directions, deadline, object_pose, seed)

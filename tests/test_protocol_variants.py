@@ -1,0 +1,76 @@
+"""The protocols beside `standard`: `six_direction` (DexGraspBench), `shake` and the registry of all four."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp.objects import build_object
+from manigrasp.protocol import PROTOCOLS, Status, TrialResult, settle_object
+from manigrasp.sim import Scene, build_scene
+
+BOX, MASS = 0.05, 0.3  # [m] cube edge, [kg]
+
+
+@pytest.fixture(scope="module")
+def box(tmp_path_factory: pytest.TempPathFactory) -> tuple[Scene, np.ndarray, np.ndarray]:
+    """Scene, resting pose and a top grasp at the cube's centre (approach down, closing along -y)."""
+    asset = build_object(trimesh.creation.box((BOX,) * 3), name="box", mass=MASS,
+                         cache_root=tmp_path_factory.mktemp("variants")).asset
+    scene = build_scene("parallel_jaw", asset)
+    rest = settle_object(scene)
+    pose = np.diag([1.0, -1.0, -1.0, 1.0])
+    pose[:3, 3] = rest[:3, 3]
+    return scene, rest, pose
+
+
+def _run(box: tuple, name: str, **params: object) -> TrialResult:
+    scene, rest, pose = box
+    return PROTOCOLS.load(name, **params).run(scene, pose, np.random.default_rng(0), object_pose=rest)
+
+
+def test_every_protocol_is_registered() -> None:
+    assert PROTOCOLS.names() == ("lift", "shake", "six_direction", "standard")
+
+
+def test_six_direction_end_to_end_on_a_box(box: tuple) -> None:
+    """35 N of grip with friction 0.5 holds 2 x 0.5 x 35 = 35 N > 10 m g = 29.4 N in every direction."""
+    scene = box[0]
+    gravity, contype = scene.model.opt.gravity.copy(), int(scene.model.geom_contype[scene.table_geom])
+    result = _run(box, "six_direction")
+    assert result.status is Status.SUCCESS, result.detail
+    assert result.last_phase == "perturb"
+    assert result.fingers_in_contact == ("finger1", "finger2")
+    assert result.sim_time_s >= 6 * 2.0  # six directions of 2 s, each after its own closing
+    assert result.max_translation_m < 0.05
+    # the shared scene gets its gravity and table back
+    assert np.array_equal(scene.model.opt.gravity, gravity)
+    assert scene.model.geom_contype[scene.table_geom] == contype
+
+
+def test_six_direction_weak_grip_drops_in_the_first_direction(box: tuple) -> None:
+    """2 N of grip holds at most 2 x 0.5 x 2 = 2 N, far below the 29.4 N push: the cube leaves at +x."""
+    scene = box[0]
+    result = _run(box, "six_direction", grip_force=2.0)
+    assert result.status is Status.DROPPED_PERTURB, result.detail
+    assert result.detail.startswith("+x")
+    assert result.last_phase == "close"
+    assert scene.model.opt.gravity[2] == pytest.approx(-9.81)
+
+
+def test_shake_end_to_end_on_a_box(box: tuple) -> None:
+    result = _run(box, "shake")
+    assert result.status is Status.SUCCESS, result.detail
+    assert result.last_phase == "perturb"
+    assert result.fingers_in_contact == ("finger1", "finger2")
+
+
+def test_violent_shake_drops_a_box_that_survives_the_lift(box: tuple) -> None:
+    """10 N of grip holds 2 x 0.5 x 10 = 10 N of friction: more than the 2.9 N weight (the lift passes),
+    less than m (g + a) = 17.7 N at the peaks of a 5 cm, 5 Hz shake along the vertical approach axis
+    (a = (2 pi 5)^2 0.05 = 49 m/s^2), so the cube slides out during the shaking."""
+    result = _run(box, "shake", grip_force=10.0, shake_amplitude=0.05, shake_frequency=5.0, shake_angle_deg=0.0)
+    assert result.status is Status.DROPPED_PERTURB, result.detail
+    assert result.detail.startswith("shake")
+    assert result.last_phase == "lift"
