@@ -7,8 +7,8 @@ phase watches it, the object's motion relative to the hand (-> the phase's
 failure status). A fault ends the trial by raising `Abort`, which the
 protocol turns into its `TrialResult`.
 
-Phases (each a function of a `TrialRun`): `place_pregrasp`, `approach`,
-`close`, `lift`, `hold`. Poses are (4, 4) world matrices [m].
+The phases themselves are in `manigrasp.protocol.phases`. Poses are (4, 4)
+world matrices [m].
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 from manigrasp.control import GripController, ImpedanceController, default_gains
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp
-from manigrasp.protocol.metrics import radius_of_gyration, simulated_metrics
+from manigrasp.protocol.metrics import radius_of_gyration
 from manigrasp.protocol.result import GraspMetrics, Status
 from manigrasp.sim import Scene, grip_force, read_hand_contacts
 
@@ -266,111 +266,3 @@ def grasp_matrix(grasp: Grasp) -> np.ndarray:
 
     pose = np.asarray(grasp.pose, float)
     return pose_matrix(pose[:3], pose[3:]) if pose.shape == (7,) else pose.copy()
-
-
-# ----------------------------------------------------------------- phases
-def pregrasp_pose(pose: np.ndarray, offset: float) -> np.ndarray:
-    """(4, 4) `pose` moved `offset` [m] back along its approach (z) axis."""
-    out = pose.copy()
-    out[:3, 3] -= offset * out[:3, 2]
-    return out
-
-
-def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, preshape: float) -> np.ndarray:
-    """Reset with the open hand at the pre-grasp pose of `pose`; any hand contact: `pregrasp_collision`."""
-    start = pregrasp_pose(pose, run.params.pregrasp_offset)
-    run.reset(start, object_pose, preshape)
-    touching = read_hand_contacts(run.scene, "any")
-    if len(touching):
-        other = "the object" if np.isin(touching.other_geom, run.scene.object_geoms).any() else "the table"
-        raise Abort(Status.PREGRASP_COLLISION, f"the open hand at the pre-grasp pose touches {other}")
-    run.hold_target(start)
-    run.last_phase = "pregrasp"
-    return start
-
-
-def approach(run: TrialRun, start: np.ndarray, goal: np.ndarray) -> None:
-    """Move the impedance set-point in a straight line from `start` to `goal`, then settle there."""
-    delta = goal[:3, 3] - start[:3, 3]
-    distance = float(np.linalg.norm(delta))
-    n = max(1, run.n_steps(distance / run.params.approach_speed))
-    run.impedance.set_target(start, velocity=np.concatenate([delta / (n * run.dt), np.zeros(3)]))
-    target = run.impedance.target
-
-    def setpoint(i: int) -> None:
-        target[:3, 3] = start[:3, 3] + delta * (i + 1) / n
-
-    run.step(n, setpoint)
-    run.hold_target(goal)
-    run.hold_for(run.params.approach_settle_s)
-    run.last_phase = "approach"
-
-
-def close(run: TrialRun, preshape: float, metrics: bool = True) -> None:
-    """Close to the grip force (position until contact, then force); no contact: `no_contact`.
-
-    Afterwards the object's pose in the hand is the reference of all later motion,
-    and (with `metrics`) the grip force and simulated-contact metrics are recorded.
-    """
-    p, hand = run.params, run.scene.hand
-    target = p.grip_force if p.grip_force is not None else p.grip_force_fraction * hand.max_grip_force
-    grip = GripController(min(target, hand.max_grip_force), hand.max_grip_force, close_speed=p.close_speed,
-                          contact_force=p.contact_force)
-    grip.reset(preshape)
-    run.grip = grip
-    chunk, elapsed, touched_at = max(1, p.check_every), 0, None
-    limit = run.n_steps(p.close_timeout_s)
-    while elapsed < limit:
-        run.step(chunk)
-        elapsed += chunk
-        if grip.mode == "force" and touched_at is None:
-            touched_at = elapsed
-        if touched_at is not None and elapsed - touched_at >= run.n_steps(p.close_settle_s):
-            break
-        if grip.mode == "position" and run.scene.hand_synergy() > 0.995:
-            break
-    contacts = read_hand_contacts(run.scene)
-    if grip.mode == "position" or len(contacts.fingers_touching) == 0:
-        raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
-    if metrics:
-        run.grip_force_n = grip_force(contacts)
-        run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,
-                                          p.simulated_min_friction)
-    run.in_hand = run.object_in_hand()
-    if math.isnan(run.max_translation):  # kept over several closings (six_direction)
-        run.max_translation, run.max_rotation = 0.0, 0.0
-    run.last_phase = "close"
-
-
-def lift(run: TrialRun, height: float, speed: float, hold_s: float) -> None:
-    """Raise the set-point `height` [m] at `speed` [m/s], hold `hold_s` [s]; slipping: `slipped_lift`."""
-    scene = run.scene
-    start_tcp, start_z = scene.tcp_pose(), float(scene.object_pose()[2, 3])
-    start_tcp[:3, :3] = run.impedance.target[:3, :3]
-    run.watch = (run.in_hand, Status.SLIPPED_LIFT, "lift")
-    n = max(1, run.n_steps(height / speed))
-    run.impedance.set_target(start_tcp, velocity=np.array([0, 0, height / (n * run.dt), 0, 0, 0]),
-                             feedforward=run.payload())
-    target = run.impedance.target
-
-    def setpoint(i: int) -> None:
-        target[2, 3] = start_tcp[2, 3] + height * (i + 1) / n
-
-    run.step(n, setpoint)
-    end = target.copy()
-    run.hold_target(end)
-    run.hold_for(hold_s)
-    risen = float(scene.object_pose()[2, 3]) - start_z
-    if risen < height - run.params.translation_threshold:
-        raise Abort(Status.SLIPPED_LIFT, f"object left behind: it rose {100 * risen:.1f} cm of {100 * height:.0f}")
-    run.watch = None
-    run.last_phase = "lift"
-
-
-def require_fingers(run: TrialRun, status: Status) -> tuple[str, ...]:
-    """The fingers touching the object; fewer than `min_fingers`: abort with `status`."""
-    fingers = run.fingers_touching()
-    if len(fingers) < run.params.min_fingers:
-        raise Abort(status, f"only {len(fingers)} finger(s) touch the object at the end "
-                            f"(need {run.params.min_fingers})")
-    return fingers

@@ -16,15 +16,8 @@ import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
-from manigrasp.protocol.execution import (
-    GraspParams,
-    TrialRun,
-    approach,
-    close,
-    lift,
-    place_pregrasp,
-    require_fingers,
-)
+from manigrasp.protocol.execution import GraspParams, TrialRun
+from manigrasp.protocol.phases import approach, close, lift, place_pregrasp, require_fingers
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.protocol.trial import execute
 from manigrasp.sim import Scene

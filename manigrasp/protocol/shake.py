@@ -20,8 +20,9 @@ import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
-from manigrasp.protocol.execution import TrialRun, require_fingers
+from manigrasp.protocol.execution import TrialRun
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
+from manigrasp.protocol.phases import require_fingers
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.protocol.trial import execute
 from manigrasp.sim import Scene

@@ -21,7 +21,8 @@ import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
-from manigrasp.protocol.execution import GraspParams, TrialRun, close, place_pregrasp, require_fingers
+from manigrasp.protocol.execution import GraspParams, TrialRun
+from manigrasp.protocol.phases import close, place_pregrasp, require_fingers
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.protocol.standard import DIRECTIONS
 from manigrasp.protocol.trial import execute
