@@ -7,7 +7,9 @@ EXTRAS ?= dev
 comma  := ,
 STAMP  := $(VENV)/.installed-$(subst $(comma),-,$(EXTRAS))
 
-.PHONY: setup bench test lint clean
+RUN    ?= runs/quick
+
+.PHONY: setup bench test regression lint clean
 
 setup: $(STAMP)
 
@@ -17,9 +19,17 @@ $(STAMP): pyproject.toml constraints.txt
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -c constraints.txt -e ".[$(EXTRAS)]"
 	touch $(STAMP)
 
-# The main job on the embedded defaults.
+# The main job on the embedded defaults: the quick benchmark (resumes if interrupted),
+# then its summary table and report.md. Delete $(RUN) for a fresh run.
 bench: setup
-	$(BIN)/manigrasp objects build --all --jobs $(JOBS)
+	$(BIN)/manigrasp bench quick --out $(RUN) --jobs $(JOBS)
+
+# Regression gate: a fresh quick run compared with the committed baseline (exit 1 on a
+# significantly lower success rate). CI runs it.
+regression: setup
+	rm -rf runs/regression
+	$(BIN)/manigrasp bench quick --out runs/regression --jobs $(JOBS) --quiet
+	$(BIN)/manigrasp compare runs/regression benchmarks/baselines/quick.json
 
 test: setup
 	$(BIN)/python -m pytest

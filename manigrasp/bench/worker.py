@@ -72,12 +72,10 @@ def plan_group(group: Group) -> Plan:
     start = time.perf_counter()
     try:
         planner = planners.load(group.planner.name, **dict(group.planner.params))
-        candidates = planners.plan(planner, observation, scene.hand, group.n_grasps, group.rng())
-    except ManigraspError as exc:
+        result = planners.plan(planner, observation, scene.hand, group.n_grasps, group.rng())
+    except ManigraspError as exc:  # planners.plan turns anything a planner raises into a PlannerError
         return Plan((), str(exc), time.perf_counter() - start, pose)
-    except Exception as exc:  # a user's planner may raise anything: recorded, never fatal
-        return Plan((), f"{type(exc).__name__}: {exc}", time.perf_counter() - start, pose)
-    return Plan(tuple(candidates), None, time.perf_counter() - start, pose)
+    return Plan(result.candidates, None, result.planning_time_s, pose)
 
 
 def run_trial(group: Group, index: int, plan: Plan) -> tuple[TrialKey, TrialResult]:
