@@ -52,8 +52,10 @@ class Rate:
 
 
 def _mode(result: TrialResult) -> str:
-    if result.status is Status.DROPPED_PERTURB and result.detail:
-        return f"dropped_perturb{result.detail}"
+    """The failure mode: the status, with the direction for `dropped_perturb` ("dropped_perturb+x")."""
+    direction = result.detail.split(":")[0].strip()
+    if result.status is Status.DROPPED_PERTURB and direction:
+        return f"dropped_perturb{direction}" if direction[0] in "+-" else f"dropped_perturb ({direction})"
     return result.status.value
 
 
