@@ -1,0 +1,37 @@
+"""Grasp planners: a `Planner` protocol, a registry and our planners (antipodal, power, random).
+
+    >>> from manigrasp import planners
+    >>> obs = planners.Observation.from_asset(asset)
+    >>> result = planners.plan(planners.load("antipodal"), obs, hands.load("parallel_jaw"), 100,
+    ...                        np.random.default_rng(0))
+    >>> result.candidates[0].pose   # (4, 4) TCP pose in the world, best first
+"""
+
+from manigrasp.planners.base import (
+    PREGRASP_OFFSET,
+    GraspCandidate,
+    Observation,
+    ObservationKind,
+    Planner,
+    pregrasp,
+    resting_pose,
+)
+from manigrasp.planners.registry import PLANNERS, load, names
+from manigrasp.planners.run import PlanResult, candidate_defect, plan, validate_candidates
+
+__all__ = [
+    "PLANNERS",
+    "PREGRASP_OFFSET",
+    "GraspCandidate",
+    "Observation",
+    "ObservationKind",
+    "PlanResult",
+    "Planner",
+    "candidate_defect",
+    "load",
+    "names",
+    "plan",
+    "pregrasp",
+    "resting_pose",
+    "validate_candidates",
+]

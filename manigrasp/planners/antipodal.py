@@ -1,0 +1,293 @@
+"""`antipodal`: two-finger grasps on antipodal point pairs of the object's mesh.
+
+1. Sample surface points, uniform by area; outward normals are interpolated
+   over each face with creases kept sharp (`geometry.SmoothNormals`).
+2. From each point cast rays inward, along the inward normal (and, with
+   `rays_per_sample` > 1, more rays inside `ray_cone` of the friction cone);
+   the first hit is where the ray leaves the object: the opposite contact.
+   All rays of a plan are cast at once (trimesh, with embree when installed).
+3. Keep pairs whose connecting line lies inside the friction cone at both
+   contacts, whose width fits the open jaw, and whose line is free outside the
+   two contacts as far as the open fingers reach (so the fingers meet these
+   two points first when they close, not another part of the object); thin
+   them to the most antipodal pair per 1 cm / ~10 degree cell.
+4. Around each grasp axis, `n_approaches` approach directions evenly spaced
+   (random phase), none from below the table, at TCP depths back along the
+   approach (fractions of how far the fingers reach beyond the TCP, so a
+   thin object can be pinched near the fingertips above the table).
+5. Rank by the score, then walk down the ranking: skip a pose that duplicates
+   a kept one (NMS, 3 cm / 30 deg, fingers swapped = same grasp), keep it if
+   the open hand's collision geometry is clear of object and table at the
+   grasp and at the pre-grasp pose (MuJoCo), until `n` are kept.
+
+Score (in [0, 1], higher is better), per contact pair:
+
+    score = 0.5 * antipodality + 0.5 * min(1, epsilon_L1 / epsilon_ref)
+    antipodality = 1 - max(alpha_1, alpha_2) / atan(mu)
+
+with alpha_i the angle between the grasp line and the inward normal at
+contact i (0: perfectly antipodal, atan(mu): on the cone's edge), and
+epsilon_L1 the Ferrari-Canny epsilon of the two contacts as soft fingers
+(`metrics`). epsilon_ref (0.1) is about the epsilon of an ideal two-finger
+grasp through the centre of mass with mu = 0.5, gamma = 5 mm, on a 5 cm object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+import trimesh
+
+from manigrasp.errors import ConfigError, PlannerError
+from manigrasp.grasp.closure import EPSILON_TOLERANCE
+from manigrasp.hands.base import Hand
+from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
+from manigrasp.planners.geometry import (
+    SmoothNormals,
+    barycentric_of,
+    first_hits,
+    perpendicular_basis,
+    sample_surface,
+    tcp_frames,
+)
+from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
+from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, Suppressor
+from manigrasp.planners.select import select_free
+
+RAY_OFFSET = 1e-5  # [m], rays start this far along their direction (no self-hit)
+
+
+@dataclass(frozen=True)
+class Pairs:
+    """m antipodal contact pairs: contact 1 (finger 1) at `p`, contact 2 at `q`, line `axis` from p to q.
+
+    Attributes:
+        p, q: (m, 3) contact points [m]; n_p, n_q: (m, 3) outward unit normals there.
+        axis: (m, 3) unit vectors from p to q; width: (m,) |q - p| [m].
+        alpha: (m,) the larger angle between the line and an inward normal [rad].
+    """
+
+    p: np.ndarray
+    q: np.ndarray
+    n_p: np.ndarray
+    n_q: np.ndarray
+    axis: np.ndarray
+    width: np.ndarray
+    alpha: np.ndarray
+
+    def take(self, keep: np.ndarray) -> Pairs:
+        """The pairs selected by a mask or index array."""
+        return Pairs(*(getattr(self, f)[keep] for f in ("p", "q", "n_p", "n_q", "axis", "width", "alpha")))
+
+    def __len__(self) -> int:
+        return len(self.width)
+
+
+def cone_rays(axes: np.ndarray, count: int, half_angle: float, rng: np.random.Generator) -> np.ndarray:
+    """(n, count, 3) unit rays per axis (n, 3): the axis itself, then count - 1 uniform inside `half_angle`."""
+    n = len(axes)
+    cos_t = 1.0 - rng.random((n, count)) * (1.0 - np.cos(half_angle))
+    cos_t[:, 0] = 1.0
+    phi = rng.random((n, count)) * 2.0 * np.pi
+    sin_t = np.sqrt(np.clip(1.0 - cos_t**2, 0.0, None))
+    a, b = perpendicular_basis(axes)
+    return (cos_t[..., None] * axes[:, None] + sin_t[..., None] * (np.cos(phi)[..., None] * a[:, None]
+                                                                   + np.sin(phi)[..., None] * b[:, None]))
+
+
+def find_pairs(mesh: trimesh.Trimesh, normals: SmoothNormals, points: np.ndarray, n_out: np.ndarray,
+               rays: np.ndarray, half_angle: float, widths: tuple[float, float], reach: float) -> Pairs:
+    """Antipodal pairs from surface points (m, 3) with outward normals (m, 3) and inward rays (m, 3).
+
+    Args:
+        half_angle: friction cone half-angle atan(mu) [rad].
+        widths: (min, max) jaw width [m].
+        reach: half the open jaw width [m]: the line must be free this far from the pair's midpoint.
+    """
+    faces, dist = first_hits(mesh, points + RAY_OFFSET * rays, rays)
+    hit = faces >= 0
+    q = points + (RAY_OFFSET + np.where(hit, dist, 0.0))[:, None] * rays
+    bary = barycentric_of(mesh, np.where(hit, faces, 0), q)
+    n_q = normals.at(np.where(hit, faces, 0), bary)
+    cos_p = -np.einsum("ij,ij->i", rays, n_out)
+    cos_q = np.einsum("ij,ij->i", rays, n_q)
+    width = np.linalg.norm(q - points, axis=1)
+    cos_max = np.cos(half_angle)
+    keep = hit & (cos_p >= cos_max) & (cos_q >= cos_max) & (width >= widths[0]) & (width <= widths[1])
+    pairs = Pairs(p=points, q=q, n_p=n_out, n_q=n_q, axis=rays, width=width,
+                  alpha=np.arccos(np.clip(np.minimum(cos_p, cos_q), -1.0, 1.0))).take(keep)
+    return pairs.take(fingers_reach(mesh, pairs, reach))
+
+
+def thin_pairs(pairs: Pairs, cell: float, axis_bins: int = 6) -> np.ndarray:
+    """Indices of the most antipodal pair in each cell of (midpoint on a `cell` [m] grid, grasp line direction).
+
+    The line direction's sign is ignored (p->q and q->p are one line) and each
+    component is binned to 1 / `axis_bins` (about 10 degrees for 6). Pairs far
+    finer than the NMS thresholds would yield the same poses over and over.
+    """
+    if len(pairs) == 0:
+        return np.zeros(0, int)
+    axis = pairs.axis * np.where(_first_nonzero_sign(pairs.axis) < 0, -1.0, 1.0)[:, None]
+    keys = np.concatenate([np.floor(0.5 * (pairs.p + pairs.q) / cell), np.round(axis * axis_bins)], axis=1)
+    order = np.argsort(pairs.alpha, kind="stable")
+    _, first = np.unique(keys[order].astype(np.int64), axis=0, return_index=True)
+    return np.sort(order[first])
+
+
+def _first_nonzero_sign(vectors: np.ndarray) -> np.ndarray:
+    """(n,) sign of the first component of each row that is not ~0."""
+    signs = np.sign(np.where(np.abs(vectors) > 1e-9, vectors, 0.0))
+    return signs[np.arange(len(vectors)), np.argmax(signs != 0, axis=1)]
+
+
+def fingers_reach(mesh: trimesh.Trimesh, pairs: Pairs, reach: float) -> np.ndarray:
+    """(m,) True where the grasp line is free of the object beyond both contacts up to the open fingers."""
+    beyond = reach - 0.5 * pairs.width  # [m] from each contact out to its open finger
+    _, out_q = first_hits(mesh, pairs.q + RAY_OFFSET * pairs.axis, pairs.axis)
+    _, out_p = first_hits(mesh, pairs.p - RAY_OFFSET * pairs.axis, -pairs.axis)
+    return (out_q > beyond) & (out_p > beyond)
+
+
+@dataclass(frozen=True)
+class AntipodalPlanner:
+    """Antipodal two-finger grasps (module docstring); parameters are config fields.
+
+    Attributes:
+        n_samples: surface points sampled per plan.
+        rays_per_sample: inward rays per point (the first along the inward normal).
+        ray_cone: extra rays lie within this fraction of the friction cone half-angle [-].
+        n_approaches: approach directions around each grasp axis.
+        depth_fractions: TCP offsets back along the approach from the contacts' midpoint, as fractions
+            of the fingers' reach beyond the TCP (`HandProbe.finger_reach`; 1.5 cm for parallel_jaw) [-].
+        contact: contact model of the analysis (friction mu, torsion gamma).
+        min_width: narrowest grasp [m].
+        width_margin: the open jaw must be this much wider than the grasp [m].
+        max_approach_z: largest z component of the approach direction (0: horizontal at most, never from below).
+        epsilon_ref: epsilon that counts as full marks in the score [scaled N].
+        nms_distance: [m]; nms_angle: [rad] (non-maximum suppression thresholds).
+        clearance: hand-object/table distance that counts as a collision [m].
+        pregrasp_offset: pre-grasp distance back along the approach [m].
+        max_checks: the most poses tested for collision per plan.
+        pair_cell: pairs are thinned to the most antipodal one per cell of this size [m] and ~10 degrees
+            of line direction before scoring (`thin_pairs`).
+    """
+
+    name: ClassVar[str] = "antipodal"
+    needs: ClassVar[ObservationKind] = "mesh"
+
+    n_samples: int = 1024
+    rays_per_sample: int = 1
+    ray_cone: float = 0.5
+    n_approaches: int = 12
+    depth_fractions: tuple[float, ...] = (0.0, 0.4, 0.8)
+    contact: ContactModel = field(default_factory=ContactModel)
+    min_width: float = 0.002
+    width_margin: float = 0.005
+    max_approach_z: float = 0.0
+    epsilon_ref: float = 0.1
+    nms_distance: float = DEFAULT_DISTANCE
+    nms_angle: float = DEFAULT_ANGLE
+    clearance: float = DEFAULT_CLEARANCE
+    pregrasp_offset: float = PREGRASP_OFFSET
+    max_checks: int = 20_000
+    pair_cell: float = 0.01
+
+    def __post_init__(self) -> None:
+        for key in ("n_samples", "rays_per_sample", "n_approaches", "max_checks"):
+            if int(getattr(self, key)) < 1:
+                raise ConfigError(f"antipodal: {key} must be >= 1, got {getattr(self, key)}")
+        if not 0.0 <= self.ray_cone <= 1.0:
+            raise ConfigError(f"antipodal: ray_cone must be in [0, 1], got {self.ray_cone}")
+        fractions = tuple(float(d) for d in self.depth_fractions)
+        if not fractions or not all(0.0 <= d < 1.0 for d in fractions):
+            raise ConfigError(f"antipodal: depth_fractions must be in [0, 1), got {self.depth_fractions}")
+        if self.epsilon_ref <= 0 or self.clearance < 0:
+            raise ConfigError("antipodal: epsilon_ref must be > 0 and clearance >= 0")
+        object.__setattr__(self, "depth_fractions", fractions)
+
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
+        """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first."""
+        if hand.kind != "parallel":
+            raise PlannerError(f"antipodal plans two-jaw grasps; hand {hand.name!r} is {hand.kind} "
+                               "(use the 'power' planner)")
+        mesh = observation.world_mesh()
+        pairs = self.pairs(mesh, hand, rng)
+        center = observation.center_of_mass
+        scale = torque_scale(mesh.vertices, center)
+        eps = grasp_metrics(*self._contacts(pairs), center, scale,
+                            ContactModel(self.contact.mu, self.contact.gamma, min_friction=False)).epsilon_l1
+        score = self.score(pairs, eps)
+        probe = HandProbe(hand, observation, self.clearance)
+        depths = probe.finger_reach() * np.asarray(self.depth_fractions)
+        poses, pair_of, depth_of = self.poses(pairs, depths, observation.table_height, rng)
+        order = np.lexsort((depth_of, -score[pair_of]))
+        nms = Suppressor(self.nms_distance, self.nms_angle, symmetric=True, capacity=max(n, 1))
+        chosen = select_free(probe, nms, poses[order], n, self.pregrasp_offset, self.max_checks)
+        return self._candidates(pairs, score, eps, poses, pair_of, order[chosen], center, scale)
+
+    # ------------------------------------------------------------ steps
+    def pairs(self, mesh: trimesh.Trimesh, hand: Hand, rng: np.random.Generator) -> Pairs:
+        """Antipodal pairs of `mesh` (world frame) that fit `hand` (steps 1-3)."""
+        half_angle = float(np.arctan(self.contact.mu))
+        samples = sample_surface(mesh, self.n_samples, rng)
+        normals = SmoothNormals(mesh)
+        n_out = normals.at(samples.faces, samples.barycentric)
+        rays = cone_rays(-n_out, self.rays_per_sample, self.ray_cone * half_angle, rng).reshape(-1, 3)
+        reps = self.rays_per_sample
+        widths = (self.min_width, hand.max_width - self.width_margin)
+        pairs = find_pairs(mesh, normals, np.repeat(samples.points, reps, axis=0), np.repeat(n_out, reps, axis=0),
+                           rays, half_angle, widths, 0.5 * hand.max_width)
+        return pairs.take(thin_pairs(pairs, self.pair_cell))
+
+    def score(self, pairs: Pairs, epsilon: np.ndarray) -> np.ndarray:
+        """(m,) the documented score of each pair (module docstring)."""
+        antipodality = 1.0 - pairs.alpha / np.arctan(self.contact.mu)
+        return 0.5 * np.clip(antipodality, 0.0, 1.0) + 0.5 * np.clip(epsilon / self.epsilon_ref, 0.0, 1.0)
+
+    def poses(self, pairs: Pairs, depths: np.ndarray, table_height: float,
+              rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """TCP poses (k, 4, 4) around every pair's axis at `depths` [m] (step 4), with their pair (k,) and
+        depth index (k,)."""
+        m, count = len(pairs), self.n_approaches
+        a, b = perpendicular_basis(pairs.axis)
+        theta = rng.random(m)[:, None] * 2.0 * np.pi + np.arange(count)[None, :] * 2.0 * np.pi / count
+        approach = np.cos(theta)[..., None] * a[:, None] + np.sin(theta)[..., None] * b[:, None]  # (m, count, 3)
+        pair_of = np.repeat(np.arange(m), count)
+        approach = approach.reshape(-1, 3)
+        ok = approach[:, 2] <= self.max_approach_z
+        pair_of, approach = pair_of[ok], approach[ok]
+        centre = 0.5 * (pairs.p + pairs.q)[pair_of]
+        positions = centre[None] - depths[:, None, None] * approach[None]  # (d, k, 3)
+        d = len(depths)
+        poses = tcp_frames(positions.reshape(-1, 3), np.tile(approach, (d, 1)), np.tile(pairs.axis[pair_of], (d, 1)))
+        above = poses[:, 2, 3] >= table_height
+        return poses[above], np.tile(pair_of, d)[above], np.repeat(np.arange(d), len(pair_of))[above]
+
+    @staticmethod
+    def _contacts(pairs: Pairs) -> tuple[np.ndarray, np.ndarray]:
+        """Contact positions (m, 2, 3) and inward normals (m, 2, 3) of the pairs."""
+        return np.stack([pairs.p, pairs.q], axis=1), -np.stack([pairs.n_p, pairs.n_q], axis=1)
+
+    def _candidates(self, pairs: Pairs, score: np.ndarray, eps: np.ndarray, poses: np.ndarray,
+                    pair_of: np.ndarray, chosen: np.ndarray, center: np.ndarray,
+                    scale: float) -> list[GraspCandidate]:
+        used = pair_of[chosen]
+        unique, inverse = np.unique(used, return_inverse=True)
+        positions, normals = self._contacts(pairs.take(unique))
+        min_mu = np.full(len(unique), np.nan)
+        if self.contact.min_friction and len(unique):
+            min_mu = grasp_metrics(positions, normals, center, scale, self.contact).min_friction
+        out = []
+        for k, i in enumerate(chosen):
+            j, u = used[k], inverse[k]
+            out.append(GraspCandidate(
+                pose=poses[i], score=float(score[j]), width=float(pairs.width[j]), preshape=0.0,
+                contacts=positions[u], contact_normals=normals[u], epsilon_l1=float(eps[j]),
+                force_closure=bool(eps[j] > EPSILON_TOLERANCE),
+                min_friction=None if np.isnan(min_mu[u]) else float(min_mu[u]),
+                pregrasp_offset=self.pregrasp_offset, planner=self.name))
+        return out

@@ -1,0 +1,195 @@
+"""`power`: enveloping grasps for dexterous hands (also usable with parallel jaws).
+
+1. Approach directions: a Fibonacci sphere of `n_directions`, turned about
+   the vertical by a random angle, keeping those that do not come from below
+   the table; for each, `n_rolls` rolls of the hand about the approach (random phase).
+2. Stand-off: the open hand slides along the approach line through the
+   object's centre of mass; a bisection finds the nearest TCP position where
+   its real collision geometry (MuJoCo) is clear of object and table; the
+   hand is then backed off by each of `standoffs`. Poses whose pre-grasp pose
+   collides are dropped.
+3. Close: the fingers follow the hand's own free closing path
+   (`closing.closing_path`), each stopping where it first touches the object
+   or the table (kinematic closing, no dynamics). The contacts where fingers
+   stopped are the planned contacts.
+4. Keep poses with at least `min_fingers` fingers on the object;
+   non-maximum suppression (3 cm / 30 deg) over them ordered by fingers
+   touching keeps `n` diverse ones; their contacts' epsilon is computed and
+   they are ranked by the score.
+
+Score (in [0, 1], higher is better):
+
+    score = 0.5 * min(1, epsilon_L1 / epsilon_ref) + 0.5 * fingers_touching / fingers
+
+with epsilon_L1 the Ferrari-Canny epsilon of the found contacts as soft
+fingers (`metrics`) and fingers_touching the number of distinct fingers in
+contact with the object (the contact count, not inflated by several contact
+points of one finger).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from manigrasp.errors import ConfigError
+from manigrasp.grasp.closure import EPSILON_TOLERANCE
+from manigrasp.hands.base import Hand
+from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.closing import ClosingPath, Closure, FingerSweep, closing_path
+from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
+from manigrasp.planners.geometry import fibonacci_sphere, perpendicular_basis, tcp_frames
+from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
+from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
+
+BISECTION_STEPS = 8  # resolution (2 radius + FAR) / 256, about 1 mm
+FAR = 0.15  # [m] beyond the object's radius, the open hand is assumed clear of it
+
+
+@dataclass(frozen=True)
+class PowerPlanner:
+    """Enveloping grasps found by kinematic closing (module docstring).
+
+    Attributes:
+        n_directions: points of the Fibonacci sphere (about half come from above the table).
+        n_rolls: rolls of the hand about each approach direction.
+        standoffs: gaps [m] between the hand and its first touch of the object along the approach.
+        closing_steps: shapes along the closing path (resolution of the kinematic close).
+        min_fingers: fewest fingers that must touch the object.
+        contact: contact model of the analysis (friction mu, torsion gamma). The minimum friction for
+            closure is off by default here (a bisection of ~10 hull computations per grasp of 5+
+            contacts, about 0.1 s each): candidates then carry min_friction None.
+        max_approach_z: largest z component of the approach (0: horizontal at most, never from below).
+        epsilon_ref: epsilon that counts as full marks in the score [scaled N].
+        nms_distance: [m]; nms_angle: [rad] (non-maximum suppression thresholds).
+        clearance: hand-object/table distance that counts as a collision [m].
+        pregrasp_offset: pre-grasp distance back along the approach [m].
+    """
+
+    name: ClassVar[str] = "power"
+    needs: ClassVar[ObservationKind] = "mesh"
+
+    n_directions: int = 48
+    n_rolls: int = 4
+    standoffs: tuple[float, ...] = (0.005, 0.02)
+    closing_steps: int = 16
+    min_fingers: int = 2
+    contact: ContactModel = field(default_factory=lambda: ContactModel(min_friction=False))
+    max_approach_z: float = 0.0
+    epsilon_ref: float = 0.1
+    nms_distance: float = DEFAULT_DISTANCE
+    nms_angle: float = DEFAULT_ANGLE
+    clearance: float = DEFAULT_CLEARANCE
+    pregrasp_offset: float = PREGRASP_OFFSET
+    _paths: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        for key in ("n_directions", "n_rolls", "closing_steps", "min_fingers"):
+            if int(getattr(self, key)) < 1:
+                raise ConfigError(f"power: {key} must be >= 1, got {getattr(self, key)}")
+        if not self.standoffs or min(self.standoffs) < 0 or self.epsilon_ref <= 0:
+            raise ConfigError("power: standoffs must be non-empty and >= 0, epsilon_ref > 0")
+        object.__setattr__(self, "standoffs", tuple(float(s) for s in self.standoffs))
+
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
+        """At most `n` enveloping grasps, best first."""
+        mesh = observation.world_mesh()
+        center = observation.center_of_mass
+        scale = torque_scale(mesh.vertices, center)
+        probe = HandProbe(hand, observation, self.clearance)
+        poses = self.standoff_poses(probe, self.directions(rng), center, scale)
+        sweep = FingerSweep(probe, self._path(hand))
+        pos, quat = probe.roots(poses)
+        closures = [sweep.close(pos[i], quat[i]) for i in range(len(poses))]
+        need = min(self.min_fingers, sweep.n_fingers)
+        good = np.array([i for i, c in enumerate(closures) if c.n_fingers >= need], int)
+        # NMS on the contact count first; epsilon (the costly part) only for the n survivors.
+        count = np.array([closures[i].n_fingers for i in good], float)
+        order = good[np.argsort(-count, kind="stable")]
+        top = order[suppress(poses[order], self.nms_distance, self.nms_angle, hand.kind == "parallel")][:n]
+        eps, min_mu = self._metrics([closures[i] for i in top], center, scale)
+        fraction = np.array([closures[i].n_fingers for i in top], float) / sweep.n_fingers
+        score = 0.5 * np.clip(eps / self.epsilon_ref, 0.0, 1.0) + 0.5 * fraction
+        return [self._candidate(poses[top[k]], score[k], closures[top[k]], eps[k], min_mu[k])
+                for k in np.argsort(-score, kind="stable")]
+
+    def _path(self, hand: Hand) -> ClosingPath:
+        """The hand's closing path, computed once per hand name and planner."""
+        key = (hand.name, self.closing_steps)
+        if key not in self._paths:
+            self._paths[key] = closing_path(hand, self.closing_steps)
+        return self._paths[key]
+
+    # ------------------------------------------------------------ steps
+    def directions(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Approach (k, 3) and closing (k, 3) directions: sphere points from above x rolls (step 1)."""
+        turn = rng.random() * 2.0 * np.pi
+        c, s = np.cos(turn), np.sin(turn)
+        approach = fibonacci_sphere(self.n_directions) @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        approach = approach[approach[:, 2] <= self.max_approach_z]
+        a, b = perpendicular_basis(approach)
+        roll = rng.random(len(approach))[:, None] + np.arange(self.n_rolls)[None, :] / self.n_rolls
+        roll = 2.0 * np.pi * roll  # (k, rolls)
+        closing = np.cos(roll)[..., None] * a[:, None] + np.sin(roll)[..., None] * b[:, None]
+        return np.repeat(approach, self.n_rolls, axis=0), closing.reshape(-1, 3)
+
+    def standoff_poses(self, probe: HandProbe, directions: tuple[np.ndarray, np.ndarray], center: np.ndarray,
+                       radius: float) -> np.ndarray:
+        """Collision-free TCP poses (m, 4, 4) backed off from the first touch along each approach (step 2)."""
+        approach, closing = directions
+        far = radius + FAR  # [m] TCP distance from the centre at which the hand is clear of the object
+        out = []
+        for a, y in zip(approach, closing, strict=True):
+            frame = tcp_frames(center[None], a[None], y[None])[0]
+            touch = self._first_touch(probe, frame, a, -radius, far)
+            if touch is None:
+                continue
+            for gap in self.standoffs:
+                pose = frame.copy()
+                pose[:3, 3] = center - (touch + gap) * a
+                if probe.free(pose, self.pregrasp_offset):
+                    out.append(pose)
+        return np.array(out).reshape(-1, 4, 4)
+
+    @staticmethod
+    def _first_touch(probe: HandProbe, frame: np.ndarray, approach: np.ndarray, near: float,
+                     far: float) -> float | None:
+        """Smallest back-off t in [near, far] (TCP at centre - t approach) that is collision-free, or None."""
+        root_pos, root_quat = (x[0] for x in probe.roots(frame[None]))
+
+        def clear(t: float) -> bool:
+            probe.place(root_pos - t * approach, root_quat)
+            return not probe.touching()
+
+        if not clear(far):
+            return None
+        lo, hi = near, far
+        if clear(lo):
+            return lo
+        for _ in range(BISECTION_STEPS):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if clear(mid) else (mid, hi)
+        return hi
+
+    def _metrics(self, closures: list[Closure], center: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
+        """Epsilon (m,) and minimum friction (m,) of each closure, batched by contact count."""
+        eps, min_mu = np.zeros(len(closures)), np.full(len(closures), np.nan)
+        counts = np.array([len(c.positions) for c in closures], int)
+        for k in np.unique(counts):
+            rows = np.flatnonzero(counts == k)
+            positions = np.stack([closures[i].positions for i in rows])
+            normals = np.stack([closures[i].normals for i in rows])
+            metrics = grasp_metrics(positions, normals, center, scale, self.contact)
+            eps[rows], min_mu[rows] = metrics.epsilon_l1, metrics.min_friction
+        return eps, min_mu
+
+    def _candidate(self, pose: np.ndarray, score: float, closure: Closure, eps: float,
+                   min_mu: float) -> GraspCandidate:
+        return GraspCandidate(
+            pose=pose, score=float(score), width=None, preshape=0.0, contacts=closure.positions,
+            contact_normals=closure.normals, epsilon_l1=float(eps), force_closure=bool(eps > EPSILON_TOLERANCE),
+            min_friction=None if np.isnan(min_mu) else float(min_mu),
+            pregrasp_offset=self.pregrasp_offset, planner=self.name)
+

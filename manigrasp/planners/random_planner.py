@@ -1,0 +1,58 @@
+"""`random`: uniform random grasp poses near the object, approach pointing at it, no filtering.
+
+The floor every planner must beat. The TCP is uniform in a ball of radius
+`spread` x the object's radius around its centre of mass; the approach is
+uniform over the directions that do not come from below the table and points
+from the TCP's side toward the centre (the hand stands `spread`-ball-offset
+from it); the roll about the approach is uniform. Nothing is checked: not
+collisions, not contacts. Every candidate scores 0 and carries no metrics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from manigrasp.errors import ConfigError
+from manigrasp.hands.base import Hand
+from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
+
+
+@dataclass(frozen=True)
+class RandomPlanner:
+    """Random poses near the object (module docstring).
+
+    Attributes:
+        spread: radius of the TCP ball as a fraction of the object's radius [-].
+        pregrasp_offset: pre-grasp distance back along the approach [m].
+    """
+
+    name: ClassVar[str] = "random"
+    needs: ClassVar[ObservationKind] = "mesh"
+
+    spread: float = 0.5
+    pregrasp_offset: float = PREGRASP_OFFSET
+
+    def __post_init__(self) -> None:
+        if not self.spread >= 0:
+            raise ConfigError(f"random: spread must be >= 0, got {self.spread}")
+
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
+        """`n` random poses, all scored 0."""
+        center = observation.center_of_mass
+        vertices = np.asarray(observation.world_mesh().vertices)
+        radius = float(np.max(np.linalg.norm(vertices - center, axis=1)))
+        approach = rng.normal(size=(n, 3))
+        approach /= np.linalg.norm(approach, axis=1, keepdims=True)
+        approach[:, 2] = -np.abs(approach[:, 2])  # from above (or level), never from below the table
+        offset = rng.normal(size=(n, 3))
+        offset *= (self.spread * radius * rng.random(n) ** (1.0 / 3.0) / np.linalg.norm(offset, axis=1))[:, None]
+        a, b = perpendicular_basis(approach)
+        roll = rng.random(n) * 2.0 * np.pi
+        closing = np.cos(roll)[:, None] * a + np.sin(roll)[:, None] * b
+        poses = tcp_frames(center + offset, approach, closing)
+        return [GraspCandidate(pose=p, score=0.0, preshape=0.0, pregrasp_offset=self.pregrasp_offset,
+                               planner=self.name) for p in poses]

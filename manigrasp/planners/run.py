@@ -1,0 +1,112 @@
+"""Running a planner: check the observation, time the call, validate and rank what comes back.
+
+This is the one place that reads the clock (planners themselves do not).
+Anything a planner raises, and any invalid candidate it returns (NaN pose,
+a rotation that is not one, too many candidates...), becomes a `PlannerError`
+whose message names the planner and the defect.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from manigrasp.errors import PlannerError
+from manigrasp.hands.base import Hand
+from manigrasp.planners.base import UNIT_TOLERANCE, GraspCandidate, Observation, Planner
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """The ranked candidates of one planning call.
+
+    Attributes:
+        planner: the planner's name.
+        candidates: best first (sorted by score, stable).
+        planning_time_s: wall time of the planner's `plan` call [s].
+    """
+
+    planner: str
+    candidates: tuple[GraspCandidate, ...]
+    planning_time_s: float
+
+
+def planner_name(planner: object) -> str:
+    """The planner's `name`, or its class name if it has none."""
+    return str(getattr(planner, "name", type(planner).__name__))
+
+
+def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> PlanResult:
+    """Run `planner` for at most `n` grasps of `hand`; validated, ranked and timed.
+
+    Raises:
+        PlannerError: the planner raised, needs an observation it was not
+            given, or returned something that is not a valid ranked list.
+    """
+    name = planner_name(planner)
+    if n < 1:
+        raise PlannerError(f"the number of grasps must be >= 1, got {n}")
+    if not isinstance(rng, np.random.Generator):
+        raise PlannerError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    needs = getattr(planner, "needs", "mesh")
+    if needs not in observation.kinds:
+        raise PlannerError(f"planner {name!r} needs a {needs} observation; this one has: "
+                           f"{', '.join(observation.kinds)}")
+    start = time.perf_counter()
+    try:
+        returned = planner.plan(observation, hand, n, rng)
+    except Exception as exc:  # a planner's failure is reported, never swallowed
+        raise PlannerError(f"planner {name!r} raised {type(exc).__name__}: {exc}") from exc
+    elapsed = time.perf_counter() - start
+    candidates = validate_candidates(returned, name, n)
+    order = sorted(range(len(candidates)), key=lambda i: -candidates[i].score)
+    ranked = tuple(dataclasses.replace(candidates[i], planner=candidates[i].planner or name,
+                                       planning_time_s=elapsed) for i in order)
+    return PlanResult(planner=name, candidates=ranked, planning_time_s=elapsed)
+
+
+def validate_candidates(returned: object, name: str, n: int) -> list[GraspCandidate]:
+    """`returned` as a list of valid candidates, else a `PlannerError` naming the first defect."""
+    if not isinstance(returned, Sequence) or isinstance(returned, str | bytes):
+        raise PlannerError(f"planner {name!r} returned {type(returned).__name__}, not a list of GraspCandidate")
+    if len(returned) > n:
+        raise PlannerError(f"planner {name!r} returned {len(returned)} candidates, more than the {n} asked for")
+    for i, candidate in enumerate(returned):
+        if not isinstance(candidate, GraspCandidate):
+            raise PlannerError(f"planner {name!r}: candidate {i} is a {type(candidate).__name__}, "
+                               "not a GraspCandidate")
+        defect = candidate_defect(candidate)
+        if defect:
+            raise PlannerError(f"planner {name!r}: candidate {i} is invalid: {defect}")
+    return list(returned)
+
+
+def candidate_defect(candidate: GraspCandidate) -> str | None:
+    """What is wrong with `candidate` (a sentence), or None if it is valid."""
+    pose = candidate.pose
+    if pose.shape != (4, 4):
+        return f"pose has shape {pose.shape}, not (4, 4)"
+    if not np.all(np.isfinite(pose)):
+        return "pose contains NaN or inf"
+    if not np.allclose(pose[3], [0.0, 0.0, 0.0, 1.0]):
+        return f"pose's last row is {pose[3].tolist()}, not [0, 0, 0, 1]"
+    rot = pose[:3, :3]
+    if not np.allclose(rot.T @ rot, np.eye(3), atol=100 * UNIT_TOLERANCE) or np.linalg.det(rot) < 0:
+        return "pose's rotation block is not a rotation (its quaternion would not be unit)"
+    if not np.isfinite(candidate.score):
+        return f"score is {candidate.score}"
+    if candidate.width is not None and not (np.isfinite(candidate.width) and candidate.width >= 0):
+        return f"width is {candidate.width}"
+    if not (0.0 <= candidate.preshape <= 1.0):
+        return f"preshape {candidate.preshape} is outside [0, 1]"
+    if candidate.contacts.shape != candidate.contact_normals.shape:
+        return "contacts and contact_normals differ in shape"
+    if not (np.all(np.isfinite(candidate.contacts)) and np.all(np.isfinite(candidate.contact_normals))):
+        return "contacts contain NaN or inf"
+    if not np.isfinite(candidate.pregrasp_offset) or candidate.pregrasp_offset < 0:
+        return f"pregrasp_offset is {candidate.pregrasp_offset}"
+    return None
