@@ -160,8 +160,25 @@ def to_contacts(contacts: HandContacts) -> list:
 
 
 def grip_force(contacts: HandContacts) -> float:
-    """Grip force [N]: half the total normal force, i.e. the squeeze of each jaw of a two-jaw grasp."""
-    return 0.5 * float(np.sum(np.clip(contacts.normal_force, 0.0, None)))
+    """Grip force [N]: the squeeze between the hand's first finger and the rest of the hand.
+
+    The first entry of `Hand.finger_bodies` is the opposing digit: jaw 1 of a
+    parallel jaw (the closing axis y runs from it toward jaw 2), the thumb of
+    a dexterous hand. The grip force is the smaller of
+
+    - the total normal force [N] of the first finger's contacts, and
+    - the total normal force [N] of every other hand contact (other fingers, palm),
+
+    i.e. the force with which the two sides of the grasp press the object
+    between them: for a parallel jaw the squeeze of one jaw, for a dexterous
+    hand the thumb's push against the fingers (or the fingers' against the
+    thumb, whichever is smaller). A hand pushing the object from one side only
+    has zero grip force. In a balanced two-sided grasp both sides are equal,
+    and equal to half the total normal force.
+    """
+    fn = np.clip(contacts.normal_force, 0.0, None)
+    first = contacts.finger == 0
+    return float(min(np.sum(fn[first]), np.sum(fn[~first])))
 
 
 def hand_contact_wrench(scene: Scene, point: np.ndarray, other: Other = "any") -> np.ndarray:
