@@ -227,6 +227,16 @@ class GripController:
     hand. The synergy is clamped to [0, 1]; the integral freezes while it is
     clamped (anti-windup).
 
+    The grip force is `manigrasp.sim.grip_force`: the squeeze between the first
+    finger (jaw 1, or the thumb) and the rest of the hand, so contact means a
+    two-sided grasp, not one finger pushing the object away. The estimate of k
+    holds when the hand's force grows over the remaining synergy, as for the
+    parallel jaws and for the soft tendon servos of the dexterous hands
+    (`manigrasp.hands.from_robosuite.dexterous`: a blocked finger pushes with
+    kp (u - L), so the force spreads over a third of the command range); a
+    stiff servo that jumps to its force limit within a few percent of the
+    synergy would make the loop gain tens of times too high and oscillate.
+
     Args:
         target_force: grip force to hold [N] (as `manigrasp.sim.grip_force` measures it).
         full_force: grip force of the fully closed command on an object [N]

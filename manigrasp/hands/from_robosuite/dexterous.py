@@ -11,6 +11,9 @@ finger, one for the thumb's bend, one for its rotation):
   blocked by an object, the distal joints keep wrapping (an adaptive,
   underactuated finger);
 - one force-limited position servo per tendon, plus one for thumb rotation;
+  the servos are soft (`KP`), so a blocked finger's force grows gradually
+  with the command and the grip force can be regulated through the synergy
+  (`manigrasp.control.GripController`);
 - the thumb's rotation joint is re-referenced so that the model's default
   configuration (qpos0) is the open pre-shape: thumb rotated into opposition,
   everything else straight. The synergy s then flexes fingers and thumb
@@ -39,8 +42,11 @@ from manigrasp.hands.from_robosuite import build
 from manigrasp.hands.from_robosuite.source import load_gripper_spec
 
 FINGERS = ("index", "middle", "ring", "pinky")
-# Servo stiffness on every tendon [N m/rad]; tendon force limits are per model.
-KP = 5.0
+# Servo stiffness of every tendon [N m/rad]; tendon force limits are per model. Soft on purpose: a finger
+# blocked at tendon length L pushes with kp (u - L) up to its limit, so from contact the force grows over a
+# wide part of the synergy (0.6 N m / 0.5 = 1.2 rad of command, a third of a finger's travel) instead of
+# jumping to the limit within 3% of it (kp = 5), and the grip force can be regulated through the synergy.
+KP = 0.5
 
 
 @dataclass(frozen=True)
@@ -60,6 +66,7 @@ class FiveFingerModel:
     finger_tip: str  # pattern with {f}
     finger_torque: float  # tendon force limit of a finger [N m]
     thumb_torque: float  # tendon force limit of the thumb bend and rotation [N m]
+    kp: float = KP  # servo stiffness of every tendon [N m/rad]
     link_mass: float | None = None  # if set, the mass of every collision geom [kg]
 
     def finger_tendon(self, finger: str) -> tuple[str, ...]:
@@ -132,8 +139,9 @@ def _base_spec(model: FiveFingerModel) -> mujoco.MjSpec:
     for name, joints in tendons(spec, model).items():
         force = _force_limit(model, name)
         closed = _closed_length(spec, joints)
-        high = closed if name == "thumb_rotation" else closed + force / KP
-        build.add_tendon_position_actuator(spec, name, joints, kp=KP, force_limit=force, ctrlrange=(0.0, high))
+        high = closed if name == "thumb_rotation" else closed + force / model.kp
+        build.add_tendon_position_actuator(spec, name, joints, kp=model.kp, force_limit=force,
+                                           ctrlrange=(0.0, high))
     return spec
 
 
@@ -205,7 +213,12 @@ def tip_forces(mj: mujoco.MjModel, data: mujoco.MjData, model: FiveFingerModel,
 
 def make(name: str) -> Hand:
     """The robosuite five-finger hand `name` (inspire_right, inspire_left, fourier_right, fourier_left)."""
-    model = MODELS[name]
+    return make_from(MODELS[name])
+
+
+def make_from(model: FiveFingerModel) -> Hand:
+    """The `Hand` of a five-finger model description (e.g. one of `MODELS` with other force limits)."""
+    name = model.name
     base = _base_spec(model)
     mj = base.compile()
     data = mujoco.MjData(mj)
@@ -232,7 +245,9 @@ def make(name: str) -> Hand:
             "fingertip forces at the force limits (F = f |c|^2 / |J c|, open pose): "
             + ", ".join(f"{k} {v:.1f} N" for k, v in forces.items())
             + "; max_grip_force = min(thumb, sum of the four fingers): the squeeze a thumb-vs-fingers "
-            "opposition sustains",
+            "opposition sustains, the largest grip force (manigrasp.sim.grip_force: thumb vs the rest of the "
+            "hand) that GripController sets and holds; a raw full-synergy command is not force-regulated: once "
+            "the thumb folds onto its joint stops, the stops carry the fingers' push and the squeeze can exceed it",
             f"open cavity: {1000 * depth:.0f} mm deep (palm to thumb tip), {1000 * span:.0f} mm across "
             "(thumb underside to shortest fingertip); max_width is the smaller",
             "finger bodies: one per finger (thumb first), the first bending link, whose subtree is the whole "
