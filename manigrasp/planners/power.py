@@ -71,8 +71,8 @@ class PowerPlanner:
     name: ClassVar[str] = "power"
     needs: ClassVar[ObservationKind] = "mesh"
 
-    n_directions: int = 48
-    n_rolls: int = 4
+    n_directions: int = 64
+    n_rolls: int = 6
     standoffs: tuple[float, ...] = (0.005, 0.02)
     closing_steps: int = 16
     min_fingers: int = 2
