@@ -1,11 +1,11 @@
 """`random`: uniform random grasp poses near the object, approach pointing at it, no filtering.
 
 The floor every planner must beat. The TCP is uniform in a ball of radius
-`spread` x the object's radius around its centre of mass; the approach is
-uniform over the directions that do not come from below the table and points
-from the TCP's side toward the centre (the hand stands `spread`-ball-offset
-from it); the roll about the approach is uniform. Nothing is checked: not
-collisions, not contacts. Every candidate scores 0 and carries no metrics.
+`spread` x the object's radius around its centre of mass, so the hand, coming
+along its approach, points at the object; the approach is uniform over the
+directions that do not come from below the table (z component <= 0); the roll
+about the approach is uniform. Nothing is checked: not collisions, not
+contacts. Every candidate scores 0 and carries no metrics.
 """
 
 from __future__ import annotations
