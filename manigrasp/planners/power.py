@@ -14,8 +14,8 @@
    stopped are the planned contacts.
 4. Keep poses with at least `min_fingers` fingers on the object;
    non-maximum suppression (3 cm / 30 deg) over them ordered by fingers
-   touching keeps `n` diverse ones; their contacts' epsilon is computed and
-   they are ranked by the score.
+   touching keeps diverse ones; the contacts' epsilon of the first 3 n is
+   computed and the best `n` by the score are returned.
 
 Score (in [0, 1], higher is better):
 
@@ -45,6 +45,7 @@ from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
 
 BISECTION_STEPS = 8  # resolution (2 radius + FAR) / 256, about 1 mm
+EVALUATED = 3  # epsilon is computed for this many times n NMS survivors, the best n are returned
 FAR = 0.15  # [m] beyond the object's radius, the open hand is assumed clear of it
 
 
@@ -105,15 +106,16 @@ class PowerPlanner:
         closures = [sweep.close(pos[i], quat[i]) for i in range(len(poses))]
         need = min(self.min_fingers, sweep.n_fingers)
         good = np.array([i for i, c in enumerate(closures) if c.n_fingers >= need], int)
-        # NMS on the contact count first; epsilon (the costly part) only for the n survivors.
+        # NMS on the contact count first; epsilon (the costly part) only for the best EVALUATED x n survivors.
         count = np.array([closures[i].n_fingers for i in good], float)
         order = good[np.argsort(-count, kind="stable")]
-        top = order[suppress(poses[order], self.nms_distance, self.nms_angle, hand.kind == "parallel")][:n]
+        survivors = order[suppress(poses[order], self.nms_distance, self.nms_angle, hand.kind == "parallel")]
+        top = survivors[:EVALUATED * n]
         eps, min_mu = self._metrics([closures[i] for i in top], center, scale)
         fraction = np.array([closures[i].n_fingers for i in top], float) / sweep.n_fingers
         score = 0.5 * np.clip(eps / self.epsilon_ref, 0.0, 1.0) + 0.5 * fraction
         return [self._candidate(poses[top[k]], score[k], closures[top[k]], eps[k], min_mu[k])
-                for k in np.argsort(-score, kind="stable")]
+                for k in np.argsort(-score, kind="stable")[:n]]
 
     def _path(self, hand: Hand) -> ClosingPath:
         """The hand's closing path, computed once per hand name and planner."""
