@@ -186,3 +186,41 @@ def test_ycb_dataset_layout_is_found(tmp_path):
     assert sorted(found) == ["003_cracker_box", "004_sugar_box", "005_tomato_soup_can"]
     assert found["004_sugar_box"].parts[-2] == "poisson"
     assert load_mesh(found["003_cracker_box"]).is_watertight
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".stl", ".ply", ".glb", ".gltf", ".off"])
+def test_every_supported_format_loads_the_same_mesh(tmp_path, suffix):
+    box = trimesh.creation.box((0.05, 0.04, 0.03))
+    path = tmp_path / f"box{suffix}"
+    box.export(path)
+    loaded = load_mesh(path)
+    assert loaded.volume == pytest.approx(box.volume, rel=1e-6)
+    np.testing.assert_allclose(loaded.extents, box.extents, atol=1e-9)
+
+
+def test_open_box_is_closed_and_the_repair_recorded(tmp_path, isolated_cache):
+    box = trimesh.creation.box((0.05, 0.04, 0.03))
+    top = box.face_normals[:, 2] > 0.9
+    asset = build_object(_write(trimesh.Trimesh(box.vertices, box.faces[~top], process=False),
+                                tmp_path / "open_box.stl"), mass=0.1).asset
+    assert asset.volume == pytest.approx(box.volume, rel=1e-6)  # STL stores float32
+    assert asset.metadata["repairs"] and "closed holes" in " ".join(asset.metadata["repairs"])
+
+
+def test_unsupported_suffix_and_missing_file(tmp_path):
+    (tmp_path / "part.step").write_text("ISO-10303-21;")
+    with pytest.raises(MeshError, match="unsupported mesh type"):
+        load_mesh(tmp_path / "part.step")
+    with pytest.raises(MeshError, match="no such mesh file"):
+        load_mesh(tmp_path / "missing.obj")
+
+
+def test_objects_list_json_has_the_documented_keys(capsys):
+    import json
+
+    assert main(["objects", "list", "--json"]) == 0
+    records = json.loads(capsys.readouterr().out)
+    assert len(records) >= 15
+    mug = next(r for r in records if r["name"] == "025_mug")
+    assert {"name", "ycb_id", "extents_m", "mass_kg"} <= set(mug)
+    assert mug["ycb_id"] == "025" and mug["mass_kg"] == pytest.approx(0.118) and len(mug["extents_m"]) == 3
