@@ -1,0 +1,61 @@
+"""Pose errors between an estimated and a true object pose (pure NumPy).
+
+Poses are (4, 4) object-to-world transforms [m]; `points` are (n, 3) model
+points in the object frame [m] (e.g. samples of its surface).
+
+- ADD (Hinterstoisser et al. 2012): mean distance between each model point
+  under the true pose and the same point under the estimated pose.
+- ADD-S: mean distance from each point under the true pose to the closest
+  point under the estimated pose; an object with a symmetry that maps it
+  onto itself scores 0 for every pose of that symmetry.
+- Rotation error: angle of R_true^T R_est [deg]. Translation error: distance
+  between the two origins (centres of mass) [mm].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_CHUNK = 2048  # points per block of the brute-force nearest-neighbour search
+
+
+def _transform(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
+    pose = np.asarray(pose, float)
+    return np.asarray(points, float) @ pose[:3, :3].T + pose[:3, 3]
+
+
+def add(points: np.ndarray, true_pose: np.ndarray, est_pose: np.ndarray) -> float:
+    """ADD [m]: mean |T_true p - T_est p| over `points` (n, 3) in the object frame."""
+    return float(np.linalg.norm(_transform(true_pose, points) - _transform(est_pose, points), axis=1).mean())
+
+
+def nearest_distances(query: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(n,) distance [m] from each `query` point (n, 3) to its nearest `reference` point (m, 3).
+
+    Brute force in blocks (n * m distances): meant for a few thousand points.
+    """
+    query, reference = np.asarray(query, float), np.asarray(reference, float)
+    ref_sq = np.einsum("ij,ij->i", reference, reference)
+    out = np.empty(len(query))
+    for start in range(0, len(query), _CHUNK):
+        q = query[start:start + _CHUNK]
+        sq = np.einsum("ij,ij->i", q, q)[:, None] - 2.0 * q @ reference.T + ref_sq[None, :]
+        out[start:start + _CHUNK] = np.sqrt(np.maximum(sq.min(axis=1), 0.0))
+    return out
+
+
+def add_s(points: np.ndarray, true_pose: np.ndarray, est_pose: np.ndarray) -> float:
+    """ADD-S [m]: mean over `points` under the true pose of the distance to the nearest point under the estimate."""
+    return float(nearest_distances(_transform(true_pose, points), _transform(est_pose, points)).mean())
+
+
+def rotation_error_deg(true_pose: np.ndarray, est_pose: np.ndarray) -> float:
+    """Angle [deg] of the rotation between the two poses' orientations, in [0, 180]."""
+    rel = np.asarray(true_pose, float)[:3, :3].T @ np.asarray(est_pose, float)[:3, :3]
+    cos = np.clip((np.trace(rel) - 1.0) / 2.0, -1.0, 1.0)
+    return float(np.degrees(np.arccos(cos)))
+
+
+def translation_error_mm(true_pose: np.ndarray, est_pose: np.ndarray) -> float:
+    """Distance [mm] between the two poses' origins."""
+    return float(1000.0 * np.linalg.norm(np.asarray(true_pose, float)[:3, 3] - np.asarray(est_pose, float)[:3, 3]))
