@@ -66,6 +66,10 @@ class TrialResult:
         sim_time_s: simulated time [s].
         wall_time_s: wall-clock time of the trial [s] (the only non-reproducible field).
         seed: the trial's seed.
+        pose_rotation_error_deg: rotation error of the pose the planner was given [deg]
+            (observation "estimated_pose"; NaN otherwise).
+        pose_translation_error_mm: translation error of that pose [mm] (NaN if not estimated).
+        pose_add_s_mm: ADD-S of that pose [mm] (NaN if not estimated).
     """
 
     status: Status
@@ -83,6 +87,9 @@ class TrialResult:
     sim_time_s: float = 0.0
     wall_time_s: float = math.nan
     seed: int = 0
+    pose_rotation_error_deg: float = math.nan
+    pose_translation_error_mm: float = math.nan
+    pose_add_s_mm: float = math.nan
 
     @property
     def success(self) -> bool:
