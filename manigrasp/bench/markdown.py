@@ -20,6 +20,23 @@ def _modes(modes: dict[str, int]) -> str:
     return ", ".join(f"{m} {n}" for m, n in sorted(modes.items(), key=lambda kv: -kv[1])) or "-"
 
 
+def _perception(report: Report) -> list[str]:
+    """The side-by-side table of observations with their pose errors (empty without estimated poses)."""
+    if not report.pose_errors and {o for _, _, o in report.by_method} <= {"ground_truth"}:
+        return []
+    rows = []
+    for (h, p, o), r in report.by_method.items():
+        e = report.pose_errors.get((h, p, o))
+        errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}", f"{e.median_translation_mm:.1f} / "
+                  f"{e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}", f"{e.share_within_5deg_1cm:.2f}"
+                  ) if e else ("-", "-", "-", "-")
+        rows.append([h, p, o, format_rate(r), *errors])
+    return ["## Observations side by side (perception in the loop)",
+            _table(["hand", "planner", "observation", "rate [95% CI]", "rotation error deg (median / p90)",
+                    "translation error mm (median / p90)", "ADD-S mm (median)", "share within 5 deg & 1 cm"],
+                   rows)]
+
+
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
                    meta: dict) -> Path:
     """Write ``report.md`` and its PNGs into `run_dir`; returns the markdown path."""
@@ -48,6 +65,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         _table(["hand", "planner", "observation", "object", "trials", "successes", "rate [95% CI]", "failure modes"],
                [[h, p, o, obj, r.trials, r.successes, format_rate(r), _modes(r.failure_modes)]
                 for (h, p, o, obj), r in report.groups.items()]),
+        *_perception(report),
         "## Analytic metrics as predictors of success (ROC AUC; 0.5 = chance)",
         _table(["metric", "AUC"], [[k, f"{v:.3f}"] for k, v in report.auc.items()]),
     ]

@@ -60,13 +60,42 @@ def _mode(result: TrialResult) -> str:
 
 
 @dataclass(frozen=True)
+class PoseErrors:
+    """Errors of the estimated object poses of one hand x planner x observation (one per object).
+
+    Attributes:
+        objects: objects with an estimated pose.
+        median_rotation_deg, p90_rotation_deg, median_translation_mm, p90_translation_mm,
+        median_add_s_mm: statistics over those objects.
+        share_within_5deg_1cm: fraction of objects whose pose is within 5 deg and 1 cm.
+    """
+
+    objects: int
+    median_rotation_deg: float
+    p90_rotation_deg: float
+    median_translation_mm: float
+    p90_translation_mm: float
+    median_add_s_mm: float
+    share_within_5deg_1cm: float
+
+    @classmethod
+    def of(cls, per_object: list[tuple[float, float, float]]) -> PoseErrors:
+        """From (rotation [deg], translation [mm], ADD-S [mm]) per object."""
+        rot, trans, adds = (np.array(v, float) for v in zip(*per_object, strict=True))
+        within = float(np.mean((rot < 5.0) & (trans < 10.0)))
+        return cls(len(per_object), float(np.median(rot)), float(np.percentile(rot, 90)),
+                   float(np.median(trans)), float(np.percentile(trans, 90)), float(np.median(adds)), within)
+
+
+@dataclass(frozen=True)
 class Report:
-    """A run's summary: overall, per hand x planner x observation, per group (+ object), AUCs."""
+    """A run's summary: overall, per hand x planner x observation, per group (+ object), AUCs, pose errors."""
 
     overall: Rate
     by_method: dict[tuple[str, str, str], Rate]
     groups: dict[tuple[str, str, str, str], Rate]
     auc: dict[str, float]
+    pose_errors: dict[tuple[str, str, str], PoseErrors] = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """The JSON form printed by ``manigrasp report --json``."""
@@ -80,6 +109,8 @@ class Report:
             "groups": [{"hand": h, "planner": p, "observation": o, "object": obj, **rate(r)}
                        for (h, p, o, obj), r in self.groups.items()],
             "auc": self.auc,
+            "pose_errors": [{"hand": h, "planner": p, "observation": o, **asdict(e)}
+                            for (h, p, o), e in self.pose_errors.items()],
         }
 
 
@@ -91,6 +122,8 @@ def report_from_json(data: dict) -> Report:
         return Rate(**{k: d[k] for k in fields if k in d})
 
     return Report(
+        pose_errors={(e["hand"], e["planner"], e["observation"]): PoseErrors(
+            **{k: e[k] for k in PoseErrors.__dataclass_fields__}) for e in data.get("pose_errors", [])},
         overall=rate(data["overall"]),
         by_method={(m["hand"], m["planner"], m["observation"]): rate(m) for m in data.get("methods", [])},
         groups={(g["hand"], g["planner"], g["observation"], g["object"]): rate(g) for g in data["groups"]},
@@ -117,7 +150,19 @@ def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
         by_method={k: Rate.of(v) for k, v in sorted(by_method.items())},
         groups={k: Rate.of(v) for k, v in sorted(by_group.items())},
         auc=metric_aucs(every),
+        pose_errors=pose_errors(by_group),
     )
+
+
+def pose_errors(by_group: dict[tuple[str, str, str, str], list[TrialResult]]) -> dict[tuple[str, str, str], PoseErrors]:
+    """Pose-error statistics per hand x planner x observation, over the objects whose pose was estimated."""
+    per_method: dict[tuple[str, str, str], list[tuple[float, float, float]]] = defaultdict(list)
+    for (hand, planner, observation, _), results in sorted(by_group.items()):
+        first = results[0]
+        if not math.isnan(first.pose_rotation_error_deg):
+            per_method[(hand, planner, observation)].append(
+                (first.pose_rotation_error_deg, first.pose_translation_error_mm, first.pose_add_s_mm))
+    return {k: PoseErrors.of(v) for k, v in per_method.items()}
 
 
 def metric_aucs(results: list[TrialResult]) -> dict[str, float]:

@@ -11,11 +11,11 @@ from __future__ import annotations
 import math
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from manigrasp.bench.observe import observe
+from manigrasp.bench.observe import ObservationInfo, observe_with_info
 from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import Group
 from manigrasp.errors import ManigraspError
@@ -33,13 +33,15 @@ class Plan:
         candidates: the planner's candidates (may be fewer than requested).
         error: the planner's error message (then `candidates` is empty).
         planning_time_s: wall time of the planning call [s].
-        object_pose: (4, 4) settled object pose the planner saw.
+        object_pose: (4, 4) settled (true) object pose.
+        observation: how the planner's observation was made and its pose errors.
     """
 
     candidates: tuple
     error: str | None
     planning_time_s: float
     object_pose: np.ndarray
+    observation: ObservationInfo
 
 
 def _asset(group: Group):
@@ -68,18 +70,25 @@ def plan_group(group: Group) -> Plan:
 
     scene = scene_for(group)
     pose = settle_object(scene)
-    observation = observe(group.observation, _asset(group), pose, scene)
+    observation, info = observe_with_info(group.observation, _asset(group), pose, scene, seed=group.seed)
     start = time.perf_counter()
     try:
         planner = planners.load(group.planner.name, **dict(group.planner.params))
         result = planners.plan(planner, observation, scene.hand, group.n_grasps, group.rng())
     except ManigraspError as exc:  # planners.plan turns anything a planner raises into a PlannerError
-        return Plan((), str(exc), time.perf_counter() - start, pose)
-    return Plan(result.candidates, None, result.planning_time_s, pose)
+        return Plan((), str(exc), time.perf_counter() - start, pose, info)
+    return Plan(result.candidates, None, result.planning_time_s, pose, info)
 
 
 def run_trial(group: Group, index: int, plan: Plan) -> tuple[TrialKey, TrialResult]:
     """Run trial `index` of `group` with its planned candidate; never raises for a trial's fault."""
+    key, result = _run_trial(group, index, plan)
+    info = plan.observation
+    return key, replace(result, pose_rotation_error_deg=info.rotation_error_deg,
+                        pose_translation_error_mm=info.translation_error_mm, pose_add_s_mm=info.add_s_mm)
+
+
+def _run_trial(group: Group, index: int, plan: Plan) -> tuple[TrialKey, TrialResult]:
     key, seed = group.key(index), group.trial_seed(index)
     planning_time = plan.planning_time_s / max(1, len(plan.candidates) or 1)
     if plan.error is not None:
@@ -98,8 +107,6 @@ def run_trial(group: Group, index: int, plan: Plan) -> tuple[TrialKey, TrialResu
     except Exception as exc:  # a harness or physics bug in one trial must not end the run: record it
         detail = f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-300:]}"
         result = TrialResult(Status.UNSTABLE, detail=detail[:800])
-    from dataclasses import replace
-
     return key, replace(result, seed=seed, planning_time_s=planning_time, score=float(plan.candidates[index].score),
                         wall_time_s=time.perf_counter() - start if math.isnan(result.wall_time_s)
                         else result.wall_time_s)
