@@ -87,10 +87,10 @@ def test_markdown_lists_every_group(tmp_path):
 
 
 def test_pose_errors_are_summarised_per_observation_and_shown_side_by_side(tmp_path):
-    """Three objects with estimated poses (rotation 1, 2, 20 deg; translation 3, 4, 5 mm): median 2 deg, 4 mm;
-    2 of 3 within 5 deg and 1 cm. Ground-truth groups have no pose errors."""
+    """Three objects with estimated poses (rotation 1, 2, 20 deg; translation = ADD-S = 3, 4, 6 mm): median
+    2 deg, 4 mm; 2 of 3 with ADD-S < 5 mm and translation < 1 cm. Ground-truth groups have no pose errors."""
     results = []
-    for obj, rot, trans in (("a", 1.0, 3.0), ("b", 2.0, 4.0), ("c", 20.0, 5.0)):
+    for obj, rot, trans in (("a", 1.0, 3.0), ("b", 20.0, 4.0), ("c", 2.0, 6.0)):
         for i in range(4):
             r = TrialResult(Status.SUCCESS if i else Status.NO_CONTACT, pose_rotation_error_deg=rot,
                             pose_translation_error_mm=trans, pose_add_s_mm=trans)
@@ -100,6 +100,7 @@ def test_pose_errors_are_summarised_per_observation_and_shown_side_by_side(tmp_p
     report = summarize(results)
     errors = report.pose_errors[("parallel_jaw", "antipodal", "estimated_pose")]
     assert (errors.objects, errors.median_rotation_deg, errors.median_translation_mm) == (3, 2.0, 4.0)
+    assert errors.median_add_s_mm == 4.0
     assert errors.share_within_5deg_1cm == pytest.approx(2 / 3)
     assert ("parallel_jaw", "antipodal", "ground_truth") not in report.pose_errors
     assert report_from_json(json.loads(json.dumps(report.to_json()))).pose_errors == report.pose_errors

@@ -67,7 +67,9 @@ class PoseErrors:
         objects: objects with an estimated pose.
         median_rotation_deg, p90_rotation_deg, median_translation_mm, p90_translation_mm,
         median_add_s_mm: statistics over those objects.
-        share_within_5deg_1cm: fraction of objects whose pose is within 5 deg and 1 cm.
+        share_within_5deg_1cm: fraction of objects whose pose is good: ADD-S < 5 mm and translation < 1 cm
+            (ADD-S, not the rotation error, so a symmetric object turned onto itself counts as good;
+            the rotation statistics are not meaningful for symmetric objects).
     """
 
     objects: int
@@ -82,7 +84,7 @@ class PoseErrors:
     def of(cls, per_object: list[tuple[float, float, float]]) -> PoseErrors:
         """From (rotation [deg], translation [mm], ADD-S [mm]) per object."""
         rot, trans, adds = (np.array(v, float) for v in zip(*per_object, strict=True))
-        within = float(np.mean((rot < 5.0) & (trans < 10.0)))
+        within = float(np.mean((adds < 5.0) & (trans < 10.0)))
         return cls(len(per_object), float(np.median(rot)), float(np.percentile(rot, 90)),
                    float(np.median(trans)), float(np.percentile(trans, 90)), float(np.median(adds)), within)
 

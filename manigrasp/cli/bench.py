@@ -104,6 +104,11 @@ def _report(args: argparse.Namespace) -> int:
              for (h, p, o), r in report.by_method.items()]
     print(format_table(["hand", "planner", "observation", "object", "trials", "successes", "rate [95% CI]",
                         "top failure modes"], rows))
+    for (h, p, o), e in report.pose_errors.items():
+        print(f"pose errors {h}/{p}/{o}: rotation median {e.median_rotation_deg:.1f} deg "
+              f"(p90 {e.p90_rotation_deg:.1f}), translation median {e.median_translation_mm:.1f} mm "
+              f"(p90 {e.p90_translation_mm:.1f}), {e.share_within_5deg_1cm:.0%} of {e.objects} objects "
+              "with ADD-S < 5 mm and translation < 1 cm")
     print(f"\noverall: {report.overall.successes}/{report.overall.trials} = {format_rate(report.overall)}")
     print("metric AUC for success: " + ", ".join(f"{k} {v:.2f}" for k, v in report.auc.items()))
     print(f"report: {markdown}")
