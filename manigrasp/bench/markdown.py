@@ -32,9 +32,10 @@ def _perception(report: Report) -> list[str]:
                   ) if e else ("-", "-", "-", "-")
         rows.append([h, p, o, format_rate(r), *errors])
     return ["## Observations side by side (perception in the loop)",
-            _table(["hand", "planner", "observation", "rate [95% CI]", "rotation error deg (median / p90; symmetric objects excepted)",
-                    "translation error mm (median / p90)", "ADD-S mm (median)", "share with ADD-S < 5 mm & translation < 1 cm"],
-                   rows)]
+            _table(["hand", "planner", "observation", "rate [95% CI]",
+                    "rotation error deg (median / p90; not meaningful for symmetric objects)",
+                    "translation error mm (median / p90)", "ADD-S mm (median)",
+                    "share with ADD-S < 5 mm & translation < 1 cm"], rows)]
 
 
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
