@@ -33,6 +33,7 @@ class GeomMesh:
         visual: True for a geom that never collides (drawn), False for a collision geom.
         vertices: (n, 3) float32 vertices in the geom frame [m].
         faces: (m, 3) uint32 triangle indices.
+        normals: (n, 3) float32 unit vertex normals (for shading).
         pos: (3,) geom position in the body frame [m].
         quat: (4,) geom orientation in the body frame, (w, x, y, z).
         rgba: (4,) colour in [0, 1].
@@ -43,6 +44,7 @@ class GeomMesh:
     visual: bool
     vertices: np.ndarray
     faces: np.ndarray
+    normals: np.ndarray
     pos: np.ndarray
     quat: np.ndarray
     rgba: np.ndarray
@@ -129,8 +131,10 @@ def geom_mesh(model: mujoco.MjModel, geom: int) -> GeomMesh | None:
         if shape is None:
             return None
         vertices, faces = shape.vertices, shape.faces
+    normals = trimesh.Trimesh(vertices, faces, process=False).vertex_normals
     return GeomMesh(entity=geom_entity(model, geom), body=int(model.geom_bodyid[geom]), visual=visual,
                     vertices=np.asarray(vertices, np.float32), faces=np.asarray(faces, np.uint32),
+                    normals=np.asarray(normals, np.float32),
                     pos=model.geom_pos[geom].copy(), quat=model.geom_quat[geom].copy(), rgba=_rgba(model, geom))
 
 

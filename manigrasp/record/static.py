@@ -13,7 +13,6 @@ from typing import Any
 import mujoco
 import numpy as np
 import rerun as rr
-import trimesh
 
 from manigrasp.record import layout
 from manigrasp.record.geometry import GeomMesh, hidden_collision_entities, scene_meshes
@@ -61,11 +60,10 @@ def log_geometry(stream: rr.RecordingStream, meshes: list[GeomMesh], collision: 
     for mesh in meshes:
         if not mesh.visual and not collision and mesh.body in drawn:
             continue
-        normals = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).vertex_normals
         stream.log(mesh.entity,
                    rr.Transform3D(translation=mesh.pos, quaternion=rr.Quaternion(xyzw=xyzw(mesh.quat))),
                    rr.Mesh3D(vertex_positions=mesh.vertices, triangle_indices=mesh.faces,
-                             vertex_normals=np.asarray(normals, np.float32), albedo_factor=mesh.rgba),
+                             vertex_normals=mesh.normals, albedo_factor=mesh.rgba),
                    static=True)
 
 
