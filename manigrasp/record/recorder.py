@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +28,7 @@ from manigrasp.protocol.execution import relative_motion
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.record import layout, static
 from manigrasp.record.geometry import body_entity
-from manigrasp.sim import grip_force, read_hand_contacts
+from manigrasp.sim import HandContacts, grip_force, read_hand_contacts
 
 APPLICATION_ID = "manigrasp"
 
@@ -237,7 +237,7 @@ class TrialRecorder:
         s.contact_pos.append(contacts.position)
         s.contact_force.append(contacts.force)
         s.contact_ok.append(contacts.in_cone)
-        s.grip.append(grip_force(read_hand_contacts(scene)))
+        s.grip.append(grip_force(_subset(contacts, np.isin(contacts.other_geom, scene.object_geoms))))
         if scene.object_body >= 0:
             s.perturb.append(data.xfrc_applied[scene.object_body, :3].copy())
         if self._reference is not None:
@@ -288,6 +288,11 @@ class TrialRecorder:
             hand_index = [rr.TimeColumn(layout.TIMELINE, duration=np.asarray(s.hand_time))]
             stream.send_columns(layout.DISPLACEMENT, hand_index, rr.Scalars.columns(scalars=s.displacement_mm))
             stream.send_columns(layout.ROTATION, hand_index, rr.Scalars.columns(scalars=s.rotation_deg))
+
+
+def _subset(contacts: HandContacts, mask: np.ndarray) -> HandContacts:
+    """The contacts where `mask` (n,) is True (e.g. those with the object, for the grip force)."""
+    return HandContacts(**{f.name: getattr(contacts, f.name)[mask] for f in fields(HandContacts)})
 
 
 def _object_in_hand(scene: Any) -> np.ndarray:
