@@ -198,3 +198,17 @@ def test_dexterous_hand_recording_names_bodies_and_stays_small(tmp_path: Path, a
     summary = summarize(path)
     assert "/world/hand/l_thumb_distal" in summary.entities
     assert path.stat().st_size < 5e6  # ~3 MB of which almost all is the hand's meshes, once
+
+
+def test_blueprint_hides_the_convex_parts_only(recorded: tuple[Path, TrialResult]) -> None:
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(recorded[0])
+    hidden = {}
+    for chunk in reader.stream(store=reader.blueprints()[0]).to_chunks():
+        batch = chunk.to_record_batch()
+        if "EntityBehavior:visible" in batch.schema.names and "/overrides/" in chunk.entity_path:
+            target = chunk.entity_path.split("/overrides/", 1)[1]
+            hidden[target] = batch.column("EntityBehavior:visible").to_pylist()[0] == [False]
+    assert any(t.startswith("world/object/object/collision") and v for t, v in hidden.items()), hidden
+    assert not any("hand" in t for t in hidden)  # parallel_jaw has only collision geoms: they stay visible

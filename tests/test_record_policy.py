@@ -142,3 +142,10 @@ def test_plan_recording_holds_object_and_candidates_coloured_by_score(asset, tmp
     colors = score_colors(np.array([3.0, 2.0, 1.0]))
     assert tuple(colors[0, :3]) == (40, 190, 70) and tuple(colors[-1, :3]) == (220, 40, 40)  # best green, worst red
     assert colors.shape == (3, 4) and colors.dtype == np.uint8
+
+
+def test_settings_travel_to_worker_processes(tmp_path: Path) -> None:
+    import pickle
+
+    settings = RecordSettings.for_run(tmp_path, "3")
+    assert pickle.loads(pickle.dumps(settings)) == settings

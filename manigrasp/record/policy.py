@@ -157,15 +157,18 @@ class TrialRecording:
             result = TrialResult(Status.UNSTABLE, detail=f"{type(exc).__name__}: {exc}"[:500])
         recorder.close(result)
         self.error = recorder.error
+        keep = self.error is None and result is not None and settings.policy.keeps(result.status)
+        try:  # a file-system error here must not turn into the trial's error
+            if keep and self.partial.exists():
+                self.partial.replace(self.final)
+                self.path = self.final
+            else:
+                self.partial.unlink(missing_ok=True)
+        except OSError as exc:
+            self.error, self.path = self.error or exc, None
         if self.error is not None:
             warnings.warn(f"recording of trial {self.trial_id} failed and was dropped: {self.error!r}",
                           RecordingWarning, stacklevel=2)
-        keep = self.error is None and result is not None and settings.policy.keeps(result.status)
-        if keep and self.partial.exists():
-            self.partial.replace(self.final)
-            self.path = self.final
-        else:
-            self.partial.unlink(missing_ok=True)
         return self.path
 
 
