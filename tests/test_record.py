@@ -212,3 +212,17 @@ def test_blueprint_hides_the_convex_parts_only(recorded: tuple[Path, TrialResult
             hidden[target] = batch.column("EntityBehavior:visible").to_pylist()[0] == [False]
     assert any(t.startswith("world/object/object/collision") and v for t, v in hidden.items()), hidden
     assert not any("hand" in t for t in hidden)  # parallel_jaw has only collision geoms: they stay visible
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts OS threads through /proc (Linux)")
+def test_recordings_do_not_leave_threads_behind(box: tuple[Scene, np.ndarray], tmp_path: Path) -> None:
+    scene, rest = box
+
+    def record(i: int) -> None:
+        drive(scene, TrialRecorder(tmp_path / f"{i}.rrd"), rest, seconds=0.02)
+
+    record(0)
+    before = len(list(Path("/proc/self/task").iterdir()))
+    for i in range(1, 11):
+        record(i)
+    assert len(list(Path("/proc/self/task").iterdir())) <= before + 2  # rerun alone would add 2 per recording

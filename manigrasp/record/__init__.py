@@ -5,6 +5,7 @@
     >>> result = protocol.run(scene, candidate, rng, object_pose=rest, observer=recorder)
 """
 
-from manigrasp.record.recorder import APPLICATION_ID, RecordOptions, SimClock, TrialRecorder
+from manigrasp.record.recorder import RecordOptions, SimClock, TrialRecorder
+from manigrasp.record.streams import APPLICATION_ID
 
 __all__ = ["APPLICATION_ID", "RecordOptions", "SimClock", "TrialRecorder"]

@@ -22,8 +22,8 @@ import numpy as np
 import rerun as rr
 
 from manigrasp.record import layout
-from manigrasp.record.recorder import APPLICATION_ID
 from manigrasp.record.static import markdown_table, pose_transform
+from manigrasp.record.streams import open_file_stream, release_streams
 
 FINGER_LENGTH = 0.04  # [m] drawn finger and stem length
 DEFAULT_HALF_WIDTH = 0.04  # [m] half-opening drawn for a candidate without a width
@@ -84,9 +84,7 @@ def record_plan(path: str | Path, observation: Any, candidates: Sequence[Any], t
                 frame_length: float = 0.05) -> Path:
     """Write the object and `candidates` (best first, `GraspCandidate`s) to the `.rrd` file `path`."""
     path = Path(path)
-    stream = rr.RecordingStream(APPLICATION_ID, recording_id=title)
-    stream.set_log_time_enabled(False)
-    stream.save(path, default_blueprint=layout.plan_blueprint())
+    stream = open_file_stream(path, title, layout.plan_blueprint())
     try:
         stream.send_recording_name(title)
         _log_object(stream, observation)
@@ -96,6 +94,8 @@ def record_plan(path: str | Path, observation: Any, candidates: Sequence[Any], t
     finally:
         stream.flush()
         stream.disconnect()
+        del stream
+        release_streams()
     return path
 
 

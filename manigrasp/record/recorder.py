@@ -28,9 +28,8 @@ from manigrasp.protocol.execution import relative_motion
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.record import layout, static
 from manigrasp.record.geometry import body_entity
+from manigrasp.record.streams import open_file_stream, release_streams
 from manigrasp.sim import HandContacts, grip_force, read_hand_contacts
-
-APPLICATION_ID = "manigrasp"
 
 
 @dataclass(frozen=True)
@@ -112,7 +111,7 @@ def _guarded(method: Callable[..., None]) -> Callable[..., None]:
         try:
             method(self, *args, **kwargs)
         except Exception as exc:  # noqa: BLE001 - a recording must never change a trial: kept, reported by the caller
-            self.error = exc
+            self.error = exc.with_traceback(None)  # its frames would keep the stream (and its threads) alive
             self._disconnect()
 
     return wrapper
@@ -148,9 +147,7 @@ class TrialRecorder:
     @_guarded
     def on_start(self, scene: Any, grasp: Any, object_pose: Any) -> None:  # noqa: D102 - TrialObserver
         meshes, hidden = static.scene_geometry(scene.model)
-        stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
-        stream.set_log_time_enabled(False)
-        stream.save(self.path, default_blueprint=layout.trial_blueprint(hidden, self.recording_id))
+        stream = open_file_stream(self.path, self.recording_id, layout.trial_blueprint(hidden, self.recording_id))
         self._stream = stream
         stream.send_recording_name(self.recording_id)
         static.log_geometry(stream, meshes, self.options.collision)
@@ -193,6 +190,7 @@ class TrialRecorder:
         if self._clock.started and (not samples.time or t > samples.time[-1]) and scene.is_finite():
             self._sample(scene, t)
         self._finish(result, t)
+        self._disconnect()
 
     # ------------------------------------------------------------ lifecycle
     def close(self, result: TrialResult | None = None) -> None:
@@ -212,7 +210,8 @@ class TrialRecorder:
         if self._stream is not None:
             self._stream.flush()
             self._stream.disconnect()
-            self._stream = None
+            self._stream = None  # the last reference: rerun now sees the stream as orphaned
+            release_streams()
         self.closed = True
 
     # ------------------------------------------------------------- internals
@@ -263,7 +262,6 @@ class TrialRecorder:
                 "planned grasp", static.plan_rows(result, self.candidate)), media_type="text/markdown"), static=True)
         stream.send_property("trial", rr.AnyValues(status=status, detail=detail.strip(" ()") or "-",
                                                    sim_time_s=float(t), trial_id=self.recording_id))
-        self._disconnect()
 
     def _send_samples(self) -> None:
         s, stream = self._samples, self._stream
