@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from manigrasp.errors import ConfigError
 from manigrasp.objects import ObjectAsset, build_object
 from manigrasp.protocol import PROTOCOLS, Grasp, Status, TrialResult, settle_object
 from manigrasp.protocol.observer import NullObserver, TrialObserver
@@ -162,11 +163,14 @@ def test_real_protocol_recording_matches_its_result(recorded: tuple[Path, TrialR
 
 def test_full_rate_samples_every_step(box: tuple[Scene, np.ndarray], tmp_path: Path) -> None:
     scene, rest = box
-    recorder = TrialRecorder(tmp_path / "full.rrd", options=RecordOptions(rate_hz=None))
-    assert recorder.sample_period_s == 0.0
+    dt = scene.model.opt.timestep
+    recorder = TrialRecorder(tmp_path / "full.rrd", options=RecordOptions.full_rate(dt))
+    assert recorder.sample_period_s == pytest.approx(dt)
     result = drive(scene, recorder, rest, seconds=0.2)
-    low, high = summarize(tmp_path / "full.rrd").time_range
-    assert high == pytest.approx(result.sim_time_s, abs=1e-9)
+    assert summarize(tmp_path / "full.rrd").time_range[1] == pytest.approx(result.sim_time_s, abs=1e-9)
+    assert len(recorder._samples.time) >= result.sim_steps  # one sample per step (and the end state)
+    with pytest.raises(ConfigError, match="rate_hz must be > 0"):
+        RecordOptions(rate_hz=0.0)
 
 
 def test_sim_clock_keeps_increasing_across_resets() -> None:

@@ -37,7 +37,7 @@ class RecordOptions:
     """What a trial recording holds and how densely.
 
     Attributes:
-        rate_hz: samples per simulated second (default 60); None: every physics step.
+        rate_hz: samples per simulated second (default 60); `full_rate(timestep)`: every physics step.
         collision: also log collision geoms of bodies that have visual meshes (hidden in the viewer).
         force_scale: length of a contact force arrow per newton [m/N].
         contact_radius: radius of a drawn contact point [m].
@@ -46,16 +46,21 @@ class RecordOptions:
             (the protocol's `pregrasp_offset`; display only).
     """
 
-    rate_hz: float | None = 60.0
+    rate_hz: float = 60.0
     collision: bool = True
     force_scale: float = 0.002
     contact_radius: float = 0.003
     frame_length: float = 0.05
     pregrasp_offset: float = 0.10
 
+    @classmethod
+    def full_rate(cls, timestep: float, **fields: Any) -> RecordOptions:
+        """Options sampling every physics step of `timestep` [s] (e.g. `scene.model.opt.timestep`)."""
+        return cls(rate_hz=1.0 / timestep, **fields)
+
     def __post_init__(self) -> None:
-        if self.rate_hz is not None and not self.rate_hz > 0:
-            raise ConfigError(f"rate_hz must be > 0 or None (every step), got {self.rate_hz}")
+        if not self.rate_hz > 0:
+            raise ConfigError(f"rate_hz must be > 0, got {self.rate_hz}")
         for name in ("force_scale", "contact_radius", "frame_length"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
@@ -131,8 +136,7 @@ class TrialRecorder:
                  options: RecordOptions | None = None) -> None:
         self.path, self.recording_id, self.candidate = Path(path), recording_id, candidate
         self.options = options or RecordOptions()
-        rate = self.options.rate_hz
-        self.sample_period_s = 0.0 if rate is None else 1.0 / rate
+        self.sample_period_s = 1.0 / self.options.rate_hz
         self.result: TrialResult | None = None
         self.error: Exception | None = None
         self.closed = False
