@@ -17,7 +17,7 @@ from manigrasp.planners.base import (
     resting_pose,
 )
 from manigrasp.planners.registry import PLANNERS, load, names
-from manigrasp.planners.run import PlanResult, candidate_defect, plan, validate_candidates
+from manigrasp.planners.run import PlanResult, accepted_kinds, candidate_defect, plan, validate_candidates
 
 __all__ = [
     "PLANNERS",
@@ -27,6 +27,7 @@ __all__ = [
     "ObservationKind",
     "PlanResult",
     "Planner",
+    "accepted_kinds",
     "candidate_defect",
     "load",
     "names",

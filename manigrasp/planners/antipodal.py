@@ -22,7 +22,8 @@
 
 Score (in [0, 1], higher is better), per contact pair:
 
-    score = 0.5 * antipodality + 0.5 * min(1, epsilon_L1 / epsilon_ref)
+    score = hold * (0.5 * antipodality + 0.5 * min(1, epsilon_L1 / epsilon_ref))
+    hold = min(1, h / hold_ref),   h = G / G_required
     antipodality = 1 - max(alpha_1, alpha_2) / atan(mu)
 
 with alpha_i the angle between the grasp line and the inward normal at
@@ -30,12 +31,24 @@ contact i (0: perfectly antipodal, atan(mu): on the cone's edge), and
 epsilon_L1 the Ferrari-Canny epsilon of the two contacts as soft fingers
 (`metrics`). epsilon_ref (0.1) is about the epsilon of an ideal two-finger
 grasp through the centre of mass with mu = 0.5, gamma = 5 mm, on a 5 cm object.
+
+h is the hold margin (`hold`): G is the grip force the protocol closes to
+(`grip_fraction` x the hand's max_grip_force, 35 N for parallel_jaw), and
+G_required the smallest grip force with which the two contacts, as soft
+fingers (mu, gamma) squeezed along the grasp line, hold the object's weight
+m g and the weight plus each perturbation (`perturbation` m g along +-x, +-y,
++-z) at its centre of mass: the tangential load and its tipping couple, and
+the gravity torque about the grasp line (m g d for a grasp a distance d from
+the centre of mass) that only the contacts' torsional friction gamma f can
+resist. h >= 1 holds every load; hold_ref (3) asks for a safety factor, since
+the lift's accelerations and the contacts' compliance come on top. Mass:
+the asset's, else the mesh's volume x `density`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 import trimesh
@@ -44,6 +57,7 @@ from manigrasp.errors import ConfigError, PlannerError
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.hands.base import Hand
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.cloud import cloud_pairs, collision_hull, complete, hull_volume
 from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
 from manigrasp.planners.geometry import (
     SmoothNormals,
@@ -53,49 +67,25 @@ from manigrasp.planners.geometry import (
     sample_surface,
     tcp_frames,
 )
+from manigrasp.planners.hold import hold_margin, loads, required_grip
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, Suppressor
+from manigrasp.planners.pairs import Pairs, cone_rays
 from manigrasp.planners.select import select_free
 
 RAY_OFFSET = 1e-5  # [m], rays start this far along their direction (no self-hit)
+COMPLETIONS = ("point_symmetry", "none")
 
 
-@dataclass(frozen=True)
-class Pairs:
-    """m antipodal contact pairs: contact 1 (finger 1) at `p`, contact 2 at `q`, line `axis` from p to q.
+class _Target(NamedTuple):
+    """What the shared stages need from either path: pairs, centre of mass (3,) [m], torque scale [m],
+    mass [kg] and the collision probe."""
 
-    Attributes:
-        p, q: (m, 3) contact points [m]; n_p, n_q: (m, 3) outward unit normals there.
-        axis: (m, 3) unit vectors from p to q; width: (m,) |q - p| [m].
-        alpha: (m,) the larger angle between the line and an inward normal [rad].
-    """
-
-    p: np.ndarray
-    q: np.ndarray
-    n_p: np.ndarray
-    n_q: np.ndarray
-    axis: np.ndarray
-    width: np.ndarray
-    alpha: np.ndarray
-
-    def take(self, keep: np.ndarray) -> Pairs:
-        """The pairs selected by a mask or index array."""
-        return Pairs(*(getattr(self, f)[keep] for f in ("p", "q", "n_p", "n_q", "axis", "width", "alpha")))
-
-    def __len__(self) -> int:
-        return len(self.width)
-
-
-def cone_rays(axes: np.ndarray, count: int, half_angle: float, rng: np.random.Generator) -> np.ndarray:
-    """(n, count, 3) unit rays per axis (n, 3): the axis itself, then count - 1 uniform inside `half_angle`."""
-    n = len(axes)
-    cos_t = 1.0 - rng.random((n, count)) * (1.0 - np.cos(half_angle))
-    cos_t[:, 0] = 1.0
-    phi = rng.random((n, count)) * 2.0 * np.pi
-    sin_t = np.sqrt(np.clip(1.0 - cos_t**2, 0.0, None))
-    a, b = perpendicular_basis(axes)
-    return (cos_t[..., None] * axes[:, None] + sin_t[..., None] * (np.cos(phi)[..., None] * a[:, None]
-                                                                   + np.sin(phi)[..., None] * b[:, None]))
+    pairs: Pairs
+    center: np.ndarray
+    scale: float
+    mass: float
+    probe: HandProbe
 
 
 def find_pairs(mesh: trimesh.Trimesh, normals: SmoothNormals, points: np.ndarray, n_out: np.ndarray,
@@ -172,14 +162,22 @@ class AntipodalPlanner:
         clearance: hand-object/table distance that counts as a collision [m].
         pregrasp_offset: pre-grasp distance back along the approach [m].
         max_checks: the most poses tested for collision per plan.
+        grip_fraction: the protocol's grip force as a fraction of the hand's max_grip_force [-] (the hold margin).
+        perturbation: the protocol's perturbation force in units of the object's weight [-] (the hold margin).
+        hold_ref: hold margin that counts as full marks in the score (a safety factor) [-].
+        density: of an object without a built asset (mesh or point cloud), for its mass [kg/m^3].
+        completion: how a point cloud's unseen side is filled in: "point_symmetry" or "none" (`cloud`).
+        cloud_radius: smallest distance from a ray at which a cloud point still lies on it [m]
+            (1.5 x the cloud's point spacing if larger).
+        cloud_margin: the collision hull of a point cloud is pushed out this far [m].
         pair_cell: pairs are thinned to the most antipodal one per cell of this size [m] and ~10 degrees
             of line direction before scoring (`thin_pairs`).
     """
 
     name: ClassVar[str] = "antipodal"
-    needs: ClassVar[ObservationKind] = "mesh"
+    needs: ClassVar[tuple[ObservationKind, ...]] = ("mesh", "points")
 
-    n_samples: int = 1024
+    n_samples: int = 2048
     rays_per_sample: int = 1
     ray_cone: float = 0.5
     n_approaches: int = 12
@@ -195,6 +193,13 @@ class AntipodalPlanner:
     pregrasp_offset: float = PREGRASP_OFFSET
     max_checks: int = 20_000
     pair_cell: float = 0.01
+    grip_fraction: float = 0.5
+    perturbation: float = 1.0
+    hold_ref: float = 3.0
+    density: float = 500.0
+    completion: str = "point_symmetry"
+    cloud_radius: float = 0.003
+    cloud_margin: float = 0.003
 
     def __post_init__(self) -> None:
         for key in ("n_samples", "rays_per_sample", "n_approaches", "max_checks"):
@@ -207,27 +212,65 @@ class AntipodalPlanner:
             raise ConfigError(f"antipodal: depth_fractions must be in [0, 1), got {self.depth_fractions}")
         if self.epsilon_ref <= 0 or self.clearance < 0:
             raise ConfigError("antipodal: epsilon_ref must be > 0 and clearance >= 0")
+        if not (0 < self.grip_fraction <= 1 and self.perturbation >= 0 and self.hold_ref > 0 and self.density > 0):
+            raise ConfigError("antipodal: grip_fraction must be in (0, 1], perturbation >= 0, hold_ref and density > 0")
+        if self.completion not in COMPLETIONS:
+            raise ConfigError(f"antipodal: unknown completion {self.completion!r}; valid: {', '.join(COMPLETIONS)}")
+        if self.cloud_radius <= 0 or self.cloud_margin < 0:
+            raise ConfigError("antipodal: cloud_radius must be > 0 and cloud_margin >= 0")
         object.__setattr__(self, "depth_fractions", fractions)
 
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
-        """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first."""
+        """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first.
+
+        Plans on the mesh when the observation has one, else on its point cloud (`cloud`).
+        """
         if hand.kind != "parallel":
             raise PlannerError(f"antipodal plans two-jaw grasps; hand {hand.name!r} is {hand.kind} "
                                "(use the 'power' planner)")
-        mesh = observation.world_mesh()
-        pairs = self.pairs(mesh, hand, rng)
-        center = observation.center_of_mass
-        scale = torque_scale(mesh.vertices, center)
+        target = self._mesh_target if observation.mesh is not None else self._cloud_target
+        pairs, center, scale, mass, probe = target(observation, hand, rng)
         eps = grasp_metrics(*self._contacts(pairs), center, scale,
                             ContactModel(self.contact.mu, self.contact.gamma, min_friction=False)).epsilon_l1
-        score = self.score(pairs, eps)
-        probe = HandProbe(hand, observation, self.clearance)
+        score = self.score(pairs, eps, self.hold(pairs, center, mass, hand))
         depths = probe.finger_reach() * np.asarray(self.depth_fractions)
         poses, pair_of, depth_of = self.poses(pairs, depths, observation.table_height, rng)
         order = np.lexsort((depth_of, -score[pair_of]))
         nms = Suppressor(self.nms_distance, self.nms_angle, symmetric=True, capacity=max(n, 1))
         chosen = select_free(probe, nms, poses[order], n, self.pregrasp_offset, self.max_checks)
         return self._candidates(pairs, score, eps, poses, pair_of, order[chosen], center, scale)
+
+    def _mesh_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
+        """Pairs on the mesh; centre of mass = the object frame's origin; the asset's mass (else volume x density)."""
+        mesh = observation.world_mesh()
+        center = observation.center_of_mass
+        if observation.asset is not None:
+            mass = float(observation.asset.mass)
+        else:
+            mass = self.density * float(mesh.volume if mesh.is_watertight else mesh.convex_hull.volume)
+        return _Target(self.pairs(mesh, hand, rng), center, torque_scale(mesh.vertices, center), mass,
+                       HandProbe(hand, observation, self.clearance))
+
+    def _cloud_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
+        """Pairs on the completed point cloud (`cloud`); its centre and hull; collision against the hull."""
+        done = complete(observation.points, observation.normals, observation.table_height, self.completion)
+        radius = max(self.cloud_radius, 1.5 * done.spacing)
+        widths = (self.min_width, hand.max_width - self.width_margin)
+        pairs = cloud_pairs(done, self.n_samples, self.rays_per_sample, self.ray_cone, self.contact.mu, widths,
+                            0.5 * hand.max_width, radius, rng)
+        pairs = pairs.take(thin_pairs(pairs, self.pair_cell))
+        hull = collision_hull(done, self.cloud_margin)
+        mass = self.density * hull_volume(done.points)
+        return _Target(pairs, done.center, torque_scale(done.points, done.center), mass,
+                       HandProbe(hand, observation, self.clearance, hull=hull))
+
+    def hold(self, pairs: Pairs, center: np.ndarray, mass: float, hand: Hand) -> np.ndarray:
+        """(m,) hold margin h of each pair at the protocol's grip force (module docstring, `hold`)."""
+        tilt = np.arccos(np.clip(np.stack([-np.einsum("ij,ij->i", pairs.n_p, pairs.axis),
+                                           np.einsum("ij,ij->i", pairs.n_q, pairs.axis)], axis=1), -1.0, 1.0))
+        required = required_grip(pairs.p, pairs.q, center, loads(mass, self.perturbation), self.contact.mu,
+                                 self.contact.gamma, tilt)
+        return hold_margin(self.grip_fraction * hand.max_grip_force, required)
 
     # ------------------------------------------------------------ steps
     def pairs(self, mesh: trimesh.Trimesh, hand: Hand, rng: np.random.Generator) -> Pairs:
@@ -243,10 +286,11 @@ class AntipodalPlanner:
                            rays, half_angle, widths, 0.5 * hand.max_width)
         return pairs.take(thin_pairs(pairs, self.pair_cell))
 
-    def score(self, pairs: Pairs, epsilon: np.ndarray) -> np.ndarray:
-        """(m,) the documented score of each pair (module docstring)."""
-        antipodality = 1.0 - pairs.alpha / np.arctan(self.contact.mu)
-        return 0.5 * np.clip(antipodality, 0.0, 1.0) + 0.5 * np.clip(epsilon / self.epsilon_ref, 0.0, 1.0)
+    def score(self, pairs: Pairs, epsilon: np.ndarray, hold: np.ndarray) -> np.ndarray:
+        """(m,) the documented score of each pair (module docstring) from its epsilon (m,) and hold margin (m,)."""
+        antipodality = np.clip(1.0 - pairs.alpha / np.arctan(self.contact.mu), 0.0, 1.0)
+        quality = 0.5 * antipodality + 0.5 * np.clip(epsilon / self.epsilon_ref, 0.0, 1.0)
+        return np.clip(hold / self.hold_ref, 0.0, 1.0) * quality
 
     def poses(self, pairs: Pairs, depths: np.ndarray, table_height: float,
               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,7 +1,9 @@
 """The planner interface: `Observation` in, ranked `GraspCandidate`s out.
 
 A planner is any object with a ``name``, the kind of observation it ``needs``
-("mesh" or "points") and a method
+("mesh" or "points", or a tuple of both in order of preference: the
+antipodal planner's ("mesh", "points") plans on the mesh when there is one)
+and a method
 
     plan(observation, hand, n, rng) -> Sequence[GraspCandidate]
 
@@ -45,7 +47,10 @@ class Observation:
 
     Ground truth ("mesh"): the object's mesh in its own frame and its resting
     pose. Perception ("points"): a point cloud with normals in the world
-    frame. Either may be given; `kind` says which a planner can rely on.
+    frame (one view: noisy, partial, table removed). Either may be given;
+    `kinds` says which a planner can rely on. The antipodal planner's cloud
+    path reads only the points, normals and table height (it estimates the
+    centre of mass itself; an identity or estimated `object_pose` is ignored).
 
     Attributes:
         object_pose: (4, 4) pose of the object frame (origin = centre of mass) in the world.
@@ -218,7 +223,7 @@ class Planner(Protocol):
     """What every planner provides (ours and users')."""
 
     name: str
-    needs: ObservationKind
+    needs: ObservationKind | tuple[ObservationKind, ...]
 
     def plan(self, observation: Observation, hand: Hand, n: int,
              rng: np.random.Generator) -> Sequence[GraspCandidate]:

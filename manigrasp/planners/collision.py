@@ -29,8 +29,14 @@ def mesh_object_spec(mesh: trimesh.Trimesh) -> mujoco.MjSpec:
     Used when an observation has no built asset: the hull contains the object,
     so a pose free of it is free of the object (the test is conservative).
     """
+    return hull_object_spec(np.asarray(mesh.vertices, float))
+
+
+def hull_object_spec(vertices: np.ndarray) -> mujoco.MjSpec:
+    """An object MJCF spec (body ``object``, free joint) whose one collision geom is the convex hull of
+    `vertices` (n, 3) [m] in the object frame."""
     spec = mujoco.MjSpec()
-    spec.add_mesh(name="object_hull", uservert=np.asarray(mesh.vertices, float).ravel().tolist())
+    spec.add_mesh(name="object_hull", uservert=np.asarray(vertices, float).ravel().tolist())
     body = spec.worldbody.add_body(name="object")
     body.add_freejoint(name="object_joint")
     body.add_geom(name="object_hull", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="object_hull", mass=0.1)
@@ -60,17 +66,25 @@ class HandProbe:
             collision geometry; without an asset, the convex hull of its mesh).
         clearance: distance [m] below which hand and object/table count as colliding.
         config: scene parameters (default: the standard protocol).
+        hull: (n, 3) points in the world [m] whose convex hull replaces the object's geometry (a point
+            cloud's completed hull), or None.
     """
 
     def __init__(self, hand: Hand, observation: Observation, clearance: float = DEFAULT_CLEARANCE,
-                 config: SceneConfig | None = None) -> None:
-        obj = observation.asset if observation.asset is not None else mesh_object_spec(observation.mesh)
+                 config: SceneConfig | None = None, hull: np.ndarray | None = None) -> None:
+        object_pose = observation.object_pose
+        if hull is not None:
+            obj, object_pose = hull_object_spec(hull), np.eye(4)
+        elif observation.asset is not None:
+            obj = observation.asset
+        else:
+            obj = mesh_object_spec(observation.mesh)
         self.scene = build_scene(hand, obj, config)
         self.hand = hand
         # The scene's table top is z = 0: shift the world so the observed table lands there.
         self.shift = np.eye(4)
         self.shift[2, 3] = -float(observation.table_height)
-        self.scene.reset(mount=np.eye(4), object_pose=self.shift @ observation.object_pose)
+        self.scene.reset(mount=np.eye(4), object_pose=self.shift @ object_pose)
         model = self.scene.model
         self.root = self.scene.root_body
         self.root_in_tcp = pose_matrix(model.body_pos[self.root], model.body_quat[self.root])

@@ -40,6 +40,13 @@ def planner_name(planner: object) -> str:
     return str(getattr(planner, "name", type(planner).__name__))
 
 
+def accepted_kinds(planner: object) -> tuple[str, ...]:
+    """The observation kinds `planner` can plan from, preferred first: its `needs` ("mesh", "points", or a
+    tuple of them; "mesh" if it declares nothing)."""
+    needs = getattr(planner, "needs", "mesh")
+    return (needs,) if isinstance(needs, str) else tuple(needs)
+
+
 def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> PlanResult:
     """Run `planner` for at most `n` grasps of `hand`; validated, ranked and timed.
 
@@ -52,9 +59,9 @@ def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np
         raise PlannerError(f"the number of grasps must be >= 1, got {n}")
     if not isinstance(rng, np.random.Generator):
         raise PlannerError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    needs = getattr(planner, "needs", "mesh")
-    if needs not in observation.kinds:
-        raise PlannerError(f"planner {name!r} needs a {needs} observation; this one has: "
+    needs = accepted_kinds(planner)
+    if not set(needs) & set(observation.kinds):
+        raise PlannerError(f"planner {name!r} needs a {' or '.join(needs)} observation; this one has: "
                            f"{', '.join(observation.kinds)}")
     start = time.perf_counter()
     try:
