@@ -145,6 +145,7 @@ class TrialRecorder:
         self._samples = _Samples()
         self._bodies = np.zeros(0, int)
         self._entities: list[str] = []
+        self._is_object_geom = np.zeros(0, bool)
         self._phase, self._reference = "", None
 
     # -------------------------------------------------------------- observer
@@ -158,6 +159,8 @@ class TrialRecorder:
         object_body = [scene.object_body] if scene.object_body >= 0 else []
         self._bodies = np.array([*object_body, *scene.hand_bodies], int)
         self._entities = [body_entity(scene.model, int(b)) for b in self._bodies]
+        self._is_object_geom = np.zeros(scene.model.ngeom, bool)
+        self._is_object_geom[scene.object_geoms] = True
         self._log_plan(grasp)
         stream.log(layout.CONTACTS, rr.Points3D.from_fields(radii=[self.options.contact_radius]), static=True)
         stream.log(layout.PERTURB_FORCE, rr.SeriesLines(names=["x", "y", "z"]), static=True)
@@ -236,11 +239,17 @@ class TrialRecorder:
         s.time.append(t)
         s.pos.append(data.xpos[self._bodies].copy())
         s.quat.append(data.xquat[self._bodies].copy())
-        contacts = read_hand_contacts(scene, "any")
-        s.contact_pos.append(contacts.position)
-        s.contact_force.append(contacts.force)
-        s.contact_ok.append(contacts.in_cone)
-        s.grip.append(grip_force(_subset(contacts, np.isin(contacts.other_geom, scene.object_geoms))))
+        if data.ncon:
+            contacts = read_hand_contacts(scene, "any")
+            s.contact_pos.append(contacts.position)
+            s.contact_force.append(contacts.force)
+            s.contact_ok.append(contacts.in_cone)
+            s.grip.append(grip_force(_subset(contacts, self._is_object_geom[contacts.other_geom])))
+        else:
+            s.contact_pos.append(np.zeros((0, 3)))
+            s.contact_force.append(np.zeros((0, 3)))
+            s.contact_ok.append(np.zeros(0, bool))
+            s.grip.append(0.0)
         if scene.object_body >= 0:
             s.perturb.append(data.xfrc_applied[scene.object_body, :3].copy())
         if self._reference is not None:
@@ -299,6 +308,10 @@ def _subset(contacts: HandContacts, mask: np.ndarray) -> HandContacts:
 
 def _object_in_hand(scene: Any) -> np.ndarray:
     """(4, 4) object pose in the TCP frame."""
-    return np.linalg.inv(scene.tcp_pose()) @ scene.object_pose()
+    tcp, obj = scene.tcp_pose(), scene.object_pose()
+    out = np.eye(4)
+    out[:3, :3] = tcp[:3, :3].T @ obj[:3, :3]
+    out[:3, 3] = tcp[:3, :3].T @ (obj[:3, 3] - tcp[:3, 3])
+    return out
 
 
