@@ -127,4 +127,6 @@ def test_ray_executor_runs_the_same_trials(tmp_path):
         ray.shutdown()
     local = run_benchmark(parse_config(small), tmp_path / "local", progress=False)
     assert summary.ran == local.ran == 3
-    assert [r["status"] for r in _rows(tmp_path / "ray")] == [r["status"] for r in _rows(tmp_path / "local")]
+    ray_rows = _rows(tmp_path / "ray")
+    assert [r["status"] for r in ray_rows] == [r["status"] for r in _rows(tmp_path / "local")], [
+        r["detail"] for r in ray_rows]
