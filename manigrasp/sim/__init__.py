@@ -6,7 +6,15 @@
 """
 
 from manigrasp.sim.config import SceneConfig
-from manigrasp.sim.contacts import HandContacts, grip_force, hand_contact_wrench, read_hand_contacts, to_contacts
+from manigrasp.sim.contacts import (
+    HandContacts,
+    contact_forces,
+    current_grip_force,
+    grip_force,
+    hand_contact_wrench,
+    read_hand_contacts,
+    to_contacts,
+)
 from manigrasp.sim.scene import FloatingBase, Scene, build_scene
 
 __all__ = [
@@ -15,6 +23,8 @@ __all__ = [
     "Scene",
     "SceneConfig",
     "build_scene",
+    "contact_forces",
+    "current_grip_force",
     "grip_force",
     "hand_contact_wrench",
     "read_hand_contacts",

@@ -2,16 +2,25 @@
 
 Names are prefixed per part: ``table/``, ``object/`` (the object's body is
 ``object/object``), ``hand/`` (every element of the hand's own MJCF) and
-``mount/`` (the six base joints and their motors). Everything is later found
-by name, never by position.
+``mount/`` (the six base joints, their motors and their servos). Everything
+is later found by name, never by position.
 
 The floating base (see `manigrasp.control` for why it is built this way): the
 hand's root body hangs from the world by six joints placed on the root body
 itself, in this order: slides ``mount/tx``, ``mount/ty``, ``mount/tz`` along
 the axes of the TCP frame, then hinges ``mount/rx``, ``mount/ry``, ``mount/rz``
-about the same axes through the hand's centre of mass (at its open pose). A
-``motor`` actuator of gear 1 drives each joint, so a controller's command is
-the generalised force of that joint. At zero joint positions the TCP sits
+about the same axes through the hand's centre of mass (at its open pose).
+Each joint carries two actuators:
+
+- a ``motor`` of gear 1 named like the joint (``mount/tx``...): its command is
+  the generalised force of that joint (`control.ImpedanceController`, a
+  Cartesian law computed in Python every step);
+- a ``general`` servo ``mount/tx_servo``... with gain kp and affine bias
+  -kp q - kv qdot, i.e. the PD law kp (u - q) - kv qdot evaluated by MuJoCo
+  every step (`control.NativeImpedance`). It is built with kp = kv = 0 (off);
+  a controller sets the gains when it engages, `Scene.reset` switches them off.
+
+At zero joint positions the TCP sits
 exactly on the *mount* pose, which is moved between trials by editing the root
 body's `body_pos`/`body_quat` in the compiled model: no recompilation.
 """
@@ -30,6 +39,7 @@ from manigrasp.objects.asset import ObjectAsset
 from manigrasp.sim.config import SceneConfig
 
 BASE_JOINTS = ("mount/tx", "mount/ty", "mount/tz", "mount/rx", "mount/ry", "mount/rz")
+BASE_SERVOS = tuple(f"{joint}_servo" for joint in BASE_JOINTS)
 HAND_PREFIX = "hand/"
 OBJECT_PREFIX = "object/"
 OBJECT_BODY = "object/object"
@@ -147,6 +157,11 @@ def _attach_hand(spec: mujoco.MjSpec, hand: Hand, frames: HandFrames, config: Sc
                        damping=[0.0], armature=0.0, frictionloss=0.0, stiffness=[0.0], margin=0.0,
                        group=4)
         spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    for joint, servo in zip(BASE_JOINTS, BASE_SERVOS, strict=True):
+        spec.add_actuator(name=servo, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                          gaintype=mujoco.mjtGain.mjGAIN_FIXED, biastype=mujoco.mjtBias.mjBIAS_AFFINE,
+                          gainprm=[0.0] * 10, biasprm=[0.0] * 10, ctrllimited=mujoco.mjtLimited.mjLIMITED_FALSE,
+                          forcelimited=mujoco.mjtLimited.mjLIMITED_FALSE)
     _tune_hand_geoms(root, config)
 
 

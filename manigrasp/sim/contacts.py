@@ -2,9 +2,10 @@
 
 Sign conventions (all world frame): `normal` points from the hand into the
 other geom, and `force` is the force the hand exerts ON the other geom (the
-object or table), so for a squeezing grasp `force . normal > 0`. Forces come
-from `mj_contactForce` (contact frame: normal, tangent1, tangent2, then
-torsional / rolling torques) and are rotated into the world frame.
+object or table), so for a squeezing grasp `force . normal > 0`. Forces are
+what `mj_contactForce` gives (contact frame: normal, tangent1, tangent2, then
+torsional / rolling torques), decoded from `data.efc_force` for all contacts
+at once (`contact_forces`), and rotated into the world frame.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ if TYPE_CHECKING:
     from manigrasp.sim.scene import Scene
 
 Other = Literal["object", "table", "any"]
+_SIX, _TEN = np.arange(6), np.arange(10)
 
 
 @dataclass(frozen=True)
@@ -72,7 +74,7 @@ class HandContacts:
 
 def _other_mask(scene: Scene, geoms: np.ndarray, other: Other) -> np.ndarray:
     if other == "object":
-        return np.isin(geoms, scene.object_geoms)
+        return scene.geom_is_object[geoms]
     if other == "table":
         return geoms == scene.table_geom
     if other == "any":
@@ -80,19 +82,45 @@ def _other_mask(scene: Scene, geoms: np.ndarray, other: Other) -> np.ndarray:
     raise ValueError(f"other must be 'object', 'table' or 'any', got {other!r}")
 
 
-def _select(scene: Scene, other: Other) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of active hand-`other` contacts and whether the hand is geom1 there."""
-    model, con = scene.model, scene.data.contact
+def _select(scene: Scene, other: Other) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Indices of active hand-`other` contacts, whether the hand is geom1 there, and their geoms (n, 2)."""
+    con = scene.data.contact
     if scene.data.ncon == 0:
-        return np.zeros(0, int), np.zeros(0, bool)
+        return np.zeros(0, int), np.zeros(0, bool), np.zeros((0, 2), int)
     geom = con.geom
-    is_hand = np.isin(model.geom_bodyid[geom], scene.hand_bodies)
+    is_hand = scene.geom_is_hand[geom]
     hand_first = is_hand[:, 0] & ~is_hand[:, 1]
     hand_second = is_hand[:, 1] & ~is_hand[:, 0]
     other_geom = np.where(hand_first, geom[:, 1], geom[:, 0])
     keep = (hand_first | hand_second) & _other_mask(scene, other_geom, other) & (con.efc_address >= 0)
     idx = np.flatnonzero(keep)
-    return idx, hand_first[idx]
+    return idx, hand_first[idx], geom[idx]
+
+
+def contact_forces(model: mujoco.MjModel, data: mujoco.MjData, idx: np.ndarray) -> np.ndarray:
+    """(n, 6) forces of contacts `idx` in their contact frames, as `mj_contactForce` gives them, at once.
+
+    Read from `data.efc_force`: an elliptic (or frictionless) contact's rows are
+    its normal force, then its frictional components; a pyramidal contact's
+    2 (dim - 1) edge forces are decoded as MuJoCo's `mju_decodePyramid` does
+    (normal = their sum, tangential j = (f_2j - f_2j+1) mu_j). Contacts without
+    constraint rows (efc_address < 0) get zeros.
+    """
+    idx = np.asarray(idx, int)
+    if len(idx) == 0:
+        return np.zeros((0, 6))
+    con, force = data.contact, data.efc_force
+    adr, dim = con.efc_address[idx], con.dim[idx]
+    live = adr >= 0
+    if model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC:
+        valid = live[:, None] & (_SIX[None, :] < dim[:, None])
+        return np.where(valid, force[np.where(valid, adr[:, None] + _SIX[None, :], 0)], 0.0)
+    edges = live[:, None] & (_TEN[None, :] < 2 * (dim[:, None] - 1))
+    pyramid = np.where(edges, force[np.where(edges, adr[:, None] + _TEN[None, :], 0)], 0.0)  # (n, 10)
+    out = np.zeros((len(idx), 6))
+    out[:, 0] = np.where(dim == 1, np.where(live, force[np.where(live, adr, 0)], 0.0), pyramid.sum(axis=1))
+    out[:, 1:] = (pyramid[:, 0::2] - pyramid[:, 1::2]) * con.friction[idx]
+    return out
 
 
 def read_hand_contacts(scene: Scene, other: Other = "object", cone_tolerance: float = 1e-3) -> HandContacts:
@@ -100,21 +128,19 @@ def read_hand_contacts(scene: Scene, other: Other = "object", cone_tolerance: fl
 
     Valid after `mj_step` or `mj_forward`. `cone_tolerance` is the relative slack
     of the friction-cone test (MuJoCo's soft contacts sit on the cone when sliding).
+    Vectorised over contacts (`contact_forces`); no Python loop per contact.
     """
     model, data = scene.model, scene.data
-    idx, hand_first = _select(scene, other)
+    idx, hand_first, geoms = _select(scene, other)
     n = len(idx)
-    local = np.zeros((n, 6))
-    for row, i in enumerate(idx):
-        mujoco.mj_contactForce(model, data, int(i), local[row])
+    local = contact_forces(model, data, idx)
     con = data.contact
     frames = con.frame[idx].reshape(n, 3, 3)  # rows: normal (geom1 -> geom2), tangent1, tangent2
-    # mj_contactForce gives the force of geom1 on geom2 in the contact frame.
+    # The contact-frame force is the force of geom1 on geom2.
     sign = np.where(hand_first, 1.0, -1.0)[:, None]
     force = sign * np.einsum("nij,ni->nj", frames, local[:, :3])
     torque = sign * np.einsum("nij,ni->nj", frames, local[:, 3:])
     normal = sign * frames[:, 0, :]
-    geoms = con.geom[idx]
     hand_geom = np.where(hand_first, geoms[:, 0], geoms[:, 1])
     dim = con.dim[idx]
     mu = con.friction[idx]  # (n, 5): tangent1, tangent2, spin, roll1, roll2
@@ -124,9 +150,22 @@ def read_hand_contacts(scene: Scene, other: Other = "object", cone_tolerance: fl
         position=con.pos[idx].copy(), normal=normal, force=force, torque=torque, normal_force=fn,
         tangential_force=np.linalg.norm(local[:, 1:3], axis=1), friction=mu[:, 0].copy(),
         torsional_friction=mu[:, 2].copy(), cone_ratio=ratio,
-        in_cone=(fn > 0) & (ratio <= 1.0 + cone_tolerance), finger=scene.finger_of_body[model.geom_bodyid[hand_geom]],
+        in_cone=(fn > 0) & (ratio <= 1.0 + cone_tolerance), finger=scene.geom_finger[hand_geom],
         hand_body=model.geom_bodyid[hand_geom], hand_geom=hand_geom,
         other_geom=np.where(hand_first, geoms[:, 1], geoms[:, 0]), condim=dim.copy())
+
+
+def current_grip_force(scene: Scene) -> float:
+    """`grip_force(read_hand_contacts(scene))` [N] without building the full record (the grip loop's read-out).
+
+    Only the normal forces of the hand-object contacts and their fingers are read.
+    """
+    idx, hand_first, geoms = _select(scene, "object")
+    if len(idx) == 0:
+        return 0.0
+    fn = np.clip(contact_forces(scene.model, scene.data, idx)[:, 0], 0.0, None)
+    first = scene.geom_finger[np.where(hand_first, geoms[:, 0], geoms[:, 1])] == 0
+    return float(min(fn[first].sum(), fn[~first].sum()))
 
 
 def _cone_ratio(local: np.ndarray, mu: np.ndarray, dim: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from manigrasp.errors import SimulationError
 from manigrasp.hands.base import Hand
 from manigrasp.sim.compose import (
     BASE_JOINTS,
+    BASE_SERVOS,
     HAND_PREFIX,
     OBJECT_BODY,
     TABLE_GEOM,
@@ -50,6 +51,8 @@ class FloatingBase:
             rotation centre of the base: the open hand's centre of mass.
         mass: mass of the hand [kg].
         gravcomp: True if MuJoCo compensates the hand's weight (body gravcomp).
+        servos: (6,) ids of the base servos (PD computed by MuJoCo; off until a controller engages them).
+        tcp_in_root: (4, 4) pose of the TCP in the hand's root body frame (the base joints' frame).
     """
 
     model: mujoco.MjModel
@@ -61,6 +64,19 @@ class FloatingBase:
     anchor_joint: int
     mass: float
     gravcomp: bool
+    servos: np.ndarray
+    tcp_in_root: np.ndarray
+
+    def mount(self) -> np.ndarray:
+        """(4, 4) world pose of the TCP at zero base joints (read from the root body's model pose)."""
+        root = pose_matrix(self.model.body_pos[self.root_body], self.model.body_quat[self.root_body])
+        return root @ self.tcp_in_root
+
+    def release_servos(self) -> None:
+        """Switch the base servos off (zero gains and command)."""
+        self.model.actuator_gainprm[self.servos, 0] = 0.0
+        self.model.actuator_biasprm[self.servos, :3] = 0.0
+        self.data.ctrl[self.servos] = 0.0
 
     def diag_inertia(self) -> np.ndarray:
         """(6,) joint-space inertia of the base dofs at the current state: mass [kg] x3, then
@@ -88,13 +104,19 @@ class Scene:
             dofs=model.jnt_dofadr[base_joints].copy(), actuators=np.array([name_to_id(model, _ACT, j, "actuator")
                                                                           for j in BASE_JOINTS]),
             anchor_joint=base_joints[3], mass=float(model.body_subtreemass[self.root_body]),
-            gravcomp=config.hand_gravcomp)
+            gravcomp=config.hand_gravcomp,
+            servos=np.array([name_to_id(model, _ACT, s, "actuator") for s in BASE_SERVOS]),
+            tcp_in_root=frames.tcp_in_root.copy())
         self.base_qpos = model.jnt_qposadr[base_joints].copy()
         self.hand_bodies = np.flatnonzero(model.body_rootid == self.root_body)
         self.finger_of_body = self._finger_map()
         self._open_qpos = self._hand_open_qpos()
         self.object_body = mujoco.mj_name2id(model, _BODY, OBJECT_BODY)
         self.object_geoms = self._object_geoms()
+        self.geom_is_hand = np.isin(model.geom_bodyid, self.hand_bodies)
+        self.geom_is_object = np.zeros(model.ngeom, bool)
+        self.geom_is_object[self.object_geoms] = True
+        self.geom_finger = self.finger_of_body[model.geom_bodyid]
         self._object_qpos = self._object_free_qpos()
         self.object_rest_height = self._rest_height()
         self.mount = np.eye(4)
@@ -159,8 +181,11 @@ class Scene:
             mount: (4, 4) TCP pose at zero base joints (default: the current mount).
             object_pose: (4, 4) object pose (default: resting on the table at x = y = 0).
             synergy: hand command in [0, 1] (0 open); the joints start at the open shape.
+
+        The base motors and servos are off afterwards until a controller commands or engages them.
         """
         mujoco.mj_resetData(self.model, self.data)
+        self.base.release_servos()
         if mount is not None:
             self.set_mount(mount)
         for adr, value in self._open_qpos:
@@ -216,9 +241,9 @@ class Scene:
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, n: int = 1) -> None:
-        """Advance `n` steps of `model.opt.timestep` with the current controls."""
-        for _ in range(n):
-            mujoco.mj_step(self.model, self.data)
+        """Advance `n` steps of `model.opt.timestep` with the current controls (one call into MuJoCo)."""
+        if n > 0:
+            mujoco.mj_step(self.model, self.data, nstep=n)
 
     # ------------------------------------------------------------ read-out
     @property
