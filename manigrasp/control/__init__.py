@@ -1,7 +1,10 @@
 """Controllers of the floating hand and its fingers: small classes over a `sim.FloatingBase` view.
 
-- `ImpedanceController`: Cartesian impedance of the TCP (per-axis TCP-frame K, D;
-  feed-forward; gravity compensation; optional adaptive stiffness).
+- `NativeImpedance`: the impedance realised by MuJoCo's PD servos on the base
+  joints (no Python per step; what the protocols use).
+- `ImpedanceController`: Cartesian impedance of the TCP computed in Python every
+  step (per-axis TCP-frame K, D; feed-forward; gravity compensation; optional
+  adaptive stiffness); the position part of the hybrid controllers below.
 - `HybridController`: selection-matrix hybrid position/force control (PI with anti-windup).
 - `GuardedApproach`: approach that stops pushing at a contact-force threshold.
 - `GripController`: close on position until contact, then regulate the grip force.
@@ -9,9 +12,11 @@
 
 from manigrasp.control.hybrid import ForceGains, ForcePI, GripController, GuardedApproach, HybridController
 from manigrasp.control.impedance import AdaptiveStiffness, ImpedanceController, ImpedanceGains, default_gains
+from manigrasp.control.native import BaseKinematics, NativeImpedance, euler_xyz
 
 __all__ = [
     "AdaptiveStiffness",
+    "BaseKinematics",
     "ForceGains",
     "ForcePI",
     "GripController",
@@ -19,5 +24,7 @@ __all__ = [
     "HybridController",
     "ImpedanceController",
     "ImpedanceGains",
+    "NativeImpedance",
     "default_gains",
+    "euler_xyz",
 ]
