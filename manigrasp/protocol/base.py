@@ -21,6 +21,7 @@ from typing import Any, ClassVar, Generic, TypeVar
 import numpy as np
 
 from manigrasp.config import from_mapping
+from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.result import TrialResult
 from manigrasp.registry import Registry
 from manigrasp.sim import Scene
@@ -87,7 +88,8 @@ class Protocol(ABC, Generic[P]):
 
     @abstractmethod
     def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0) -> TrialResult:
+            object_pose: np.ndarray | None = None, seed: int = 0,
+            observer: TrialObserver | None = None) -> TrialResult:
         """Execute `grasp` in `scene` and return the trial's result (never raises for a trial fault).
 
         Args:
@@ -97,6 +99,9 @@ class Protocol(ABC, Generic[P]):
             deadline: `time.monotonic()` value after which the trial stops as `timeout`, or None.
             object_pose: (4, 4) settled object pose (from `settle_object`); None: settle here.
             seed: the trial's seed, copied into the result.
+            observer: watches the trial (`protocol.observer.TrialObserver`: start, phases,
+                samples every `sample_period_s` of simulated time, end), or None; the
+                result is the same with or without one (wall time aside).
         """
 
 

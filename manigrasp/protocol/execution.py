@@ -1,11 +1,23 @@
 """The machinery every protocol shares: stepping with fault checks, and the grasp phases.
 
-`TrialRun` owns the controllers of one trial and steps the scene; every
-`check_every` steps it checks for faults (non-finite state, MuJoCo warnings,
-divergence -> `unstable`; the wall-clock deadline -> `timeout`) and, while a
-phase watches it, the object's motion relative to the hand (-> the phase's
-failure status). A fault ends the trial by raising `Abort`, which the
-protocol turns into its `TrialResult`.
+`TrialRun` owns the controllers of one trial and steps the scene with no
+Python per step: MuJoCo computes the hand's impedance (the base servos of
+`control.NativeImpedance`) and its finger servos every step, and Python acts
+only at coarse ticks, stepping everything in between in one call
+(`mj_step(..., nstep=k)`):
+
+- control ticks (`GraspParams.control_period_s`, 100 Hz), only while a
+  set-point moves or the grip loop runs: the set-point from the phase's
+  trajectory, the grip-force loop while closing;
+- checks (`check_period_s`, 50 Hz, and at the end of each stepping call):
+  faults (non-finite state, MuJoCo warnings, divergence -> `unstable`; the
+  wall-clock deadline -> `timeout`) and, while a phase watches it, the
+  object's motion relative to the hand (-> the phase's failure status).
+
+A fault ends the trial by raising `Abort`, which the protocol turns into its
+`TrialResult`. An observer (`protocol.observer.TrialObserver`) only adds
+stops at its sample times; it never moves a tick or a check, so a trial's
+result is the same with or without one.
 
 The phases themselves are in `manigrasp.protocol.phases`. Poses are (4, 4)
 world matrices [m].
@@ -18,15 +30,19 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
-from manigrasp.control import GripController, ImpedanceController, default_gains
+from manigrasp.control import GripController, NativeImpedance, default_gains
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp
 from manigrasp.protocol.metrics import radius_of_gyration
+from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.result import GraspMetrics, Status
-from manigrasp.sim import Scene, grip_force, read_hand_contacts
+from manigrasp.protocol.sampling import Sampler
+from manigrasp.sim import Scene, current_grip_force, read_hand_contacts
+
+Trajectory = Callable[[float], tuple[np.ndarray, np.ndarray]]
+"""A set-point as a function of the time since its phase began [s]: (TCP pose (4, 4), twist (6,)), world."""
 
 
 @dataclass(frozen=True)
@@ -51,8 +67,15 @@ class GraspParams:
         payload_feedforward: add the object's weight as feed-forward once grasped.
         max_speed: any body faster than this means divergence [m/s].
         max_angular_speed: any body spinning faster than this means divergence [rad/s].
-        check_every: steps between fault and motion checks.
-        grip_every: steps between updates of the grip-force loop (it runs at 1 / (grip_every dt)).
+        control_period_s: time between control ticks [s] (rounded to whole steps) while a
+            set-point moves or the grip loop runs: set-point updates and the grip-force loop
+            run at this rate; MuJoCo runs the impedance (base servos) and the finger servos
+            every step, so a phase that holds still has no control ticks at all.
+        check_period_s: time between fault and motion checks [s] (rounded to whole steps; also
+            checked at the end of every stepping call).
+        regulate_grip_after_close: keep the grip-force loop running after the close phase
+            (reading contacts every tick); False: the finger command is held where the loop
+            left it, and the finger servos hold the grip with no Python in the loop.
         metric_edges: edges of the linearised friction cones in the metrics.
         metric_friction_tol: tolerance of the smallest-friction-for-closure bisection [-].
         simulated_min_friction: also compute the smallest friction for closure of the simulated
@@ -77,8 +100,9 @@ class GraspParams:
     payload_feedforward: bool = True
     max_speed: float = 20.0
     max_angular_speed: float = 200.0
-    check_every: int = 10
-    grip_every: int = 5
+    control_period_s: float = 0.01
+    check_period_s: float = 0.02
+    regulate_grip_after_close: bool = False
     metric_edges: int = 8
     metric_friction_tol: float = 0.01
     simulated_min_friction: bool = False
@@ -87,7 +111,7 @@ class GraspParams:
     def __post_init__(self) -> None:
         for name in ("approach_speed", "close_speed", "contact_force", "close_timeout_s", "translation_threshold",
                      "rotation_threshold_deg", "impedance_omega", "impedance_omega_rot", "max_speed",
-                     "max_angular_speed"):
+                     "max_angular_speed", "control_period_s", "check_period_s"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
         for name in ("pregrasp_offset", "approach_settle_s", "close_settle_s"):
@@ -97,8 +121,8 @@ class GraspParams:
             raise ConfigError(f"grip_force must be > 0 or None, got {self.grip_force}")
         if not 0 < self.grip_force_fraction <= 1:
             raise ConfigError(f"grip_force_fraction must be in (0, 1], got {self.grip_force_fraction}")
-        if self.min_fingers < 0 or self.check_every < 1 or self.grip_every < 1:
-            raise ConfigError("min_fingers must be >= 0, check_every and grip_every >= 1")
+        if self.min_fingers < 0:
+            raise ConfigError(f"min_fingers must be >= 0, got {self.min_fingers}")
         if self.metric_edges < 4 or self.metric_edges % 2 or not self.metric_friction_tol > 0:
             raise ConfigError("metric_edges must be even and >= 4, metric_friction_tol > 0")
         if self.torque_scale is not None and not self.torque_scale > 0:
@@ -115,9 +139,10 @@ class Abort(Exception):
 
 def relative_motion(reference: np.ndarray, current: np.ndarray) -> tuple[float, float]:
     """(translation [m], rotation [deg]) between two (4, 4) object-in-hand poses."""
-    shift = float(np.linalg.norm(current[:3, 3] - reference[:3, 3]))
-    cos = (np.trace(reference[:3, :3].T @ current[:3, :3]) - 1.0) / 2.0
-    return shift, math.degrees(math.acos(float(np.clip(cos, -1.0, 1.0))))
+    diff = current[:3, 3] - reference[:3, 3]
+    shift = math.sqrt(float(diff @ diff))
+    cos = (float(np.vdot(reference[:3, :3], current[:3, :3])) - 1.0) / 2.0  # trace(A^T B) = sum(A * B)
+    return shift, math.degrees(math.acos(min(1.0, max(-1.0, cos))))
 
 
 class TrialRun:
@@ -128,13 +153,23 @@ class TrialRun:
         params: execution parameters.
         deadline: `clock()` value after which the trial is a `timeout`, or None.
         clock: the monotonic clock the deadline refers to.
+        observer: called at phase changes and sample times, or None.
+        sampler: the stepper that stops at the observer's sample times (shared with
+            settling); default: a new one for `observer`.
     """
 
     def __init__(self, scene: Scene, params: GraspParams, deadline: float | None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, observer: TrialObserver | None = None,
+                 sampler: Sampler | None = None) -> None:
         self.scene, self.params, self.deadline, self.clock = scene, params, deadline, clock
+        self.observer = observer
+        self.sampler = sampler or Sampler(scene, observer)
         self.dt = float(scene.model.opt.timestep)
+        self.chunk = max(1, round(params.control_period_s / self.dt))
+        self.check_chunk = max(1, round(params.check_period_s / self.dt))
+        self.next_check = self.check_chunk
         self.steps = 0
+        self.time0 = 0.0  # simulated time before this run's own steps (settling) [s]
         self.last_phase = ""
         self.impedance = self._impedance()
         self.grip: GripController | None = None
@@ -145,39 +180,64 @@ class TrialRun:
         self.simulated = GraspMetrics()
         self.torque_scale = params.torque_scale or radius_of_gyration(scene)
 
-    def _impedance(self) -> ImpedanceController:
-        p = self.params
-        return ImpedanceController(self.scene.base, default_gains(self.scene.base, p.impedance_omega,
-                                                                  p.impedance_omega_rot))
+    @property
+    def sim_time(self) -> float:
+        """Simulated time of the trial [s]: settling (if the trial settled) plus its own steps."""
+        return self.time0 + self.steps * self.dt
 
     def reset(self, mount: np.ndarray, object_pose: np.ndarray, synergy: float) -> None:
         """Reset the scene (hand open at `mount`, object at `object_pose`) and the controllers.
 
         The impedance gains are designed from the hand's inertia at the reset state, so a trial
-        does not depend on what the scene did before it.
+        does not depend on what the scene did before it. The scene's clock keeps running across
+        the resets of one trial (`sim_time`), so observers see one time line.
         """
         self.scene.reset(mount=mount, object_pose=object_pose, synergy=synergy)
+        self.scene.data.time = self.sim_time
         self.impedance = self._impedance()
+        self.impedance.engage()
         self.impedance.set_target(mount)
         self.grip, self.in_hand, self.watch = None, None, None
 
+    def _impedance(self) -> NativeImpedance:
+        p = self.params
+        return NativeImpedance(self.scene.base, default_gains(self.scene.base, p.impedance_omega,
+                                                              p.impedance_omega_rot))
+
+    def phase(self, name: str, detail: str = "") -> None:
+        """Tell the observer that phase `name` begins (`detail`: e.g. the perturbation direction)."""
+        if self.observer is not None:
+            self.observer.on_phase(self.scene, name, detail)
+
     # ------------------------------------------------------------ stepping
-    def step(self, n: int, before: Callable[[int], None] | None = None) -> None:
-        """Advance `n` steps under the hand's controllers; `before(i)` runs before step i (set-points)."""
-        scene, model, data = self.scene, self.scene.model, self.scene.data
-        check_every, grip_every = self.params.check_every, self.params.grip_every
-        for i in range(n):
-            if before is not None:
-                before(i)
-            self.impedance.apply()
-            if self.grip is not None and self.steps % grip_every == 0:
-                force = grip_force(read_hand_contacts(scene))
-                scene.set_synergy(self.grip.update(force, grip_every * self.dt, scene.hand_synergy()))
-            mujoco.mj_step(model, data)
-            self.steps += 1
-            if self.steps % check_every == 0:
+    def step(self, n: int, trajectory: Trajectory | None = None) -> None:
+        """Advance `n` steps: control ticks while something moves, checks every check period and at the end.
+
+        While a `trajectory` or the grip loop is active, a control tick every control period
+        sets the set-point from `trajectory` (evaluated at the middle of the coming period,
+        time counted from this call) and updates the grip loop. The steps between ticks and
+        checks run in one call into MuJoCo. `check` runs every check period of the trial's
+        steps and once at the end of the call, so every motion is judged under its own phase.
+        """
+        done = 0
+        while done < n:
+            active = trajectory is not None or self.grip is not None
+            k = min(n - done, self.next_check - self.steps, self.chunk if active else n)
+            if trajectory is not None:
+                pose, twist = trajectory((done + 0.5 * (k + 1)) * self.dt)
+                self.impedance.track(pose, twist)
+            if self.grip is not None:
+                scene = self.scene
+                force = current_grip_force(scene)
+                scene.set_synergy(self.grip.update(force, self.chunk * self.dt, scene.hand_synergy()))
+            self.sampler.advance(k)
+            self.steps += k
+            done += k
+            if self.steps >= self.next_check:
+                self.next_check += self.check_chunk
                 self.check()
-        self.check()
+        if self.steps != self.next_check - self.check_chunk:
+            self.check()
 
     def hold_for(self, seconds: float) -> None:
         """Step for `seconds` [s] with the current set-points."""
@@ -189,13 +249,14 @@ class TrialRun:
 
     def check(self) -> None:
         """Raise `Abort` on a fault, a blown deadline, or too much motion of the object in the hand."""
-        scene = self.scene
-        if not scene.is_finite():
+        scene, data = self.scene, self.scene.data
+        # A sum is finite only if every term is (an overflow to inf is a divergence too).
+        if not math.isfinite(float(data.qpos.sum() + data.qvel.sum() + data.qacc.sum())):
             raise Abort(Status.UNSTABLE, "non-finite simulation state (NaN or inf)")
-        if scene.data.warning.number.any():
+        if data.warning.number.any():
             warnings = scene.warnings()
             raise Abort(Status.UNSTABLE, "MuJoCo warning: " + ", ".join(f"{k} x{v}" for k, v in warnings.items()))
-        cvel = np.abs(scene.data.cvel)
+        cvel = np.abs(data.cvel)
         speed, spin = float(cvel[:, 3:].max()), float(cvel[:, :3].max())
         if speed > self.params.max_speed or spin > self.params.max_angular_speed:
             raise Abort(Status.UNSTABLE, f"divergence: a body moves at {speed:.3g} m/s, {spin:.3g} rad/s")
@@ -206,7 +267,12 @@ class TrialRun:
 
     def object_in_hand(self) -> np.ndarray:
         """(4, 4) object pose in the TCP frame."""
-        return np.linalg.inv(self.scene.tcp_pose()) @ self.scene.object_pose()
+        data, site, body = self.scene.data, self.scene.tcp_site, self.scene.object_body
+        rot = data.site_xmat[site].reshape(3, 3)
+        out = np.eye(4)
+        out[:3, :3] = rot.T @ data.xmat[body].reshape(3, 3)
+        out[:3, 3] = rot.T @ (data.xpos[body] - data.site_xpos[site])
+        return out
 
     def _track(self) -> None:
         current = self.object_in_hand()
@@ -226,9 +292,10 @@ class TrialRun:
         fingers = read_hand_contacts(self.scene).fingers_touching
         return tuple(self.scene.hand.finger_bodies[i] for i in fingers)
 
-    def hold_target(self, pose: np.ndarray) -> None:
-        """Hold the TCP at `pose` (keeps the current feed-forward)."""
-        self.impedance.set_target(pose, feedforward=self.impedance.feedforward)
+    def hold_target(self, pose: np.ndarray, feedforward: np.ndarray | None = None) -> None:
+        """Hold the TCP still at `pose` with `feedforward` (6,) (None: keep the current feed-forward)."""
+        self.impedance.set_target(pose, feedforward=self.impedance.feedforward if feedforward is None
+                                  else feedforward)
 
     def payload(self) -> np.ndarray:
         """(6,) world wrench holding the object's weight (zero when not enabled)."""

@@ -17,6 +17,7 @@ import numpy as np
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import GraspParams, TrialRun
+from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.phases import approach, close, lift, place_pregrasp, require_fingers
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.protocol.trial import execute
@@ -60,9 +61,11 @@ class LiftProtocol(Protocol[LiftParams]):
     Params = LiftParams
 
     def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0) -> TrialResult:
+            object_pose: np.ndarray | None = None, seed: int = 0,
+            observer: TrialObserver | None = None) -> TrialResult:
         def body(run: TrialRun, pose: np.ndarray, rest: np.ndarray, g: Grasp) -> tuple[str, ...]:
             grasp_and_lift(run, pose, rest, g)
             return require_fingers(run, Status.SLIPPED_LIFT)
 
-        return execute(scene, grasp, self.params, body, deadline, object_pose, seed)
+        return execute(scene, grasp, self.params, body, deadline, object_pose, seed,
+                       observer=observer)

@@ -1,8 +1,10 @@
 """The grasp phases every protocol is built from: pre-grasp, approach, close, lift, and the final finger check.
 
 Each is a function of a `TrialRun`; it returns when the phase passed and
-raises `Abort` with the phase's failure status otherwise. Poses are (4, 4)
-world matrices [m].
+raises `Abort` with the phase's failure status otherwise, and tells the
+run's observer when it begins ("pregrasp", "approach", "close", "lift",
+"hold"). Moving set-points are trajectories (functions of time) that the
+run samples at its control rate. Poses are (4, 4) world matrices [m].
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ import math
 import numpy as np
 
 from manigrasp.control import GripController
-from manigrasp.protocol.execution import Abort, TrialRun
+from manigrasp.protocol.execution import Abort, Trajectory, TrialRun
 from manigrasp.protocol.metrics import simulated_metrics
 from manigrasp.protocol.result import Status
 from manigrasp.sim import grip_force, read_hand_contacts
@@ -34,32 +36,44 @@ def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, pre
         other = "the object" if np.isin(touching.other_geom, run.scene.object_geoms).any() else "the table"
         raise Abort(Status.PREGRASP_COLLISION, f"the open hand at the pre-grasp pose touches {other}")
     run.hold_target(start)
+    run.phase("pregrasp")
     run.last_phase = "pregrasp"
     return start
 
 
+def ramp(start: np.ndarray, delta: np.ndarray, duration: float) -> Trajectory:
+    """Trajectory moving the TCP from pose `start` (4, 4) by `delta` (3,) [m] at constant speed in
+    `duration` [s], then holding (orientation unchanged)."""
+    velocity = np.concatenate([delta / duration, np.zeros(3)])
+    still = np.zeros(6)
+
+    def trajectory(t: float) -> tuple[np.ndarray, np.ndarray]:
+        pose = start.copy()
+        pose[:3, 3] += min(1.0, t / duration) * delta
+        return pose, (velocity if t < duration else still)
+
+    return trajectory
+
+
 def approach(run: TrialRun, start: np.ndarray, goal: np.ndarray) -> None:
     """Move the impedance set-point in a straight line from `start` to `goal`, then settle there."""
+    run.phase("approach")
     delta = goal[:3, 3] - start[:3, 3]
-    distance = float(np.linalg.norm(delta))
-    n = max(1, run.n_steps(distance / run.params.approach_speed))
-    run.impedance.set_target(start, velocity=np.concatenate([delta / (n * run.dt), np.zeros(3)]))
-    target = run.impedance.target
-
-    def setpoint(i: int) -> None:
-        target[:3, 3] = start[:3, 3] + delta * (i + 1) / n
-
-    run.step(n, setpoint)
+    n = max(1, run.n_steps(float(np.linalg.norm(delta)) / run.params.approach_speed))
+    run.step(n, ramp(start, delta, n * run.dt))
     run.hold_target(goal)
     run.hold_for(run.params.approach_settle_s)
     run.last_phase = "approach"
 
 
-def close(run: TrialRun, preshape: float, metrics: bool = True) -> None:
+def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = "") -> None:
     """Close to the grip force (position until contact, then force); no contact: `no_contact`.
 
-    Afterwards the object's pose in the hand is the reference of all later motion,
-    and (with `metrics`) the grip force and simulated-contact metrics are recorded.
+    The grip loop (`GripController`) runs at the control rate while closing; afterwards
+    the finger command stays where it left it (unless `regulate_grip_after_close`), so
+    the finger servos hold the grip with no Python in the loop. The object's pose in the
+    hand is the reference of all later motion, and (with `metrics`) the grip force and
+    simulated-contact metrics are recorded. `detail` goes to the observer's phase call.
     """
     p, hand = run.params, run.scene.hand
     target = p.grip_force if p.grip_force is not None else p.grip_force_fraction * hand.max_grip_force
@@ -67,7 +81,8 @@ def close(run: TrialRun, preshape: float, metrics: bool = True) -> None:
                           contact_force=p.contact_force)
     grip.reset(preshape)
     run.grip = grip
-    chunk, elapsed, touched_at = max(1, p.check_every), 0, None
+    run.phase("close", detail)
+    chunk, elapsed, touched_at = run.chunk, 0, None
     limit = run.n_steps(p.close_timeout_s)
     while elapsed < limit:
         run.step(chunk)
@@ -78,6 +93,8 @@ def close(run: TrialRun, preshape: float, metrics: bool = True) -> None:
             break
         if grip.mode == "position" and run.scene.hand_synergy() > 0.995:
             break
+    if not p.regulate_grip_after_close:
+        run.grip = None
     contacts = read_hand_contacts(run.scene)
     if grip.mode == "position" or len(contacts.fingers_touching) == 0:
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
@@ -92,22 +109,22 @@ def close(run: TrialRun, preshape: float, metrics: bool = True) -> None:
 
 
 def lift(run: TrialRun, height: float, speed: float, hold_s: float) -> None:
-    """Raise the set-point `height` [m] at `speed` [m/s], hold `hold_s` [s]; slipping: `slipped_lift`."""
+    """Raise the set-point `height` [m] at `speed` [m/s], hold `hold_s` [s]; slipping: `slipped_lift`.
+
+    The object's weight is fed forward from the start of the lift (`payload_feedforward`).
+    """
     scene = run.scene
+    run.phase("lift")
     start_tcp, start_z = scene.tcp_pose(), float(scene.object_pose()[2, 3])
     start_tcp[:3, :3] = run.impedance.target[:3, :3]
     run.watch = (run.in_hand, Status.SLIPPED_LIFT, "lift")
     n = max(1, run.n_steps(height / speed))
-    run.impedance.set_target(start_tcp, velocity=np.array([0, 0, height / (n * run.dt), 0, 0, 0]),
-                             feedforward=run.payload())
-    target = run.impedance.target
-
-    def setpoint(i: int) -> None:
-        target[2, 3] = start_tcp[2, 3] + height * (i + 1) / n
-
-    run.step(n, setpoint)
-    end = target.copy()
+    run.hold_target(start_tcp, run.payload())
+    run.step(n, ramp(start_tcp, np.array([0.0, 0.0, height]), n * run.dt))
+    end = start_tcp.copy()
+    end[2, 3] += height
     run.hold_target(end)
+    run.phase("hold")
     run.hold_for(hold_s)
     risen = float(scene.object_pose()[2, 3]) - start_z
     if risen < height - run.params.translation_threshold:

@@ -22,6 +22,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import TrialRun
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
+from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.phases import require_fingers
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.protocol.trial import execute
@@ -62,22 +63,21 @@ def _about(axis: np.ndarray, angle: float) -> np.ndarray:
 
 def shake(run: TrialRun, p: ShakeParams) -> None:
     """Oscillate the set-point along and about its approach axis (module docstring)."""
+    run.phase("shake")
     centre = run.impedance.target.copy()
     axis = centre[:3, 2].copy()
     omega, angle = 2 * math.pi * p.shake_frequency, math.radians(p.shake_angle_deg)
     n = run.n_steps(p.shake_cycles / p.shake_frequency)
     run.watch = (run.object_in_hand(), Status.DROPPED_PERTURB, "shake")
-    target, twist = run.impedance.target, run.impedance.target_velocity
 
-    def setpoint(i: int) -> None:
-        t = (i + 1) * run.dt
+    def trajectory(t: float) -> tuple[np.ndarray, np.ndarray]:
         s, c = math.sin(omega * t), math.cos(omega * t)
-        target[:3, 3] = centre[:3, 3] + p.shake_amplitude * s * axis
-        target[:3, :3] = _about(axis, angle * s) @ centre[:3, :3]
-        twist[:3] = p.shake_amplitude * omega * c * axis
-        twist[3:] = angle * omega * c * axis
+        pose = centre.copy()
+        pose[:3, 3] += p.shake_amplitude * s * axis
+        pose[:3, :3] = _about(axis, angle * s) @ centre[:3, :3]
+        return pose, np.concatenate([p.shake_amplitude * omega * c * axis, angle * omega * c * axis])
 
-    run.step(n, setpoint)
+    run.step(n, trajectory)
     run.hold_target(centre)
     run.watch = None
     run.last_phase = "perturb"
@@ -91,7 +91,8 @@ class ShakeProtocol(Protocol[ShakeParams]):
     Params = ShakeParams
 
     def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0) -> TrialResult:
+            object_pose: np.ndarray | None = None, seed: int = 0,
+            observer: TrialObserver | None = None) -> TrialResult:
         p = self.params
 
         def body(run: TrialRun, pose: np.ndarray, rest: np.ndarray, g: Grasp) -> tuple[str, ...]:
@@ -99,4 +100,5 @@ class ShakeProtocol(Protocol[ShakeParams]):
             shake(run, p)
             return require_fingers(run, Status.DROPPED_PERTURB)
 
-        return execute(scene, grasp, p, body, deadline, object_pose, seed)
+        return execute(scene, grasp, p, body, deadline, object_pose, seed,
+                       observer=observer)

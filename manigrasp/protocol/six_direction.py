@@ -22,6 +22,7 @@ import numpy as np
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import GraspParams, TrialRun
+from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.phases import close, place_pregrasp, require_fingers
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.protocol.standard import DIRECTIONS
@@ -71,8 +72,9 @@ def six_directions(run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Gra
             model.geom_contype[scene.table_geom] = model.geom_conaffinity[scene.table_geom] = 0
         for i, name in enumerate(p.directions):
             run.reset(pose, rest, grasp.preshape)
-            close(run, grasp.preshape, metrics=i == 0)
+            close(run, grasp.preshape, metrics=i == 0, detail=name)
             run.watch = (run.in_hand, Status.DROPPED_PERTURB, name)
+            run.phase("perturb", name)
             scene.data.xfrc_applied[scene.object_body, :3] = force * np.asarray(DIRECTIONS[name], float)
             run.hold_for(p.force_s)
             scene.data.xfrc_applied[scene.object_body] = 0.0
@@ -93,5 +95,7 @@ class SixDirectionProtocol(Protocol[SixDirectionParams]):
     Params = SixDirectionParams
 
     def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0) -> TrialResult:
-        return execute(scene, grasp, self.params, six_directions, deadline, object_pose, seed)
+            object_pose: np.ndarray | None = None, seed: int = 0,
+            observer: TrialObserver | None = None) -> TrialResult:
+        return execute(scene, grasp, self.params, six_directions, deadline, object_pose, seed,
+                       observer=observer)

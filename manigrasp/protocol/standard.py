@@ -24,6 +24,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import TrialRun
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
+from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.phases import require_fingers
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.protocol.trial import execute
@@ -65,6 +66,7 @@ def perturb(run: TrialRun, multiple: float, seconds: float, directions: tuple[st
     try:
         for name in directions:
             run.watch = (reference, Status.DROPPED_PERTURB, name)
+            run.phase("perturb", name)
             applied[:3] = multiple * weight * np.asarray(DIRECTIONS[name], float)
             run.hold_for(seconds)
     finally:
@@ -81,7 +83,8 @@ class StandardProtocol(Protocol[StandardParams]):
     Params = StandardParams
 
     def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0) -> TrialResult:
+            object_pose: np.ndarray | None = None, seed: int = 0,
+            observer: TrialObserver | None = None) -> TrialResult:
         p = self.params
 
         def body(run: TrialRun, pose: np.ndarray, rest: np.ndarray, g: Grasp) -> tuple[str, ...]:
@@ -89,4 +92,5 @@ class StandardProtocol(Protocol[StandardParams]):
             perturb(run, p.perturb_force_multiple, p.perturb_s, p.perturb_directions)
             return require_fingers(run, Status.DROPPED_PERTURB)
 
-        return execute(scene, grasp, p, body, deadline, object_pose, seed)
+        return execute(scene, grasp, p, body, deadline, object_pose, seed,
+                       observer=observer)

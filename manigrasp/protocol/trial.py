@@ -12,6 +12,7 @@ from manigrasp.errors import SimulationError
 from manigrasp.protocol.base import Grasp, as_grasp
 from manigrasp.protocol.execution import Abort, GraspParams, TrialRun, check_grasp, grasp_matrix
 from manigrasp.protocol.metrics import planned_metrics
+from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
 from manigrasp.protocol.settle import settle_object
 from manigrasp.sim import Scene
@@ -22,23 +23,39 @@ It returns only on success and raises `Abort` for every failure."""
 
 
 def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline: float | None,
-            object_pose: np.ndarray | None, seed: int, clock: Callable[[], float] = time.monotonic) -> TrialResult:
+            object_pose: np.ndarray | None, seed: int, clock: Callable[[], float] = time.monotonic,
+            observer: TrialObserver | None = None) -> TrialResult:
     """Run `body` as one trial and turn its outcome, or its `Abort`, into a `TrialResult`.
 
     An invalid grasp (non-finite pose, non-rigid rotation, non-unit quaternion,
     pre-shape outside [0, 1]) is `invalid_grasp` before anything is simulated;
     a `SimulationError` inside the trial is `unstable`.
+
+    `observer` (or None) gets `on_start` first (with the given object pose, or, when the
+    trial settles the object itself, the pose it is dropped from; "settle" is then the
+    first phase), then the phases and samples, and `on_end` with the result.
     """
     start = time.perf_counter()
     grasp = as_grasp(grasp)
+    if observer is not None:
+        dropped = scene.object_rest_pose() if object_pose is None else np.asarray(object_pose, float)
+        observer.on_start(scene, grasp, dropped)
     problem = check_grasp(grasp)
     if problem is not None:
-        return TrialResult(Status.INVALID_GRASP, detail=problem, planning_time_s=grasp.planning_time_s,
-                           wall_time_s=time.perf_counter() - start, seed=seed)
-    run = TrialRun(scene, params, deadline, clock)
+        result = TrialResult(Status.INVALID_GRASP, detail=problem, planning_time_s=grasp.planning_time_s,
+                             wall_time_s=time.perf_counter() - start, seed=seed)
+        if observer is not None:
+            observer.on_end(scene, result)
+        return result
+    run = TrialRun(scene, params, deadline, clock, observer)
     status, detail, fingers, planned = Status.SUCCESS, "", (), GraspMetrics()
     try:
-        rest = settle_object(scene) if object_pose is None else np.asarray(object_pose, float)
+        if object_pose is None:
+            run.phase("settle")
+            rest = settle_object(scene, sampler=run.sampler)
+            run.time0 = scene.time
+        else:
+            rest = np.asarray(object_pose, float)
         run.last_phase = "settle"
         pose = grasp_matrix(grasp)
         center = (rest @ np.append(scene.model.body_ipos[scene.object_body], 1.0))[:3]
@@ -51,11 +68,14 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     except SimulationError as exc:
         status, detail = Status.UNSTABLE, str(exc)
     dt = float(scene.model.opt.timestep)
-    return TrialResult(status=status, detail=detail, last_phase=run.last_phase,
+    result = TrialResult(status=status, detail=detail, last_phase=run.last_phase,
                        max_translation_m=run.max_translation, max_rotation_deg=run.max_rotation,
                        fingers_in_contact=tuple(fingers), grip_force_n=run.grip_force_n, planned=planned,
                        simulated=run.simulated, planning_time_s=grasp.planning_time_s, sim_steps=run.steps,
                        sim_time_s=run.steps * dt, wall_time_s=time.perf_counter() - start, seed=seed)
+    if observer is not None:
+        observer.on_end(scene, result)
+    return result
 
 
 def _fingers_now(run: TrialRun) -> tuple[str, ...]:
