@@ -8,12 +8,14 @@ import pytest
 
 from manigrasp.control import (
     AdaptiveStiffness,
+    BaseKinematics,
     ForceGains,
     ForcePI,
     GuardedApproach,
     HybridController,
     ImpedanceController,
     ImpedanceGains,
+    NativeImpedance,
     default_gains,
 )
 from manigrasp.errors import ConfigError
@@ -71,6 +73,74 @@ def test_impedance_step_matches_designed_second_order_system(free_hand: Scene, a
     assert abs(over - over_d) <= 0.15 * over_d, (over, over_d)
     assert abs(settle - settle_d) <= 0.15 * settle_d, (settle, settle_d)
     assert scene.warnings() == {}
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_native_impedance_step_matches_designed_second_order_system(free_hand: Scene, axis: int) -> None:
+    """The same 5 cm steps under MuJoCo's base servos (Python only samples the response each step)."""
+    scene, rng = free_hand, np.random.default_rng(axis)
+    mount = _mount(rng)
+    scene.reset(mount=mount)
+    k, d = 250.0, 2 * 0.5 * np.sqrt(250.0 * scene.hand.mass)  # zeta = 0.5 with the hand's mass
+    gains = ImpedanceGains(stiffness=[k, k, k, 20, 20, 20], damping=[d, d, d, 0.3, 0.3, 0.3])
+    ctrl = NativeImpedance(scene.base, gains)
+    ctrl.engage()
+    target = mount.copy()
+    target[:3, 3] += 0.05 * mount[:3, axis]
+    ctrl.set_target(target)
+    steps = 1000
+    y = np.empty(steps)
+    for i in range(steps):
+        scene.step()
+        y[i] = (scene.tcp_pose()[:3, 3] - mount[:3, 3]) @ mount[:3, axis] / 0.05
+    over, settle = _step_metrics(scene.model.opt.timestep * np.arange(1, steps + 1), y)
+    over_d, settle_d = _designed(np.sqrt(k / scene.hand.mass), d / (2 * np.sqrt(k * scene.hand.mass)))
+    assert abs(over - over_d) <= 0.15 * over_d, (over, over_d)
+    assert abs(settle - settle_d) <= 0.15 * settle_d, (settle, settle_d)
+    off_axis = np.delete(mount[:3, :3].T @ (scene.tcp_pose()[:3, 3] - target[:3, 3]), axis)
+    assert np.all(np.abs(off_axis) < 1e-4), off_axis
+    np.testing.assert_allclose(scene.data.actuator_force[scene.base.actuators], 0.0)  # the motors stay off
+    assert scene.warnings() == {}
+
+
+def test_native_impedance_holds_rotation_and_feeds_forward_a_load(free_hand: Scene) -> None:
+    """A turned target is reached (Euler set-points), and a fed-forward 5 N pull cancels a 5 N push."""
+    scene = free_hand
+    mount = _mount(np.random.default_rng(11))
+    scene.reset(mount=mount)
+    ctrl = NativeImpedance(scene.base, default_gains(scene.base))
+    ctrl.engage()
+    target = mount.copy()
+    target[:3, :3] = quat_to_mat([np.cos(0.1), 0.0, np.sin(0.1), 0.0]) @ mount[:3, :3]  # 11.5 deg about world y
+    target[:3, 3] += [0.01, -0.02, 0.03]
+    push = np.array([0.0, 0.0, -5.0])
+    ctrl.set_target(target, feedforward=np.r_[-push, 0.0, 0.0, 0.0])
+    scene.data.xfrc_applied[scene.root_body, :3] = push
+    for _ in range(150):  # the push acts through the rotation centre (xfrc_applied acts at the body's COM)
+        anchor = scene.data.xanchor[scene.base.anchor_joint]
+        scene.data.xfrc_applied[scene.root_body, 3:] = np.cross(anchor - scene.data.xipos[scene.root_body], push)
+        scene.step(10)
+    scene.data.xfrc_applied[:] = 0.0
+    np.testing.assert_allclose(scene.tcp_pose(), target, atol=2e-4)
+    np.testing.assert_allclose(ctrl.joint_error(), 0.0, atol=2e-4)
+
+
+def test_base_kinematics_inverts_mujoco_forward_kinematics(free_hand: Scene) -> None:
+    scene, rng = free_hand, np.random.default_rng(5)
+    scene.reset(mount=_mount(rng))
+    kin = BaseKinematics(scene.base)
+    for _ in range(5):
+        q = np.r_[rng.uniform(-0.05, 0.05, 3), rng.uniform(-0.5, 0.5, 3)]
+        scene.data.qpos[scene.base_qpos] = q
+        mujoco.mj_forward(scene.model, scene.data)
+        np.testing.assert_allclose(kin.joints(scene.tcp_pose()), q, atol=1e-12)
+        twist = np.r_[rng.normal(size=3) * 0.1, rng.normal(size=3)]
+        rates = kin.joint_rates(scene.tcp_pose(), twist)
+        scene.data.qvel[scene.base.dofs] = rates
+        jacp, jacr = np.zeros((3, scene.model.nv)), np.zeros((3, scene.model.nv))
+        mujoco.mj_jacSite(scene.model, scene.data, jacp, jacr, scene.tcp_site)
+        np.testing.assert_allclose(np.r_[jacp @ scene.data.qvel, jacr @ scene.data.qvel], twist, atol=1e-4)
+        scene.data.qvel[:] = 0.0
 
 
 def test_static_stiffness_is_per_axis_in_tcp_frame(free_hand: Scene) -> None:

@@ -10,7 +10,15 @@ import trimesh
 from manigrasp.control import ImpedanceController, default_gains
 from manigrasp.errors import ConfigError, SimulationError
 from manigrasp.objects import build_object
-from manigrasp.sim import SceneConfig, build_scene, grip_force, read_hand_contacts, to_contacts
+from manigrasp.sim import (
+    SceneConfig,
+    build_scene,
+    contact_forces,
+    current_grip_force,
+    grip_force,
+    read_hand_contacts,
+    to_contacts,
+)
 from manigrasp.sim.compose import BASE_JOINTS
 from manigrasp.sim.transforms import quat_to_mat
 
@@ -18,10 +26,14 @@ TOP_GRASP = np.diag([1.0, -1.0, -1.0])
 
 
 @pytest.fixture(scope="module")
-def box_scene(tmp_path_factory: pytest.TempPathFactory):
-    asset = build_object(trimesh.creation.box((0.05, 0.05, 0.05)), name="box", mass=0.3,
-                         cache_root=tmp_path_factory.mktemp("objects")).asset
-    return build_scene("parallel_jaw", asset)
+def box_asset(tmp_path_factory: pytest.TempPathFactory):
+    return build_object(trimesh.creation.box((0.05, 0.05, 0.05)), name="box", mass=0.3,
+                        cache_root=tmp_path_factory.mktemp("objects")).asset
+
+
+@pytest.fixture(scope="module")
+def box_scene(box_asset):
+    return build_scene("parallel_jaw", box_asset)
 
 
 def test_names_are_prefixed_per_part(box_scene) -> None:
@@ -123,3 +135,26 @@ def test_config_is_validated() -> None:
     assert model.opt.timestep == 0.001 and model.opt.impratio == 5.0
     assert model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+
+
+@pytest.mark.parametrize("cone", ["elliptic", "pyramidal"])
+@pytest.mark.parametrize("condim", [1, 3, 4, 6])
+def test_vectorised_contact_forces_equal_mj_contact_force(box_asset, cone: str, condim: int) -> None:
+    """`contact_forces` (all contacts at once from efc_force) against MuJoCo's per-contact function."""
+    asset_scene = build_scene("parallel_jaw", box_asset, SceneConfig(cone=cone, hand_condim=condim))
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = TOP_GRASP, [0.005, 0.0, 0.025]  # off-centre: friction carries a torque
+    asset_scene.reset(mount=pose, synergy=1.0)
+    ctrl = ImpedanceController(asset_scene.base, default_gains(asset_scene.base))
+    ctrl.set_target(pose)
+    for _ in range(300):
+        ctrl.apply()
+        asset_scene.step()
+    model, data = asset_scene.model, asset_scene.data
+    assert data.ncon >= 4
+    expected = np.zeros((data.ncon, 6))
+    for i in range(data.ncon):
+        mujoco.mj_contactForce(model, data, i, expected[i])
+    np.testing.assert_allclose(contact_forces(model, data, np.arange(data.ncon)), expected, atol=1e-9)
+    assert current_grip_force(asset_scene) == pytest.approx(grip_force(read_hand_contacts(asset_scene)), abs=1e-9)
+    assert current_grip_force(asset_scene) == pytest.approx(asset_scene.hand.max_grip_force, rel=0.02)

@@ -1,0 +1,125 @@
+"""The observer hook: it sees every phase and a sample every `sample_period_s`, and changes nothing."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp.objects import build_object
+from manigrasp.protocol import PROTOCOLS, Status, TrialResult, settle_object
+from manigrasp.protocol.observer import NullObserver, TrialObserver
+from manigrasp.sim import Scene, build_scene
+
+
+@dataclass
+class Recorder:
+    """Records what it is told, reading the scene only."""
+
+    sample_period_s: float = 1.0 / 60.0
+    events: list[tuple[str, str]] = field(default_factory=list)
+    times: list[float] = field(default_factory=list)
+    tcp_heights: list[float] = field(default_factory=list)
+    result: TrialResult | None = None
+
+    def on_start(self, scene: Any, grasp: Any, object_pose: Any) -> None:
+        self.events.append(("start", ""))
+        self.start_pose = np.array(object_pose)
+
+    def on_phase(self, scene: Any, phase: str, detail: str = "") -> None:
+        self.events.append((phase, detail))
+
+    def on_sample(self, scene: Any) -> None:
+        self.times.append(scene.time)
+        self.tcp_heights.append(float(scene.tcp_pose()[2, 3]))
+
+    def on_end(self, scene: Any, result: TrialResult) -> None:
+        self.events.append(("end", ""))
+        self.result = result
+
+
+@pytest.fixture(scope="module")
+def box(tmp_path_factory: pytest.TempPathFactory) -> tuple[Scene, np.ndarray, np.ndarray]:
+    asset = build_object(trimesh.creation.box((0.05,) * 3), name="box", mass=0.3,
+                         cache_root=tmp_path_factory.mktemp("observer")).asset
+    scene = build_scene("parallel_jaw", asset)
+    rest = settle_object(scene)
+    pose = np.diag([1.0, -1.0, -1.0, 1.0])
+    pose[:3, 3] = rest[:3, 3]
+    return scene, rest, pose
+
+
+def _same(a: TrialResult, b: TrialResult) -> bool:
+    return repr(replace(a, wall_time_s=math.nan)) == repr(replace(b, wall_time_s=math.nan))
+
+
+def _run(box: tuple, name: str, observer: TrialObserver | None, settle: bool = False, **params: Any) -> TrialResult:
+    scene, rest, pose = box
+    return PROTOCOLS.load(name, **params).run(scene, pose, np.random.default_rng(0), None,
+                                              object_pose=None if settle else rest, observer=observer)
+
+
+def test_recorder_satisfies_the_protocol() -> None:
+    assert isinstance(Recorder(), TrialObserver) and isinstance(NullObserver(), TrialObserver)
+
+
+@pytest.mark.parametrize("name", ["standard", "lift", "shake", "six_direction"])
+def test_observed_trial_equals_unobserved_trial(box: tuple, name: str) -> None:
+    params = {"hold_s": 0.3} if name != "six_direction" else {"force_s": 0.3, "directions": ("+x", "-z")}
+    plain = _run(box, name, None, **params)
+    recorder = Recorder()
+    watched = _run(box, name, recorder, **params)
+    assert plain.status is Status.SUCCESS, plain.detail
+    assert _same(plain, watched), (plain, watched)
+    assert _same(watched, recorder.result)
+    assert _same(plain, _run(box, name, NullObserver(), **params))
+
+
+def test_samples_every_period_with_increasing_time_and_phases_in_order(box: tuple) -> None:
+    recorder = Recorder()
+    result = _run(box, "standard", recorder)
+    assert result.status is Status.SUCCESS, result.detail
+    times = np.array(recorder.times)
+    expected = result.sim_time_s / recorder.sample_period_s
+    assert abs(len(times) - expected) <= 2, (len(times), expected)
+    assert np.all(np.diff(times) > 0)
+    # each sample sits at the first step at or after its multiple of the period
+    k = np.arange(1, len(times) + 1) * recorder.sample_period_s
+    assert np.all(times >= k - 1e-9) and np.all(times < k + 0.002 + 1e-9)
+    heights = np.array(recorder.tcp_heights)  # pre-grasp 10 cm up, down to the grasp, lifted 10 cm
+    assert heights[-1] > heights.min() + 0.09 and heights[0] > heights.min() + 0.09
+    directions = ("+x", "-x", "+y", "-y", "+z", "-z")
+    assert recorder.events == [("start", ""), ("pregrasp", ""), ("approach", ""), ("close", ""), ("lift", ""),
+                               ("hold", ""), *(("perturb", d) for d in directions), ("end", "")]
+
+
+def test_settling_is_observed_and_the_clock_runs_on(box: tuple) -> None:
+    plain = _run(box, "lift", None, settle=True, hold_s=0.2)
+    recorder = Recorder(sample_period_s=0.05)
+    watched = _run(box, "lift", recorder, settle=True, hold_s=0.2)
+    assert _same(plain, watched)
+    assert recorder.events[:3] == [("start", ""), ("settle", ""), ("pregrasp", "")]
+    assert np.all(np.diff(recorder.times) > 0)  # one time line through the settle and the trial's reset
+    assert recorder.times[-1] > watched.sim_time_s  # settling time comes on top of the trial's own
+
+
+def test_six_direction_phases_name_their_direction(box: tuple) -> None:
+    recorder = Recorder(sample_period_s=0.1)
+    result = _run(box, "six_direction", recorder, force_s=0.2, directions=("+x", "-y"))
+    assert result.status is Status.SUCCESS, result.detail
+    assert recorder.events == [("start", ""), ("pregrasp", ""), ("close", "+x"), ("perturb", "+x"),
+                               ("close", "-y"), ("perturb", "-y"), ("end", "")]
+    assert np.all(np.diff(recorder.times) > 0)
+
+
+def test_an_invalid_grasp_is_still_started_and_ended(box: tuple) -> None:
+    scene, rest, _ = box
+    recorder = Recorder()
+    result = PROTOCOLS.load("standard").run(scene, np.full((4, 4), np.nan), np.random.default_rng(0),
+                                            object_pose=rest, observer=recorder)
+    assert result.status is Status.INVALID_GRASP
+    assert recorder.events == [("start", ""), ("end", "")] and recorder.times == []
