@@ -130,3 +130,17 @@ def test_ray_executor_runs_the_same_trials(tmp_path):
     ray_rows = _rows(tmp_path / "ray")
     assert [r["status"] for r in ray_rows] == [r["status"] for r in _rows(tmp_path / "local")], [
         r["detail"] for r in ray_rows]
+
+
+def test_recording_keeps_the_chosen_trials_and_changes_no_result(tmp_path):
+    small = dict(SMALL, objects=["004_sugar_box"], planners=["random"], grasps_per_object=4)
+    run_benchmark(parse_config(small), tmp_path / "plain", progress=False)
+    run_benchmark(parse_config(small), tmp_path / "rec", progress=False, record="failures")
+    timing = {"wall_time_s", "planning_time_s"}
+    plain, rec = _rows(tmp_path / "plain"), _rows(tmp_path / "rec")
+    assert [{k: v for k, v in r.items() if k not in timing} for r in plain] == [
+        {k: v for k, v in r.items() if k not in timing} for r in rec]
+    failed = {r["trial_id"].replace("/", "__") + ".rrd" for r in rec if r["status"] != "success"}
+    kept = {p.name for p in (tmp_path / "rec" / "recordings").glob("*.rrd")}
+    assert failed and kept == failed
+    assert not list((tmp_path / "rec" / "recordings").glob("*.partial"))

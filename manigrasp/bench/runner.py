@@ -24,6 +24,7 @@ from manigrasp.bench.trials import Group, groups
 from manigrasp.bench.worker import Plan, plan_group, run_trial
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.record.policy import RecordSettings
 
 EXECUTORS = ("local", "ray")
 
@@ -63,14 +64,21 @@ def run_benchmark(
     base: Path | None = None,
     progress: bool = True,
     on_result: Callable[[TrialKey, TrialResult], None] | None = None,
+    record: str = "none",
 ) -> RunSummary:
-    """Run (or resume) the benchmark of `config` into `run_dir`."""
+    """Run (or resume) the benchmark of `config` into `run_dir`.
+
+    `record` is a recording policy ("none", "failures", "successes", "all" or N: the first N trials of
+    each group): those trials are written to ``run_dir/recordings/<trial>.rrd``. Recording never
+    changes a result.
+    """
     if executor not in EXECUTORS:
         raise ConfigError(f"unknown executor {executor!r}; available: {', '.join(EXECUTORS)}")
     start = time.perf_counter()
     all_groups = validate(config, base)
     run_dir = Path(run_dir)
     rundir.prepare(run_dir, config)
+    settings = RecordSettings.for_run(run_dir, record)
     _prebuild_objects(all_groups, jobs)
     store = ResultsStore(run_dir / "results.sqlite")
     done = store.done_ids()
@@ -82,7 +90,7 @@ def run_benchmark(
     ran = successes = 0
     try:
         tasks = _iter_ray if executor == "ray" else _iter_local
-        for key, result in tasks(pending, todo, jobs, address):
+        for key, result in tasks(pending, todo, jobs, address, settings):
             if store.add(key, result):
                 ran += 1
                 successes += result.success
@@ -113,13 +121,13 @@ def _progress_bar(total: int, initial: int, enabled: bool):
                 disable=not enabled, dynamic_ncols=True, smoothing=0.1)
 
 
-def _iter_local(pending: list[Group], todo: dict, jobs: int, address: str | None
+def _iter_local(pending: list[Group], todo: dict, jobs: int, address: str | None, settings
                 ) -> Iterator[tuple[TrialKey, TrialResult]]:
     if jobs <= 1:
         for group in pending:
             plan = plan_group(group)
             for index in todo[id(group)]:
-                yield run_trial(group, index, plan)
+                yield run_trial(group, index, plan, settings)
         return
     with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
         plans: dict[Future, Group] = {pool.submit(plan_group, g): g for g in pending}
@@ -130,13 +138,13 @@ def _iter_local(pending: list[Group], todo: dict, jobs: int, address: str | None
                 if future in plans:
                     group = plans.pop(future)
                     plan: Plan = future.result()
-                    trials |= {pool.submit(run_trial, group, i, plan) for i in todo[id(group)]}
+                    trials |= {pool.submit(run_trial, group, i, plan, settings) for i in todo[id(group)]}
                 else:
                     trials.discard(future)
                     yield future.result()
 
 
-def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None
+def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None, settings
               ) -> Iterator[tuple[TrialKey, TrialResult]]:
     try:
         import ray
@@ -155,7 +163,7 @@ def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None
         if ref in plans:
             group = plans.pop(ref)
             plan = ray.get(ref)
-            trials += [remote_trial.remote(group, i, plan) for i in todo[id(group)]]
+            trials += [remote_trial.remote(group, i, plan, settings) for i in todo[id(group)]]
         else:
             trials.remove(ref)
             yield ray.get(ref)

@@ -20,6 +20,7 @@ from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import Group
 from manigrasp.errors import ManigraspError
 from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.record.policy import trial_recording
 
 _SCENES: dict[tuple, object] = {}
 _ASSETS: dict[str, object] = {}
@@ -80,15 +81,18 @@ def plan_group(group: Group) -> Plan:
     return Plan(result.candidates, None, result.planning_time_s, pose, info)
 
 
-def run_trial(group: Group, index: int, plan: Plan) -> tuple[TrialKey, TrialResult]:
-    """Run trial `index` of `group` with its planned candidate; never raises for a trial's fault."""
-    key, result = _run_trial(group, index, plan)
+def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialKey, TrialResult]:
+    """Run trial `index` of `group` with its planned candidate; never raises for a trial's fault.
+
+    `record` (`manigrasp.record.policy.RecordSettings` or None) says whether to write a rerun recording.
+    """
+    key, result = _run_trial(group, index, plan, record)
     info = plan.observation
     return key, replace(result, pose_rotation_error_deg=info.rotation_error_deg,
                         pose_translation_error_mm=info.translation_error_mm, pose_add_s_mm=info.add_s_mm)
 
 
-def _run_trial(group: Group, index: int, plan: Plan) -> tuple[TrialKey, TrialResult]:
+def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, TrialResult]:
     key, seed = group.key(index), group.trial_seed(index)
     planning_time = plan.planning_time_s / max(1, len(plan.candidates) or 1)
     if plan.error is not None:
@@ -102,8 +106,10 @@ def _run_trial(group: Group, index: int, plan: Plan) -> tuple[TrialKey, TrialRes
     start = time.perf_counter()
     try:
         protocol = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params))
-        result = protocol.run(scene_for(group), plan.candidates[index], np.random.default_rng(seed),
-                              deadline=time.monotonic() + group.timeout_s, object_pose=plan.object_pose)
+        with trial_recording(record, key.trial_id, index, plan.candidates[index]) as recording:
+            result = protocol.run(scene_for(group), plan.candidates[index], np.random.default_rng(seed),
+                                  deadline=time.monotonic() + group.timeout_s, object_pose=plan.object_pose,
+                                  observer=recording.observer)
     except Exception as exc:  # a harness or physics bug in one trial must not end the run: record it
         detail = f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-300:]}"
         result = TrialResult(Status.UNSTABLE, detail=detail[:800])

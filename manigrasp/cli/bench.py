@@ -26,6 +26,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="local process pool (default) or a Ray cluster")
     p.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
     p.add_argument("--export", choices=("parquet", "csv"), help="also export the results table")
+    p.add_argument("--record", default="none", metavar="none|failures|successes|all|N",
+                   help="write RUN_DIR/recordings/<trial>.rrd (rerun) for these trials; N: the first N of each "
+                        "object x hand x planner (default none). Open them with `manigrasp view RUN_DIR`")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_bench)
 
@@ -64,7 +67,7 @@ def _bench(args: argparse.Namespace) -> int:
     path = resolve_config(args.config)
     config = load_config(path, args.overrides)
     summary = run_benchmark(config, args.out, jobs=max(1, args.jobs), executor=args.executor,
-                            address=args.address, base=path.parent, progress=not args.quiet)
+                            address=args.address, base=path.parent, progress=not args.quiet, record=args.record)
     print(f"{summary.ran} trials run, {summary.already_done} already stored, {summary.total} in all "
           f"({summary.seconds:.0f} s)", file=sys.stderr)
     if args.export:

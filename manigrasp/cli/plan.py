@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -32,6 +33,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("-n", type=int, default=100, help="most grasps to return (default 100)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--record", type=Path, metavar="FILE.rrd",
+                   help="also write the object and the candidates (frames coloured by score) as a rerun recording")
     p.set_defaults(func=_plan)
 
 
@@ -72,6 +75,12 @@ def _plan(args: argparse.Namespace) -> int:
     planner = planners.load(args.planner)
     observation = planners.Observation.from_asset(_asset(args))
     result = planners.plan(planner, observation, hand, args.n, np.random.default_rng(args.seed))
+    if args.record:
+        from manigrasp.record.plan import record_plan
+
+        record_plan(args.record, observation, result.candidates,
+                    title=f"{result.planner} on {observation.asset.name} ({hand.name})")
+        print(f"recording written: {args.record}", file=sys.stderr)
     if args.json:
         print_json({"object": observation.asset.name, "hand": hand.name, "planner": result.planner,
                     "seed": args.seed, "planning_time_s": result.planning_time_s,
