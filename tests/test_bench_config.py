@@ -52,3 +52,22 @@ def test_unreadable_and_invalid_yaml(tmp_path):
     (tmp_path / "bad.yaml").write_text("objects: [mug\n")
     with pytest.raises(ConfigError, match="not valid YAML"):
         load_config(tmp_path / "bad.yaml")
+
+
+def test_observation_is_one_kind_or_a_list():
+    assert parse_config({"objects": ["mug"]}).observation == ("ground_truth",)
+    both = parse_config({"objects": ["mug"], "observation": ["ground_truth", "point_cloud"]})
+    assert both.observation == ("ground_truth", "point_cloud")
+    with pytest.raises(ConfigError, match="distinct"):
+        parse_config({"objects": ["mug"], "observation": ["point_cloud", "point_cloud"]})
+
+
+def test_every_shipped_config_validates():
+    from manigrasp.bench.trials import groups
+    from manigrasp.paths import configs_dir
+
+    for path in sorted(configs_dir().glob("*.yaml")):
+        config = load_config(path)
+        assert groups(config), path.name
+    perception = load_config(configs_dir() / "perception.yaml")
+    assert len(groups(perception)) == 5 * 3

@@ -86,7 +86,8 @@ class BenchConfig:
         planners: planners with their parameters.
         grasps_per_object: candidates planned (and trials run) per object x hand x planner.
         protocol: the trial protocol ("standard", "six_direction", "shake", "lift") and its parameters.
-        observation: what planners see: "ground_truth", "estimated_pose" or "point_cloud".
+        observation: what planners see, one or several of "ground_truth", "estimated_pose" and
+            "point_cloud" (several: every group runs under each, and the report puts them side by side).
         scene: physics and scene parameters.
         trial_timeout_s: wall-clock budget of one trial [s]; beyond it the trial is a `timeout`.
     """
@@ -98,7 +99,7 @@ class BenchConfig:
     planners: tuple[NamedEntry, ...] = (NamedEntry("antipodal"),)
     grasps_per_object: int = 20
     protocol: NamedEntry = field(default_factory=lambda: NamedEntry("standard"))
-    observation: str = "ground_truth"
+    observation: tuple[str, ...] = ("ground_truth",)
     scene: SceneConfig = field(default_factory=SceneConfig)
     trial_timeout_s: float = 120.0
 
@@ -109,8 +110,11 @@ class BenchConfig:
             raise ConfigError("config needs at least one hand and one planner")
         if self.grasps_per_object < 1:
             raise ConfigError(f"grasps_per_object must be >= 1, got {self.grasps_per_object}")
-        if self.observation not in OBSERVATIONS:
-            raise ConfigError(f"unknown observation {self.observation!r}; available: {', '.join(OBSERVATIONS)}")
+        for kind in self.observation:
+            if kind not in OBSERVATIONS:
+                raise ConfigError(f"unknown observation {kind!r}; available: {', '.join(OBSERVATIONS)}")
+        if not self.observation or len(set(self.observation)) != len(self.observation):
+            raise ConfigError(f"observation must list distinct kinds, got {list(self.observation)}")
         if not self.trial_timeout_s > 0:
             raise ConfigError("trial_timeout_s must be > 0")
 
@@ -124,8 +128,9 @@ def _normalise(data: dict[str, Any]) -> dict[str, Any]:
         data["planners"] = [{"name": p} if isinstance(p, str) else p for p in _as_list(data["planners"], "planners")]
     if isinstance(data.get("protocol"), str):
         data["protocol"] = {"name": data["protocol"]}
-    if isinstance(data.get("hands"), str):
-        data["hands"] = [data["hands"]]
+    for key in ("hands", "observation"):
+        if isinstance(data.get(key), str):
+            data[key] = [data[key]]
     return data
 
 

@@ -66,7 +66,7 @@ class Group:
 
 
 def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
-    """Every group of `config`, in config order (objects, then hands, then planners).
+    """Every group of `config`, in config order (objects, then hands, planners, observations).
 
     Object sources are resolved here, so an unknown object or a missing mesh
     file is an error before any trial runs.
@@ -76,7 +76,8 @@ def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
     for source in sources:
         for hand in config.hands:
             for planner in config.planners:
-                seed = stable_seed(config.seed, source.name, hand, planner.label, config.observation)
-                out.append(Group(source, hand, planner, config.protocol, config.observation, config.scene,
-                                 config.grasps_per_object, seed, config.trial_timeout_s))
+                for observation in config.observation:
+                    seed = stable_seed(config.seed, source.name, hand, planner.label, observation)
+                    out.append(Group(source, hand, planner, config.protocol, observation, config.scene,
+                                     config.grasps_per_object, seed, config.trial_timeout_s))
     return out
