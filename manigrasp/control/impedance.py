@@ -1,4 +1,10 @@
-"""Cartesian impedance of the floating hand.
+"""Cartesian impedance of the floating hand, computed in Python every step.
+
+The protocols use `manigrasp.control.native.NativeImpedance` instead: the same
+law on the base joints, evaluated by MuJoCo's own servos, so nothing runs in
+Python between set-point updates. This class remains the position part of
+`HybridController` and `GuardedApproach` (which need a measured contact
+wrench every step anyway) and supports adaptive stiffness.
 
 The law (world frame, TCP frame axes for the gains):
 
@@ -35,8 +41,8 @@ is the torque. Why:
   case this controller adds F_g itself.
 
 Cost per step: one `mj_jacSite` and `mj_jac` (3 x nv each) and a few 3x3
-products, about 20-40 us of Python on top of `mj_step`
-(benchmarks/bench_sim_speed.py measures it). Damping is computed explicitly,
+products, about 20-40 us of Python on top of `mj_step` (the native servos:
+none; benchmarks/bench_sim_speed.py measures both). Damping is computed explicitly,
 so keep D_r dt / I below ~1 (`ImpedanceGains.design` does).
 """
 
