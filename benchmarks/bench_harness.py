@@ -15,7 +15,10 @@ speed-up from 1 to 2 workers, peak memory per worker.
     the wall time went: inside `mj_step` (timed around each call), the
     analytic metrics of planned and simulated contacts, planning, and the rest
     (controllers, checks, result store, process pool).
-(b) The same run with `--jobs` workers (a process pool): wall-time speed-up.
+(b) The same run with `--jobs` workers (a process pool): wall-time speed-up,
+    and the speed-up of the trial throughput from the first stored result to
+    the last (leaving out the start-up: object cache check, spawning and
+    importing the workers, first planning).
 (c) Peak resident memory: of this process after the one-worker run
     (`getrusage`), and of each worker process of the pool (its RSS polled every
     0.1 s with psutil; the largest is printed).
@@ -145,8 +148,10 @@ def main() -> None:
         physics_timer = Timer((mujoco, "mj_step"))
         metric_timer = Timer((trial, "planned_metrics"), (phases, "simulated_metrics"))
         plan_timer = Timer((runner, "plan_group"))
+        one_stamps: list[float] = []
         with physics_timer, metric_timer, plan_timer:
-            one = run_benchmark(config, Path(tmp) / "one", jobs=1, progress=False)
+            one = run_benchmark(config, Path(tmp) / "one", jobs=1, progress=False,
+                                on_result=lambda key, result: one_stamps.append(time.perf_counter()))
         rss_self = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         rows = _rows(Path(tmp) / "one")
         steps = collections.Counter()
@@ -175,8 +180,10 @@ def main() -> None:
               f"its settling steps counted in mj_step too) + the rest {rest:.2f} s ({rest / one.seconds:.3f})")
 
         start = time.perf_counter()
+        many_stamps: list[float] = []
         with PeakMemory() as memory:
-            many = run_benchmark(config, Path(tmp) / "many", jobs=args.jobs, progress=False)
+            many = run_benchmark(config, Path(tmp) / "many", jobs=args.jobs, progress=False,
+                                 on_result=lambda key, result: many_stamps.append(time.perf_counter()))
         wall = time.perf_counter() - start
         workers = sorted(memory.peaks.values(), reverse=True)[:args.jobs]
         same = sorted((r["trial_id"], r["status"]) for r in rows) == sorted(
@@ -184,6 +191,10 @@ def main() -> None:
         print(f"\n(b) load {os.getloadavg()[0]:.2f}; {args.jobs} workers: {many.ran} trials in {wall:.2f} s = "
               f"{many.ran / wall:.2f} trials/s; "
               f"speed-up {one.seconds / wall:.2f}x over one worker (statuses identical: {same})")
+        steady = [(len(t) - 1) / (t[-1] - t[0]) for t in (one_stamps, many_stamps)]
+        print(f"    from first to last result: one worker {steady[0]:.2f} trials/s, {args.jobs} workers "
+              f"{steady[1]:.2f} trials/s: speed-up {steady[1] / steady[0]:.2f}x; start-up to the first result "
+              f"{many_stamps[0] - start:.2f} s with {args.jobs} workers")
         print(f"\n(c) peak memory: one-worker run (this process) {rss_self:.0f} MB; "
               f"pool workers {', '.join(f'{w / 2**20:.0f}' for w in workers)} MB")
 
