@@ -36,6 +36,8 @@ class Plan:
         planning_time_s: wall time of the planning call [s].
         object_pose: (4, 4) settled (true) object pose.
         observation: how the planner's observation was made and its pose errors.
+        planned: the analytic metrics of each candidate's planned contacts, scored in one batch
+            with the protocol's contact model (aligned with `candidates`).
     """
 
     candidates: tuple
@@ -43,6 +45,7 @@ class Plan:
     planning_time_s: float
     object_pose: np.ndarray
     observation: ObservationInfo
+    planned: tuple = ()
 
 
 def _asset(group: Group):
@@ -78,7 +81,18 @@ def plan_group(group: Group) -> Plan:
         result = planners.plan(planner, observation, scene.hand, group.n_grasps, group.rng())
     except ManigraspError as exc:  # planners.plan turns anything a planner raises into a PlannerError
         return Plan((), str(exc), time.perf_counter() - start, pose, info)
-    return Plan(result.candidates, None, result.planning_time_s, pose, info)
+    return Plan(result.candidates, None, result.planning_time_s, pose, info,
+                _planned_metrics(group, scene, result.candidates, pose))
+
+
+def _planned_metrics(group: Group, scene, candidates: tuple, object_pose: np.ndarray) -> tuple:
+    from manigrasp.protocol import PROTOCOLS
+    from manigrasp.protocol.metrics import planned_metrics_batch
+
+    params = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params)).params
+    grasps = [(c.contacts, c.contact_normals) for c in candidates]
+    return tuple(planned_metrics_batch(scene, grasps, object_pose, params.torque_scale, params.metric_edges,
+                                       params.metric_friction_tol))
 
 
 def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialKey, TrialResult]:
@@ -102,12 +116,16 @@ def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, 
         detail = f"planner returned {len(plan.candidates)} of {group.n_grasps} requested candidates"
         return key, TrialResult(Status.PLANNER_ERROR, detail=detail, planning_time_s=planning_time, seed=seed)
     from manigrasp.protocol import PROTOCOLS
+    from manigrasp.protocol.base import as_grasp
 
     start = time.perf_counter()
     try:
         protocol = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params))
+        grasp = as_grasp(plan.candidates[index])
+        if plan.planned:
+            grasp = replace(grasp, planned_metrics=plan.planned[index])
         with trial_recording(record, key.trial_id, index, plan.candidates[index]) as recording:
-            result = protocol.run(scene_for(group), plan.candidates[index], np.random.default_rng(seed),
+            result = protocol.run(scene_for(group), grasp, np.random.default_rng(seed),
                                   deadline=time.monotonic() + group.timeout_s, object_pose=plan.object_pose,
                                   observer=recording.observer)
     except Exception as exc:  # a harness or physics bug in one trial must not end the run: record it

@@ -17,7 +17,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "bench", help="run a benchmark config (resumes an interrupted run)",
         description="Plan grasps and run every trial of CONFIG in simulation; results go to RUN_DIR/results.sqlite "
                     "as each trial finishes. Re-running the same command resumes: stored trials are skipped.")
-    p.add_argument("config", help="a YAML config file, or the name of a shipped one (quick, standard, dexterous, perception)")
+    p.add_argument("config",
+                   help="a YAML config file, or the name of a shipped one (quick, standard, dexterous, perception)")
     p.add_argument("overrides", nargs="*", metavar="key=value",
                    help="config overrides, dotted for nested keys (grasps_per_object=5 scene.timestep=0.001)")
     p.add_argument("--out", required=True, type=Path, metavar="RUN_DIR", help="run directory")

@@ -160,11 +160,14 @@ def build_many(
 
 def _iter_builds(sources: Sequence[ObjectSource], jobs: int, params: DecompositionParams | None,
                  cache_root: Path | None) -> Iterator[BuildOutcome]:
-    if jobs <= 1 or len(sources) <= 1:
-        for source in sources:
-            yield _build_one(source, params, cache_root)
+    """Shipped objects already in the cache load inline (no pool to start); the rest go to the pool."""
+    cached = [s for s in sources if s.recipe is not None and is_built(s.recipe, params, cache_root)]
+    rest = [s for s in sources if s not in cached]
+    for source in (cached + rest if jobs <= 1 or len(rest) <= 1 else cached):
+        yield _build_one(source, params, cache_root)
+    if jobs <= 1 or len(rest) <= 1:
         return
     with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
-        futures = [pool.submit(_build_one, s, params, cache_root) for s in sources]
+        futures = [pool.submit(_build_one, s, params, cache_root) for s in rest]
         for future in as_completed(futures):
             yield future.result()

@@ -22,7 +22,7 @@ import numpy as np
 
 from manigrasp.config import from_mapping
 from manigrasp.protocol.observer import TrialObserver
-from manigrasp.protocol.result import TrialResult
+from manigrasp.protocol.result import GraspMetrics, TrialResult
 from manigrasp.registry import Registry
 from manigrasp.sim import Scene
 
@@ -43,6 +43,8 @@ class Grasp:
         contacts: (k, 3) planned contact points in the world [m].
         contact_normals: (k, 3) unit normals at `contacts`, pointing into the object.
         planning_time_s: the planner's time for this grasp [s] (NaN: unknown).
+        planned_metrics: the metrics of `contacts` if already computed (the harness scores a
+            whole plan at once with `protocol.metrics.planned_metrics_batch`); None: computed here.
     """
 
     pose: np.ndarray
@@ -51,6 +53,7 @@ class Grasp:
     contacts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     contact_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     planning_time_s: float = float("nan")
+    planned_metrics: GraspMetrics | None = None
 
 
 def as_grasp(grasp: Any) -> Grasp:

@@ -15,8 +15,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from manigrasp.contact import Contact, ContactError, ContactType
-from manigrasp.grasp import GraspError, ferrari_canny, force_closure, min_friction_for_closure
+from manigrasp.contact import Contact, ContactError, ContactSet, ContactType
+from manigrasp.grasp import (
+    GraspError,
+    ferrari_canny,
+    ferrari_canny_batch,
+    force_closure,
+    min_friction_for_closure,
+    min_friction_for_closure_batch,
+)
+from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.protocol.result import GraspMetrics
 from manigrasp.sim import Scene, read_hand_contacts, to_contacts
 
@@ -88,3 +96,53 @@ def simulated_metrics(scene: Scene, torque_scale: float, edges: int = 8, frictio
     contacts = to_contacts(read_hand_contacts(scene, "object"))
     return contact_metrics(contacts, scene.data.xipos[scene.object_body].copy(), torque_scale, edges,
                            friction_tol, min_friction)
+
+
+def planned_metrics_batch(scene: Scene, grasps: Sequence[tuple[np.ndarray, np.ndarray]], object_pose: np.ndarray,
+                          torque_scale: float | None = None, edges: int = 8,
+                          friction_tol: float = 0.01) -> list[GraspMetrics]:
+    """`planned_metrics` of many grasps at once (the harness computes them once per planning call).
+
+    Grasps with the same number of contacts are scored together with the batched metrics of
+    `manigrasp.grasp` (force closure as epsilon > tolerance, the batched equivalent of the LP test).
+
+    Args:
+        scene: the scene whose hand contact model (condim, friction, torsion) is used.
+        grasps: per grasp, (points (k, 3), inward normals (k, 3)) in the world [m].
+        object_pose: (4, 4) settled object pose; torques are about its centre of mass.
+        torque_scale: characteristic length [m] (default: the object's radius of gyration).
+    """
+    center = (np.asarray(object_pose, float) @ np.append(scene.model.body_ipos[scene.object_body], 1.0))[:3]
+    scale = torque_scale or radius_of_gyration(scene)
+    out: list[GraspMetrics] = [GraspMetrics() for _ in grasps]
+    groups: dict[int, list[int]] = {}
+    for i, (points, normals) in enumerate(grasps):
+        points, normals = np.asarray(points, float).reshape(-1, 3), np.asarray(normals, float).reshape(-1, 3)
+        if len(points) and points.shape == normals.shape and np.isfinite(points).all() and \
+                np.isfinite(normals).all() and (np.linalg.norm(normals, axis=1) > 1e-9).all():
+            groups.setdefault(len(points), []).append(i)
+    for members in groups.values():
+        metrics = _batch(scene, [grasps[i] for i in members], center, scale, edges, friction_tol)
+        for i, m in zip(members, metrics, strict=True):
+            out[i] = m
+    return out
+
+
+def _batch(scene: Scene, grasps: list[tuple[np.ndarray, np.ndarray]], center: np.ndarray, scale: float,
+           edges: int, friction_tol: float) -> list[GraspMetrics]:
+    cfg = scene.config
+    kind = _contact_type(cfg.hand_condim)
+    points = np.stack([np.asarray(p, float).reshape(-1, 3) for p, _ in grasps])
+    normals = np.stack([np.asarray(n, float).reshape(-1, 3) for _, n in grasps])
+    normals = normals / np.linalg.norm(normals, axis=2, keepdims=True)
+    gamma = cfg.hand_torsional_friction if kind is ContactType.SOFT_FINGER else None
+    try:
+        contacts = ContactSet(points, normals, cfg.hand_friction, kind, gamma)
+        epsilon = ferrari_canny_batch(contacts, center, scale, "L1", edges)
+        mu_min = (min_friction_for_closure_batch(contacts, center, scale, tol=friction_tol, m=edges)
+                  if kind is not ContactType.FRICTIONLESS else np.full(len(grasps), math.nan))
+    except (GraspError, ContactError, ValueError):  # degenerate input: not computed, recorded as NaN
+        return [GraspMetrics(n_contacts=points.shape[1]) for _ in grasps]
+    closure = epsilon > EPSILON_TOLERANCE
+    return [GraspMetrics(n_contacts=points.shape[1], force_closure=float(c), epsilon_l1=float(e) if c else 0.0,
+                         min_friction=float(m)) for c, e, m in zip(closure, epsilon, mu_min, strict=True)]

@@ -59,8 +59,9 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
         run.last_phase = "settle"
         pose = grasp_matrix(grasp)
         center = (rest @ np.append(scene.model.body_ipos[scene.object_body], 1.0))[:3]
-        planned = planned_metrics(scene, grasp.contacts, grasp.contact_normals, center, run.torque_scale,
-                                  params.metric_edges, params.metric_friction_tol)
+        planned = grasp.planned_metrics or planned_metrics(scene, grasp.contacts, grasp.contact_normals, center,
+                                                           run.torque_scale, params.metric_edges,
+                                                           params.metric_friction_tol)
         fingers = body(run, pose, rest, grasp)
     except Abort as abort:
         status, detail = abort.status, abort.detail

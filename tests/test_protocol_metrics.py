@@ -1,0 +1,48 @@
+"""Planned-contact metrics: the batched form (one call per plan) agrees with the per-trial form."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp.objects import build_object_from_mesh
+from manigrasp.protocol.metrics import planned_metrics, planned_metrics_batch, radius_of_gyration
+from manigrasp.sim import build_scene
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    import os
+
+    os.environ.setdefault("MANIGRASP_CACHE", str(tmp_path_factory.mktemp("cache")))
+    asset = build_object_from_mesh(trimesh.creation.box((0.05, 0.05, 0.05)), "cube", mass=0.3)
+    return build_scene("parallel_jaw", asset)
+
+
+def test_batched_planned_metrics_equal_the_single_ones(scene):
+    rest = scene.object_rest_pose()
+    center = rest[:3, 3]
+    rng = np.random.default_rng(0)
+    grasps = []
+    for _ in range(12):  # two opposing contacts, tilted and offset at random
+        offset = rng.normal(0, 0.01, 3)
+        axis = rng.normal([0, 1, 0], 0.2)
+        axis /= np.linalg.norm(axis)
+        points = np.array([center + offset - 0.025 * axis, center + offset + 0.025 * axis])
+        normals = np.array([axis, -axis]) + rng.normal(0, 0.1, (2, 3))
+        grasps.append((points, normals / np.linalg.norm(normals, axis=1, keepdims=True)))
+    grasps.append((np.zeros((0, 3)), np.zeros((0, 3))))  # no planned contacts: NaN metrics
+    grasps.append((np.full((2, 3), np.nan), np.ones((2, 3))))  # non-finite: NaN metrics
+    batch = planned_metrics_batch(scene, grasps, rest)
+    scale = radius_of_gyration(scene)
+    for (points, normals), got in zip(grasps[:12], batch, strict=False):
+        want = planned_metrics(scene, points, normals, center, scale)
+        assert got.n_contacts == want.n_contacts == 2
+        assert got.force_closure == want.force_closure
+        assert got.epsilon_l1 == pytest.approx(want.epsilon_l1, abs=1e-9)
+        assert abs(got.min_friction - want.min_friction) <= 0.011 or got.min_friction == want.min_friction
+    assert sum(m.force_closure for m in batch[:12]) >= 3  # the sample has grasps in closure: the test can fail
+    assert all(math.isnan(m.epsilon_l1) for m in batch[12:])
