@@ -46,10 +46,12 @@ def validate_and_repair(
         MeshUnitsError: extents outside [5 mm, 1.5 m].
     """
     report = MeshReport()
-    mesh = _clean(mesh.copy(), source, report)
-    mesh = _close(mesh, source, report, convex_hull_fallback)
-    mesh = _drop_debris(mesh, report)
-    if mesh.volume <= 1e-12:
+    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh divides by a zero volume on flat meshes
+        mesh = _clean(mesh.copy(), source, report)
+        mesh = _close(mesh, source, report, convex_hull_fallback)
+        mesh = _drop_debris(mesh, report)
+        volume = float(mesh.volume)
+    if volume <= 1e-12:
         raise MeshError(f"{source}: mesh encloses no volume (flat or degenerate)")
     check_units(mesh, source)
     report.watertight = bool(mesh.is_watertight)
