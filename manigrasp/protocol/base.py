@@ -89,7 +89,6 @@ class Protocol(ABC, Generic[P]):
         """Build with keyword parameters, refusing unknown keys (`ConfigError`)."""
         return cls(from_mapping(cls.Params, params, f"protocol.params ({cls.name})"))
 
-    @abstractmethod
     def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
             object_pose: np.ndarray | None = None, seed: int = 0,
             observer: TrialObserver | None = None) -> TrialResult:
@@ -106,6 +105,15 @@ class Protocol(ABC, Generic[P]):
                 samples every `sample_period_s` of simulated time, end), or None; the
                 result is the same with or without one (wall time aside).
         """
+        from manigrasp.protocol.trial import execute
+
+        return execute(scene, grasp, self.params, self.body, deadline, object_pose, seed, observer=observer)
+
+    @abstractmethod
+    def body(self, run: Any, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
+        """The protocol's phases on a reset `run` (`execution.TrialRun`): grasp pose (4, 4), settled object
+        pose (4, 4), the grasp. Returns the finger bodies touching at the end on success; raises
+        `execution.Abort` with the failure status otherwise."""
 
 
 PROTOCOLS: Registry[Protocol[Any]] = Registry("protocol")

@@ -10,18 +10,14 @@ the object at the end.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import GraspParams, TrialRun
-from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.phases import approach, close, lift, place_pregrasp, require_fingers
-from manigrasp.protocol.result import Status, TrialResult
-from manigrasp.protocol.trial import execute
-from manigrasp.sim import Scene
+from manigrasp.protocol.result import Status
 
 
 @dataclass(frozen=True)
@@ -60,12 +56,7 @@ class LiftProtocol(Protocol[LiftParams]):
     name = "lift"
     Params = LiftParams
 
-    def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0,
-            observer: TrialObserver | None = None) -> TrialResult:
-        def body(run: TrialRun, pose: np.ndarray, rest: np.ndarray, g: Grasp) -> tuple[str, ...]:
-            grasp_and_lift(run, pose, rest, g)
-            return require_fingers(run, Status.SLIPPED_LIFT)
-
-        return execute(scene, grasp, self.params, body, deadline, object_pose, seed,
-                       observer=observer)
+    def body(self, run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
+        """Grasp, lift and hold; at least two fingers must still touch."""
+        grasp_and_lift(run, pose, rest, grasp)
+        return require_fingers(run, Status.SLIPPED_LIFT)

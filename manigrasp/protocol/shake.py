@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -22,11 +21,8 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import TrialRun
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
-from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.phases import require_fingers
-from manigrasp.protocol.result import Status, TrialResult
-from manigrasp.protocol.trial import execute
-from manigrasp.sim import Scene
+from manigrasp.protocol.result import Status
 
 
 @dataclass(frozen=True)
@@ -90,15 +86,8 @@ class ShakeProtocol(Protocol[ShakeParams]):
     name = "shake"
     Params = ShakeParams
 
-    def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0,
-            observer: TrialObserver | None = None) -> TrialResult:
-        p = self.params
-
-        def body(run: TrialRun, pose: np.ndarray, rest: np.ndarray, g: Grasp) -> tuple[str, ...]:
-            grasp_and_lift(run, pose, rest, g)
-            shake(run, p)
-            return require_fingers(run, Status.DROPPED_PERTURB)
-
-        return execute(scene, grasp, p, body, deadline, object_pose, seed,
-                       observer=observer)
+    def body(self, run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
+        """Grasp, lift, then shake along and about the approach axis; two fingers must still touch."""
+        grasp_and_lift(run, pose, rest, grasp)
+        shake(run, self.params)
+        return require_fingers(run, Status.DROPPED_PERTURB)

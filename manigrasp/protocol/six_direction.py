@@ -15,19 +15,15 @@ The scene's gravity and table are restored afterwards, whatever happens.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import GraspParams, TrialRun
-from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.phases import close, place_pregrasp, require_fingers
-from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.protocol.result import Status
 from manigrasp.protocol.standard import DIRECTIONS
-from manigrasp.protocol.trial import execute
-from manigrasp.sim import Scene
 
 STANDARD_GRAVITY = 9.81  # [m/s^2]
 
@@ -94,8 +90,6 @@ class SixDirectionProtocol(Protocol[SixDirectionParams]):
     name = "six_direction"
     Params = SixDirectionParams
 
-    def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0,
-            observer: TrialObserver | None = None) -> TrialResult:
-        return execute(scene, grasp, self.params, six_directions, deadline, object_pose, seed,
-                       observer=observer)
+    def body(self, run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
+        """Each direction from a reset, gravity and table off (see `six_directions`)."""
+        return six_directions(run, pose, rest, grasp)

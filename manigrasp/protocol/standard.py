@@ -16,7 +16,6 @@ Success also needs >= 2 distinct finger bodies touching the object at the end.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -24,11 +23,8 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import TrialRun
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
-from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.phases import require_fingers
-from manigrasp.protocol.result import Status, TrialResult
-from manigrasp.protocol.trial import execute
-from manigrasp.sim import Scene
+from manigrasp.protocol.result import Status
 
 DIRECTIONS = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0), "+z": (0, 0, 1), "-z": (0, 0, -1)}
 
@@ -82,15 +78,9 @@ class StandardProtocol(Protocol[StandardParams]):
     name = "standard"
     Params = StandardParams
 
-    def run(self, scene: Scene, grasp: Any, rng: np.random.Generator, deadline: float | None = None, *,
-            object_pose: np.ndarray | None = None, seed: int = 0,
-            observer: TrialObserver | None = None) -> TrialResult:
+    def body(self, run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
+        """Grasp, lift, then push the object along each direction; at least two fingers must still touch."""
         p = self.params
-
-        def body(run: TrialRun, pose: np.ndarray, rest: np.ndarray, g: Grasp) -> tuple[str, ...]:
-            grasp_and_lift(run, pose, rest, g)
-            perturb(run, p.perturb_force_multiple, p.perturb_s, p.perturb_directions)
-            return require_fingers(run, Status.DROPPED_PERTURB)
-
-        return execute(scene, grasp, p, body, deadline, object_pose, seed,
-                       observer=observer)
+        grasp_and_lift(run, pose, rest, grasp)
+        perturb(run, p.perturb_force_multiple, p.perturb_s, p.perturb_directions)
+        return require_fingers(run, Status.DROPPED_PERTURB)
