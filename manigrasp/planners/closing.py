@@ -1,7 +1,7 @@
 """Kinematic closing of a hand: the path of its joints from open to closed, and where it stops on an object.
 
 `closing_path` simulates the hand alone (no gravity, nothing to touch) driven
-from its open to its closed command and resamples the joint trajectory into
+from its open to its closed command until its joints stop, and resamples the joint trajectory into
 `steps` shapes, evenly spaced in joint space. `close_on_object` then sweeps a
 placed hand along that path, finger by finger: a finger (every joint in its
 body's subtree) stops at the first shape where it touches the object or the
@@ -20,7 +20,8 @@ from manigrasp.hands.base import Hand
 from manigrasp.planners.collision import HandProbe
 
 SETTLE_TIME = 0.5  # [s] driven open before closing
-CLOSE_TIME = 1.5  # [s] driven closed (free motion reaches the closed shape well before)
+CLOSE_TIME = 8.0  # [s] longest free close (the robosuite hands' damped fingers take ~4 s)
+STILL_SPEED = 1e-3  # [rad/s or m/s] the free close has ended when no joint moves faster
 
 
 @dataclass(frozen=True)
@@ -37,8 +38,15 @@ class ClosingPath:
 
 
 def closing_path(hand: Hand, steps: int) -> ClosingPath:
-    """The hand's free closing motion resampled into `steps` + 1 shapes (module docstring)."""
-    model = hand.build_spec().compile()
+    """The hand's free closing motion resampled into `steps` + 1 shapes (module docstring).
+
+    The root body floats (a free joint, gravity off), as in a scene: a root welded to the world
+    would not filter contacts between the palm and its own fingers (MuJoCo filters parent-child
+    contacts only for moving parents), and the palm would push the fingers off their path.
+    """
+    spec = hand.build_spec()
+    spec.body(hand.root_body).add_freejoint()
+    model = spec.compile()
     model.opt.gravity[:] = 0.0
     data = mujoco.MjData(model)
     act = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in hand.actuators]
@@ -50,9 +58,12 @@ def closing_path(hand: Hand, steps: int) -> ClosingPath:
         mujoco.mj_step(model, data)
     data.ctrl[act] = hand.closed_ctrl
     trajectory = [data.qpos[adr].copy()]
-    for _ in range(int(round(CLOSE_TIME / model.opt.timestep))):
+    dof = model.jnt_dofadr[joints]
+    for step in range(int(round(CLOSE_TIME / model.opt.timestep))):
         mujoco.mj_step(model, data)
         trajectory.append(data.qpos[adr].copy())
+        if step * model.opt.timestep > SETTLE_TIME and np.max(np.abs(data.qvel[dof])) < STILL_SPEED:
+            break
     path = np.array(trajectory)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
     targets = np.linspace(0.0, arc[-1], steps + 1)
