@@ -47,6 +47,12 @@ FINGERS = ("index", "middle", "ring", "pinky")
 # wide part of the synergy (0.6 N m / 0.5 = 1.2 rad of command, a third of a finger's travel) instead of
 # jumping to the limit within 3% of it (kp = 5), and the grip force can be regulated through the synergy.
 KP = 0.5
+# Rotor inertia reflected through each finger joint's drive [kg m^2] (MuJoCo armature). robosuite's links weigh
+# 0.1 kg with inertias of ~1e-5 kg m^2 and no armature; MuJoCo's joint limits (and contacts) are soft in proportion
+# to the inverse inertia they act on, so a 0.6-0.9 N m tendon pushed those joints up to 1.2 rad past their stops
+# (the thumb folding through itself on a full close). 1e-2 keeps every stop within 0.005 rad under the tendon
+# forces; free closing speed is unchanged (it is set by the joints' damping, 1 N m s/rad: 0.6 rad/s per N m).
+ARMATURE = 1e-2
 
 
 @dataclass(frozen=True)
@@ -67,6 +73,7 @@ class FiveFingerModel:
     finger_torque: float  # tendon force limit of a finger [N m]
     thumb_torque: float  # tendon force limit of the thumb bend and rotation [N m]
     kp: float = KP  # servo stiffness of every tendon [N m/rad]
+    armature: float = ARMATURE  # reflected drive inertia of every hinge joint [kg m^2]
     link_mass: float | None = None  # if set, the mass of every collision geom [kg]
 
     def finger_tendon(self, finger: str) -> tuple[str, ...]:
@@ -134,6 +141,9 @@ def _base_spec(model: FiveFingerModel) -> mujoco.MjSpec:
         for geom in spec.geoms:
             if geom.contype or geom.conaffinity:
                 geom.mass = model.link_mass
+    for joint in spec.joints:
+        if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+            joint.armature = model.armature
     opposed = float(spec.joint(model.thumb_rotation).range[1])
     build.set_joint_default(spec, model.thumb_rotation, opposed)
     for name, joints in tendons(spec, model).items():
@@ -242,6 +252,8 @@ def make_from(model: FiveFingerModel) -> Hand:
             "12/11 per-joint servos replaced by 6 tendon servos: thumb rotation, thumb bend, index, middle, ring, "
             "pinky (coefficients proportional to joint ranges; adaptive when a phalanx is blocked)",
             "thumb rotation re-referenced so qpos0 is the open pre-shape (thumb opposed, fingers straight)",
+            f"armature {model.armature:g} kg m^2 on every finger joint (none in robosuite): with 1e-5 kg m^2 links "
+            "the tendon forces pushed joints up to 1.2 rad through their (soft) stops",
             "fingertip forces at the force limits (F = f |c|^2 / |J c|, open pose): "
             + ", ".join(f"{k} {v:.1f} N" for k, v in forces.items())
             + "; max_grip_force = min(thumb, sum of the four fingers): the squeeze a thumb-vs-fingers "
