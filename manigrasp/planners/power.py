@@ -4,7 +4,8 @@
    the vertical by a random angle, keeping those that do not come from below
    the table; for each, `n_rolls` rolls of the hand about the approach (random phase).
 2. Stand-off: the open hand slides along the approach line through the
-   object's centre of mass; a bisection finds the nearest TCP position where
+   object's centre of mass (shifted by each of `lateral_offsets` x the hand's
+   `max_width` along the closing axis, toward the fingers); a bisection finds the nearest TCP position where
    its real collision geometry (MuJoCo) is clear of object and table; the
    hand is then backed off by each of `standoffs`. Poses whose pre-grasp pose
    collides are dropped.
@@ -57,6 +58,9 @@ class PowerPlanner:
         n_directions: points of the Fibonacci sphere (about half come from above the table).
         n_rolls: rolls of the hand about each approach direction.
         standoffs: gaps [m] between the hand and its first touch of the object along the approach.
+        lateral_offsets: shifts of the approach line along the closing axis y (from the thumb toward the
+            fingers), as fractions of `hand.max_width` [-]: the object's centre then lies that far from the
+            TCP toward the fingers. Default (0,): the approach line runs through the centre of mass.
         closing_steps: shapes along the closing path (resolution of the kinematic close).
         min_fingers: fewest fingers that must touch the object.
         contact: contact model of the analysis (friction mu, torsion gamma). The minimum friction for
@@ -75,6 +79,7 @@ class PowerPlanner:
     n_directions: int = 64
     n_rolls: int = 6
     standoffs: tuple[float, ...] = (0.005, 0.02)
+    lateral_offsets: tuple[float, ...] = (0.0,)
     closing_steps: int = 16
     min_fingers: int = 2
     contact: ContactModel = field(default_factory=lambda: ContactModel(min_friction=False))
@@ -93,6 +98,9 @@ class PowerPlanner:
         if not self.standoffs or min(self.standoffs) < 0 or self.epsilon_ref <= 0:
             raise ConfigError("power: standoffs must be non-empty and >= 0, epsilon_ref > 0")
         object.__setattr__(self, "standoffs", tuple(float(s) for s in self.standoffs))
+        if not self.lateral_offsets:
+            raise ConfigError("power: lateral_offsets must be non-empty")
+        object.__setattr__(self, "lateral_offsets", tuple(float(s) for s in self.lateral_offsets))
 
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
         """At most `n` enveloping grasps, best first."""
@@ -100,7 +108,7 @@ class PowerPlanner:
         center = observation.center_of_mass
         scale = torque_scale(mesh.vertices, center)
         probe = HandProbe(hand, observation, self.clearance)
-        poses = self.standoff_poses(probe, self.directions(rng), center, scale)
+        poses = self.standoff_poses(probe, self.directions(rng), center, scale, hand.max_width)
         sweep = FingerSweep(probe, self._path(hand))
         pos, quat = probe.roots(poses)
         closures = [sweep.close(pos[i], quat[i]) for i in range(len(poses))]
@@ -138,21 +146,28 @@ class PowerPlanner:
         return np.repeat(approach, self.n_rolls, axis=0), closing.reshape(-1, 3)
 
     def standoff_poses(self, probe: HandProbe, directions: tuple[np.ndarray, np.ndarray], center: np.ndarray,
-                       radius: float) -> np.ndarray:
-        """Collision-free TCP poses (m, 4, 4) backed off from the first touch along each approach (step 2)."""
+                       radius: float, width: float = 0.0) -> np.ndarray:
+        """Collision-free TCP poses (m, 4, 4) backed off from the first touch along each approach (step 2).
+
+        Each approach line runs through the centre shifted by each lateral offset (x `width` [m], along
+        the closing axis y), so the object's centre lies that far toward the fingers in the TCP frame.
+        """
         approach, closing = directions
         far = radius + FAR  # [m] TCP distance from the centre at which the hand is clear of the object
         out = []
         for a, y in zip(approach, closing, strict=True):
-            frame = tcp_frames(center[None], a[None], y[None])[0]
-            touch = self._first_touch(probe, frame, a, -radius, far)
-            if touch is None:
-                continue
-            for gap in self.standoffs:
-                pose = frame.copy()
-                pose[:3, 3] = center - (touch + gap) * a
-                if probe.free(pose, self.pregrasp_offset):
-                    out.append(pose)
+            base = tcp_frames(center[None], a[None], y[None])[0]
+            for offset in self.lateral_offsets:
+                frame = base.copy()
+                frame[:3, 3] = center - offset * width * base[:3, 1]
+                touch = self._first_touch(probe, frame, a, -radius, far)
+                if touch is None:
+                    continue
+                for gap in self.standoffs:
+                    pose = frame.copy()
+                    pose[:3, 3] = frame[:3, 3] - (touch + gap) * a
+                    if probe.free(pose, self.pregrasp_offset):
+                        out.append(pose)
         return np.array(out).reshape(-1, 4, 4)
 
     @staticmethod
