@@ -20,7 +20,6 @@ from manigrasp.grasp import (
     GraspError,
     ferrari_canny,
     ferrari_canny_batch,
-    force_closure,
     min_friction_for_closure,
     min_friction_for_closure_batch,
 )
@@ -40,6 +39,9 @@ def contact_metrics(contacts: Sequence[Contact], center: np.ndarray, torque_scal
                     friction_tol: float = 0.01, min_friction: bool = True) -> GraspMetrics:
     """Force closure, Ferrari-Canny epsilon (L1) and the smallest friction for closure of `contacts`.
 
+    Force closure is "epsilon > `EPSILON_TOLERANCE`" (the origin strictly inside the wrench hull), the
+    same definition as `planned_metrics_batch` uses, so planned and simulated contacts are judged alike.
+
     Args:
         contacts: the contacts (normals into the object).
         center: (3,) point torques are taken about (the object's centre of mass) [m].
@@ -52,14 +54,14 @@ def contact_metrics(contacts: Sequence[Contact], center: np.ndarray, torque_scal
     if n == 0:
         return GraspMetrics(n_contacts=0, force_closure=0.0, epsilon_l1=0.0, min_friction=math.inf)
     try:
-        closure = force_closure(contacts, center, torque_scale, m=edges)
-        epsilon = ferrari_canny(contacts, center, torque_scale, norm="L1", m=edges) if closure else 0.0
+        epsilon = ferrari_canny(contacts, center, torque_scale, norm="L1", m=edges)
+        closure = epsilon > EPSILON_TOLERANCE  # the batched test's definition (equivalent to the LP's)
         mu_min = min_friction_for_closure(contacts, center, torque_scale, tol=friction_tol, m=edges) \
             if min_friction and contacts[0].kind is not ContactType.FRICTIONLESS else math.nan
     except (GraspError, ContactError, ValueError) as exc:  # degenerate input: not computed, recorded as NaN
         del exc
         return GraspMetrics(n_contacts=n)
-    return GraspMetrics(n_contacts=n, force_closure=float(closure), epsilon_l1=float(epsilon),
+    return GraspMetrics(n_contacts=n, force_closure=float(closure), epsilon_l1=float(epsilon) if closure else 0.0,
                         min_friction=float(mu_min))
 
 
