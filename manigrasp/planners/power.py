@@ -78,7 +78,7 @@ class PowerPlanner:
 
     n_directions: int = 64
     n_rolls: int = 6
-    standoffs: tuple[float, ...] = (0.005, 0.02)
+    standoffs: tuple[float, ...] = (0.0, 0.005, 0.02)
     lateral_offsets: tuple[float, ...] = (0.0,)
     closing_steps: int = 16
     min_fingers: int = 2
