@@ -20,6 +20,16 @@ def _pyplot():
     return plt
 
 
+def _save(fig, path: Path) -> Path:
+    """Lay out, write `fig` to `path` as PNG, close it; returns `path`."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def _method_label(method: tuple[str, str, str]) -> str:
     hand, planner, observation = method
     return f"{hand} / {planner}" + ("" if observation == "ground_truth" else f" / {observation}")
@@ -46,10 +56,7 @@ def success_by_object(report: Report, path: Path) -> Path:
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("success rate (95 % Wilson interval)")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def success_by_method(report: Report, path: Path) -> Path:
@@ -63,10 +70,7 @@ def success_by_method(report: Report, path: Path) -> Path:
     ax.set_yticks(y, [_method_label(m) for m in methods])
     ax.set_xlim(0, 1.05)
     ax.set_xlabel("success rate (95 % Wilson interval)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def failure_modes(report: Report, path: Path) -> Path:
@@ -88,10 +92,7 @@ def failure_modes(report: Report, path: Path) -> Path:
     ax.set_xlim(0, 1)
     ax.set_xlabel("share of trials")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path) -> Path:
@@ -107,10 +108,7 @@ def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path) -> P
         ax.boxplot(list(by_method.values()), orientation="horizontal", tick_labels=list(by_method))
         ax.set_xscale("log")
     ax.set_xlabel("planning time per candidate [s]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def metric_auc(report: Report, path: Path) -> Path:
@@ -124,7 +122,4 @@ def metric_auc(report: Report, path: Path) -> Path:
     ax.set_ylabel("ROC AUC for success")
     ax.tick_params(axis="x", rotation=30)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
