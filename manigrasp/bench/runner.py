@@ -23,7 +23,7 @@ from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.bench.trials import Group, groups
 from manigrasp.bench.worker import Plan, plan_group, run_trial
 from manigrasp.errors import ConfigError
-from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.protocol.result import TrialResult
 from manigrasp.record.policy import RecordSettings
 
 EXECUTORS = ("local", "ray")
@@ -168,11 +168,3 @@ def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None, 
             trials.remove(ref)
             yield ray.get(ref)
 
-
-def stored_result_counts(run_dir: Path) -> dict[str, int]:
-    """status -> count of the trials stored in `run_dir` (for summaries)."""
-    counts: dict[str, int] = {s.value: 0 for s in Status}
-    with ResultsStore(Path(run_dir) / "results.sqlite") as store:
-        for _, result in store.results():
-            counts[result.status.value] += 1
-    return counts

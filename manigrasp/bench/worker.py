@@ -108,7 +108,7 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
 
 def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, TrialResult]:
     key, seed = group.key(index), group.trial_seed(index)
-    planning_time = plan.planning_time_s / max(1, len(plan.candidates) or 1)
+    planning_time = plan.planning_time_s / max(1, len(plan.candidates))
     if plan.error is not None:
         return key, TrialResult(Status.PLANNER_ERROR, detail=plan.error[:500], planning_time_s=planning_time,
                                 seed=seed)
