@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 import trimesh
 
 from manigrasp import hands, planners
+from manigrasp.errors import ConfigError
 from manigrasp.objects import build_object
 from manigrasp.planners.closing import closing_path
+from manigrasp.planners.collision import HandProbe
+from manigrasp.planners.wrap import palm_gaps, palm_geoms, toward_palm
 
 DEXTEROUS = [n for n in hands.names() if hands.load(n).kind == "dexterous"]
 
@@ -43,3 +47,38 @@ def test_power_wraps_a_can_with_at_least_three_fingers(name: str) -> None:
     assert len(result.candidates) == 5
     touching = [len(c.contacts) for c in result.candidates]  # one planned contact per touching finger geom
     assert min(touching) >= 3, touching
+
+
+def _can_observation() -> planners.Observation:
+    asset = build_object(trimesh.creation.cylinder(0.033, 0.10, sections=48), name="power_test_can", mass=0.35).asset
+    return planners.Observation.from_asset(asset)
+
+
+def test_palm_term_puts_the_palm_against_the_can_with_the_can_in_front_of_it() -> None:
+    """With the palm term weighted, the best candidate's open palm is within 5 mm of the can (5.7 mm
+    unweighted), and the can's centre lies in front of the palm's nearest point along the approach
+    (between the palm and the fingers)."""
+    obs, hand = _can_observation(), hands.load("fourier_right")
+    planner = planners.load("power", palm_weight=0.6)
+    best = planners.plan(planner, obs, hand, 3, np.random.default_rng(0)).candidates[0]
+    probe = HandProbe(hand, obs)
+    assert palm_gaps(probe, best.pose[None])[0] < 0.005
+    model, data = probe.scene.model, probe.scene.data
+    fromto, nearest = np.zeros(6), (np.inf, None)
+    for g in palm_geoms(probe):
+        for o in probe.scene.object_geoms:
+            d = mujoco.mj_geomDistance(model, data, int(g), int(o), 0.1, fromto)
+            nearest = min(nearest, (d, fromto[:3].copy()), key=lambda x: x[0])
+    palm_point = nearest[1] - probe.shift[:3, 3]
+    assert (obs.center_of_mass - palm_point) @ best.pose[:3, 2] > 0.02  # the can's radius is 33 mm
+
+
+def test_palm_weight_is_validated_by_message() -> None:
+    with pytest.raises(ConfigError, match="palm_weight"):
+        planners.load("power", palm_weight=1.5)
+
+
+def test_toward_palm_is_plus_one_for_contacts_pushing_into_the_palm() -> None:
+    approach = np.array([0.0, 0.0, 1.0])
+    assert toward_palm(np.tile(-approach, (3, 1)), approach) == pytest.approx(1.0)
+    assert toward_palm(np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]), approach) == pytest.approx(0.0)
