@@ -15,7 +15,9 @@ from manigrasp import hands, planners
 from manigrasp.errors import ConfigError, PlannerError, UnknownNameError
 from manigrasp.objects import build_object
 from manigrasp.planners.geometry import mats_to_quats, random_rotations
+from manigrasp.planners.jaw_poses import jaw_clears_table
 from manigrasp.planners.nms import rotation_angles, suppress
+from manigrasp.planners.pairs import Pairs
 from manigrasp.sim import build_scene, read_hand_contacts
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -145,6 +147,16 @@ def test_an_object_wider_than_the_jaw_gets_no_grasp(jaw):
     assert planners.plan(planners.load("antipodal"), obs, jaw, 10, np.random.default_rng(0)).candidates == ()
 
 
+def test_a_vertical_line_through_a_thin_plate_cannot_clear_the_table():
+    # A 1 cm plate on the table: the vertical line through it would put the lower open jaw 3 cm under the
+    # table (4 cm from the midpoint at 5 mm); a horizontal line across it keeps both jaws at 5 mm.
+    p, q = np.array([[0.0, 0.0, 0.01], [0.0, -0.03, 0.005]]), np.array([[0.0, 0.0, 0.0], [0.0, 0.03, 0.005]])
+    axis = (q - p) / np.linalg.norm(q - p, axis=1)[:, None]
+    pairs = Pairs(p=p, q=q, n_p=-axis, n_q=axis, axis=axis, width=np.linalg.norm(q - p, axis=1), alpha=np.zeros(2))
+    assert list(jaw_clears_table(pairs, open_width=0.08, lift=0.0, table_height=0.0)) == [False, True]
+    assert list(jaw_clears_table(pairs, open_width=0.08, lift=0.036, table_height=0.0)) == [True, True]
+
+
 # ------------------------------------------------------------ power and random
 def test_power_on_the_sphere_with_a_dexterous_hand(sphere_obs):
     hand = hands.load("inspire_right")
@@ -251,6 +263,12 @@ def test_registry_errors_are_clear():
         planners.load("antipodal", n_sample=10)
     with pytest.raises(ConfigError, match="n_approaches must be >= 1"):
         planners.load("antipodal", n_approaches=0)
+    with pytest.raises(ConfigError, match="dense_approaches must be >= 1"):
+        planners.load("antipodal", dense_approaches=0)
+    with pytest.raises(ConfigError, match=r"dense_lateral_fractions must be a non-empty list in \(-1, 1\)"):
+        planners.load("antipodal", dense_lateral_fractions=[0.0, 1.0])
+    with pytest.raises(ConfigError, match=r"depth_fractions must be a non-empty list in \[0, 1\)"):
+        planners.load("antipodal", depth_fractions=[-0.1])
     with pytest.raises(PlannerError, match="no plan"):
         planners.load("numpy:pi")
 

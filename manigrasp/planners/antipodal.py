@@ -14,11 +14,24 @@
 4. Around each grasp axis, `n_approaches` approach directions evenly spaced
    (random phase), none from below the table, at TCP depths back along the
    approach (fractions of how far the fingers reach beyond the TCP, so a
-   thin object can be pinched near the fingertips above the table).
-5. Rank by the score, then walk down the ranking: skip a pose that duplicates
-   a kept one (NMS, 3 cm / 30 deg, fingers swapped = same grasp), keep it if
-   the open hand's collision geometry is clear of object and table at the
-   grasp and at the pre-grasp pose (MuJoCo), until `n` are kept.
+   thin object can be pinched near the fingertips above the table) and at
+   lateral offsets across the pads (fractions of the fingers' half-width, so
+   the contacts may sit near a pad's edge: a tilted approach to a thin object
+   keeps the pads' lower corner above the table; none by default, the dense
+   grid of step 6 has them).
+5. Rank by the score (ties: centred contacts first, then the deepest; pairs
+   whose lower open jaw cannot clear the table last: `jaw_poses`),
+   then walk down the ranking: skip a pose that duplicates a kept one (NMS,
+   3 cm / 30 deg, fingers swapped = same grasp), keep it if the open hand's
+   collision geometry is clear of object and table at the grasp and at the
+   pre-grasp pose (MuJoCo), until `n` are kept.
+6. If fewer than min(`n`, `dense_below`) were kept (thin or narrow objects,
+   whose grasps form one narrow band), plan again on a denser grid of
+   approaches, depths and lateral offsets (`dense_*`) for the pairs whose
+   jaws clear the table, test the best-ranked `dense_checks` of its poses
+   for collision, and pack the free ones into as many mutually distinct
+   poses as possible (`nms.pack`: fewest conflicts first, then swaps). The
+   larger of the two sets is returned, best first.
 
 Score (in [0, 1], higher is better), per contact pair:
 
@@ -59,21 +72,14 @@ from manigrasp.hands.base import Hand
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.cloud import cloud_pairs, collision_hull, complete, hull_volume
 from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
-from manigrasp.planners.geometry import (
-    SmoothNormals,
-    barycentric_of,
-    first_hits,
-    perpendicular_basis,
-    sample_surface,
-    tcp_frames,
-)
+from manigrasp.planners.geometry import SmoothNormals, sample_surface
 from manigrasp.planners.hold import hold_margin, loads, required_grip
+from manigrasp.planners.jaw_poses import PoseGrid, ranked_poses
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, Suppressor
-from manigrasp.planners.pairs import Pairs, cone_rays
-from manigrasp.planners.select import select_free
+from manigrasp.planners.pairs import Pairs, cone_rays, find_pairs, thin_pairs
+from manigrasp.planners.select import pack_free, select_free
 
-RAY_OFFSET = 1e-5  # [m], rays start this far along their direction (no self-hit)
 COMPLETIONS = ("point_symmetry", "none")
 
 
@@ -88,60 +94,6 @@ class _Target(NamedTuple):
     probe: HandProbe
 
 
-def find_pairs(mesh: trimesh.Trimesh, normals: SmoothNormals, points: np.ndarray, n_out: np.ndarray,
-               rays: np.ndarray, half_angle: float, widths: tuple[float, float], reach: float) -> Pairs:
-    """Antipodal pairs from surface points (m, 3) with outward normals (m, 3) and inward rays (m, 3).
-
-    Args:
-        half_angle: friction cone half-angle atan(mu) [rad].
-        widths: (min, max) jaw width [m].
-        reach: half the open jaw width [m]: the line must be free this far from the pair's midpoint.
-    """
-    faces, dist = first_hits(mesh, points + RAY_OFFSET * rays, rays)
-    hit = faces >= 0
-    q = points + (RAY_OFFSET + np.where(hit, dist, 0.0))[:, None] * rays
-    bary = barycentric_of(mesh, np.where(hit, faces, 0), q)
-    n_q = normals.at(np.where(hit, faces, 0), bary)
-    cos_p = -np.einsum("ij,ij->i", rays, n_out)
-    cos_q = np.einsum("ij,ij->i", rays, n_q)
-    width = np.linalg.norm(q - points, axis=1)
-    cos_max = np.cos(half_angle)
-    keep = hit & (cos_p >= cos_max) & (cos_q >= cos_max) & (width >= widths[0]) & (width <= widths[1])
-    pairs = Pairs(p=points, q=q, n_p=n_out, n_q=n_q, axis=rays, width=width,
-                  alpha=np.arccos(np.clip(np.minimum(cos_p, cos_q), -1.0, 1.0))).take(keep)
-    return pairs.take(fingers_reach(mesh, pairs, reach))
-
-
-def thin_pairs(pairs: Pairs, cell: float, axis_bins: int = 6) -> np.ndarray:
-    """Indices of the most antipodal pair in each cell of (midpoint on a `cell` [m] grid, grasp line direction).
-
-    The line direction's sign is ignored (p->q and q->p are one line) and each
-    component is binned to 1 / `axis_bins` (about 10 degrees for 6). Pairs far
-    finer than the NMS thresholds would yield the same poses over and over.
-    """
-    if len(pairs) == 0:
-        return np.zeros(0, int)
-    axis = pairs.axis * np.where(_first_nonzero_sign(pairs.axis) < 0, -1.0, 1.0)[:, None]
-    keys = np.concatenate([np.floor(0.5 * (pairs.p + pairs.q) / cell), np.round(axis * axis_bins)], axis=1)
-    order = np.argsort(pairs.alpha, kind="stable")
-    _, first = np.unique(keys[order].astype(np.int64), axis=0, return_index=True)
-    return np.sort(order[first])
-
-
-def _first_nonzero_sign(vectors: np.ndarray) -> np.ndarray:
-    """(n,) sign of the first component of each row that is not ~0."""
-    signs = np.sign(np.where(np.abs(vectors) > 1e-9, vectors, 0.0))
-    return signs[np.arange(len(vectors)), np.argmax(signs != 0, axis=1)]
-
-
-def fingers_reach(mesh: trimesh.Trimesh, pairs: Pairs, reach: float) -> np.ndarray:
-    """(m,) True where the grasp line is free of the object beyond both contacts up to the open fingers."""
-    beyond = reach - 0.5 * pairs.width  # [m] from each contact out to its open finger
-    _, out_q = first_hits(mesh, pairs.q + RAY_OFFSET * pairs.axis, pairs.axis)
-    _, out_p = first_hits(mesh, pairs.p - RAY_OFFSET * pairs.axis, -pairs.axis)
-    return (out_q > beyond) & (out_p > beyond)
-
-
 @dataclass(frozen=True)
 class AntipodalPlanner:
     """Antipodal two-finger grasps (module docstring); parameters are config fields.
@@ -152,7 +104,13 @@ class AntipodalPlanner:
         ray_cone: extra rays lie within this fraction of the friction cone half-angle [-].
         n_approaches: approach directions around each grasp axis.
         depth_fractions: TCP offsets back along the approach from the contacts' midpoint, as fractions
-            of the fingers' reach beyond the TCP (`HandProbe.finger_reach`; 1.5 cm for parallel_jaw) [-].
+            of the fingers' reach beyond the TCP (`HandProbe.finger_extents`; 1.5 cm for parallel_jaw) [-].
+        lateral_fractions: TCP offsets across the pads (the TCP's x axis) from the contacts' midpoint, as
+            fractions of the fingers' half-width (`HandProbe.finger_extents`; 1 cm for parallel_jaw) [-].
+        dense_approaches, dense_depth_fractions, dense_lateral_fractions: the denser grid of step 6.
+        dense_checks: the most poses of the dense grid tested for collision (the best ranked).
+        dense_below: step 6 runs when step 5 keeps fewer than min(n, dense_below) poses: objects with few
+            distinct grasps, where its cost (about 1-2 s) buys most; 0: never.
         contact: contact model of the analysis (friction mu, torsion gamma).
         min_width: narrowest grasp [m].
         width_margin: the open jaw must be this much wider than the grasp [m].
@@ -182,6 +140,12 @@ class AntipodalPlanner:
     ray_cone: float = 0.5
     n_approaches: int = 12
     depth_fractions: tuple[float, ...] = (0.0, 0.4, 0.8)
+    lateral_fractions: tuple[float, ...] = (0.0,)
+    dense_approaches: int = 36
+    dense_depth_fractions: tuple[float, ...] = (0.0, 0.3, 0.6, 0.9)
+    dense_lateral_fractions: tuple[float, ...] = (0.0, -0.4, 0.4, -0.8, 0.8)
+    dense_checks: int = 40_000
+    dense_below: int = 25
     contact: ContactModel = field(default_factory=ContactModel)
     min_width: float = 0.002
     width_margin: float = 0.005
@@ -202,23 +166,26 @@ class AntipodalPlanner:
     cloud_margin: float = 0.003
 
     def __post_init__(self) -> None:
-        for key in ("n_samples", "rays_per_sample", "n_approaches", "max_checks"):
+        for key in ("n_samples", "rays_per_sample", "n_approaches", "max_checks", "dense_approaches", "dense_checks"):
             if int(getattr(self, key)) < 1:
                 raise ConfigError(f"antipodal: {key} must be >= 1, got {getattr(self, key)}")
         if not 0.0 <= self.ray_cone <= 1.0:
             raise ConfigError(f"antipodal: ray_cone must be in [0, 1], got {self.ray_cone}")
-        fractions = tuple(float(d) for d in self.depth_fractions)
-        if not fractions or not all(0.0 <= d < 1.0 for d in fractions):
-            raise ConfigError(f"antipodal: depth_fractions must be in [0, 1), got {self.depth_fractions}")
-        if self.epsilon_ref <= 0 or self.clearance < 0:
-            raise ConfigError("antipodal: epsilon_ref must be > 0 and clearance >= 0")
+        for key, low, interval in (("depth_fractions", 0.0, "[0, 1)"), ("dense_depth_fractions", 0.0, "[0, 1)"),
+                                   ("lateral_fractions", np.nextafter(-1.0, 0.0), "(-1, 1)"),
+                                   ("dense_lateral_fractions", np.nextafter(-1.0, 0.0), "(-1, 1)")):
+            fractions = tuple(float(x) for x in np.atleast_1d(getattr(self, key)))
+            if not fractions or not all(low <= x < 1.0 for x in fractions):
+                raise ConfigError(f"antipodal: {key} must be a non-empty list in {interval}, got {getattr(self, key)}")
+            object.__setattr__(self, key, fractions)
+        if self.epsilon_ref <= 0 or self.clearance < 0 or self.dense_below < 0:
+            raise ConfigError("antipodal: epsilon_ref must be > 0, clearance and dense_below >= 0")
         if not (0 < self.grip_fraction <= 1 and self.perturbation >= 0 and self.hold_ref > 0 and self.density > 0):
             raise ConfigError("antipodal: grip_fraction must be in (0, 1], perturbation >= 0, hold_ref and density > 0")
         if self.completion not in COMPLETIONS:
             raise ConfigError(f"antipodal: unknown completion {self.completion!r}; valid: {', '.join(COMPLETIONS)}")
         if self.cloud_radius <= 0 or self.cloud_margin < 0:
             raise ConfigError("antipodal: cloud_radius must be > 0 and cloud_margin >= 0")
-        object.__setattr__(self, "depth_fractions", fractions)
 
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
         """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first.
@@ -233,12 +200,20 @@ class AntipodalPlanner:
         eps = grasp_metrics(*self._contacts(pairs), center, scale,
                             ContactModel(self.contact.mu, self.contact.gamma, min_friction=False)).epsilon_l1
         score = self.score(pairs, eps, self.hold(pairs, center, mass, hand))
-        depths = probe.finger_reach() * np.asarray(self.depth_fractions)
-        poses, pair_of, depth_of = self.poses(pairs, depths, observation.table_height, rng)
-        order = np.lexsort((depth_of, -score[pair_of]))
+        ranked = ranked_poses(pairs, score, self.grid, probe.finger_extents(), hand.max_width, self.max_approach_z,
+                              observation.table_height, rng)
         nms = Suppressor(self.nms_distance, self.nms_angle, symmetric=True, capacity=max(n, 1))
-        chosen = select_free(probe, nms, poses[order], n, self.pregrasp_offset, self.max_checks)
-        return self._candidates(pairs, score, eps, poses, pair_of, order[chosen], center, scale)
+        chosen = ranked.order[select_free(probe, nms, ranked.poses[ranked.order], n, self.pregrasp_offset,
+                                          self.max_checks)]
+        if len(chosen) < min(n, self.dense_below) and len(pairs):
+            dense = ranked_poses(pairs, score, self.dense_grid, probe.finger_extents(), hand.max_width,
+                                 self.max_approach_z, observation.table_height, rng, keep_unclear=False)
+            packed = dense.order[pack_free(probe, dense.poses[dense.order], n, self.nms_distance, self.nms_angle,
+                                           True, self.pregrasp_offset, self.dense_checks)]
+            if len(packed) > len(chosen):
+                ranked, chosen = dense, packed
+        poses, pair_of = ranked.poses, ranked.pair_of
+        return self._candidates(pairs, score, eps, poses, pair_of, chosen, center, scale)
 
     def _mesh_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
         """Pairs on the mesh; centre of mass = the object frame's origin; the asset's mass (else volume x density)."""
@@ -263,6 +238,16 @@ class AntipodalPlanner:
         mass = self.density * hull_volume(done.points)
         return _Target(pairs, done.center, torque_scale(done.points, done.center), mass,
                        HandProbe(hand, observation, self.clearance, hull=hull))
+
+    @property
+    def grid(self) -> PoseGrid:
+        """The grid of steps 4-5."""
+        return PoseGrid(self.n_approaches, self.depth_fractions, self.lateral_fractions)
+
+    @property
+    def dense_grid(self) -> PoseGrid:
+        """The denser grid of step 6."""
+        return PoseGrid(self.dense_approaches, self.dense_depth_fractions, self.dense_lateral_fractions)
 
     def hold(self, pairs: Pairs, center: np.ndarray, mass: float, hand: Hand) -> np.ndarray:
         """(m,) hold margin h of each pair at the protocol's grip force (module docstring, `hold`)."""
@@ -291,25 +276,6 @@ class AntipodalPlanner:
         antipodality = np.clip(1.0 - pairs.alpha / np.arctan(self.contact.mu), 0.0, 1.0)
         quality = 0.5 * antipodality + 0.5 * np.clip(epsilon / self.epsilon_ref, 0.0, 1.0)
         return np.clip(hold / self.hold_ref, 0.0, 1.0) * quality
-
-    def poses(self, pairs: Pairs, depths: np.ndarray, table_height: float,
-              rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """TCP poses (k, 4, 4) around every pair's axis at `depths` [m] (step 4), with their pair (k,) and
-        depth index (k,)."""
-        m, count = len(pairs), self.n_approaches
-        a, b = perpendicular_basis(pairs.axis)
-        theta = rng.random(m)[:, None] * 2.0 * np.pi + np.arange(count)[None, :] * 2.0 * np.pi / count
-        approach = np.cos(theta)[..., None] * a[:, None] + np.sin(theta)[..., None] * b[:, None]  # (m, count, 3)
-        pair_of = np.repeat(np.arange(m), count)
-        approach = approach.reshape(-1, 3)
-        ok = approach[:, 2] <= self.max_approach_z
-        pair_of, approach = pair_of[ok], approach[ok]
-        centre = 0.5 * (pairs.p + pairs.q)[pair_of]
-        positions = centre[None] - depths[:, None, None] * approach[None]  # (d, k, 3)
-        d = len(depths)
-        poses = tcp_frames(positions.reshape(-1, 3), np.tile(approach, (d, 1)), np.tile(pairs.axis[pair_of], (d, 1)))
-        above = poses[:, 2, 3] >= table_height
-        return poses[above], np.tile(pair_of, d)[above], np.repeat(np.arange(d), len(pair_of))[above]
 
     @staticmethod
     def _contacts(pairs: Pairs) -> tuple[np.ndarray, np.ndarray]:

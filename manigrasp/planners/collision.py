@@ -142,8 +142,9 @@ class HandProbe:
                 return False
         return True
 
-    def finger_reach(self) -> float:
-        """How far [m] the fingers' collision geometry extends beyond the TCP along the approach (open hand).
+    def finger_extents(self) -> tuple[float, float]:
+        """How far [m] the fingers' collision geometry extends beyond the TCP along the approach (z), and
+        its half-width [m] across the fingers (along x, the pads' width), open hand.
 
         Measured on the bounding boxes of the finger geoms (a slight
         overestimate for geoms tilted in the TCP frame).
@@ -152,15 +153,16 @@ class HandProbe:
         self.place(*[x[0] for x in self.roots(np.eye(4)[None])])
         tcp = scene.tcp_pose()
         corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
-        reach = 0.0
+        reach = half_width = 0.0
         for g in np.flatnonzero(self.is_hand & (model.geom_contype != 0)):
             if scene.finger_of_body[model.geom_bodyid[g]] < 0:
                 continue
             local = model.geom_aabb[g, :3] + corners * model.geom_aabb[g, 3:]
             world = local @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
             reach = max(reach, float(np.max((world - tcp[:3, 3]) @ tcp[:3, 2])))
+            half_width = max(half_width, float(np.max(np.abs((world - tcp[:3, 3]) @ tcp[:3, 0]))))
         self.restore()
-        return reach
+        return reach, half_width
 
     # -------------------------------------------------------- hand joints
     def set_hand_qpos(self, qpos: dict[int, float]) -> None:

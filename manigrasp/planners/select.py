@@ -1,4 +1,9 @@
-"""Walking down a ranking: keep poses that are neither duplicates (NMS) nor colliding (MuJoCo)."""
+"""Choosing poses from a ranking: neither duplicates (NMS) nor colliding (MuJoCo).
+
+`select_free` walks down the ranking (greedy NMS, lazy collision tests: the
+usual path). `pack_free` tests every pose and packs as many distinct free
+poses as it can (for objects where the walk comes up short).
+"""
 
 from __future__ import annotations
 
@@ -6,7 +11,7 @@ import numpy as np
 
 from manigrasp.planners.base import pregrasp
 from manigrasp.planners.collision import HandProbe
-from manigrasp.planners.nms import Suppressor, pairwise_close
+from manigrasp.planners.nms import Suppressor, conflicts, pack, pairwise_close, representatives
 
 CHUNK = 256  # poses whose root transforms are computed at once
 
@@ -50,3 +55,28 @@ def select_free(probe: HandProbe, nms: Suppressor, ranked: np.ndarray, n: int, p
             if len(kept) >= n:
                 return np.array(kept, dtype=int)
     return np.array(kept, dtype=int)
+
+
+PACK_CELL = 0.005  # [m], representatives' position grid (`nms.representatives`)
+PACK_BINS = 12  # representatives' axis bins per unit component (about 5 degrees)
+PACK_LIMIT = 6000  # the most representatives packed (the best ranked): bounds the conflict graph
+
+
+def pack_free(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, angle: float, symmetric: bool,
+              pregrasp_offset: float, max_checks: int) -> np.ndarray:
+    """Indices into `ranked` (k, 4, 4), best first, of at most `n` free poses, no two within the NMS thresholds.
+
+    The first `max_checks` poses of the ranking are tested for collision at
+    the pose and its pre-grasp pose; the best ranked free pose of each small
+    cell of pose space stands for its cell (`nms.representatives`), and the
+    representatives are packed into as large a set of mutually distinct poses
+    as `nms.pack` finds, of which the `n` best ranked are returned.
+
+    Args:
+        distance, angle, symmetric: the NMS thresholds [m], [rad] and the finger-swap symmetry.
+    """
+    ranked = ranked[:max_checks]
+    free = np.flatnonzero(~probe.collides(ranked))
+    free = free[~probe.collides(pregrasp(ranked[free], pregrasp_offset))]
+    free = free[representatives(ranked[free], PACK_CELL, PACK_BINS, symmetric)][:PACK_LIMIT]
+    return free[pack(conflicts(ranked[free], distance, angle, symmetric), len(free))][:n]
