@@ -4,6 +4,11 @@ Two poses are duplicates when their TCP positions are closer than `distance`
 [m] AND their orientations differ by less than `angle` [rad]. For a
 two-jaw hand, a pose and the same pose turned 180 degrees about its approach
 axis (fingers swapped) are the same grasp (`symmetric=True`).
+
+`Suppressor` / `suppress` keep poses greedily in rank order (the usual
+NMS). `conflicts` lists every duplicate pair of a set of poses and `pack`
+picks a large set with no duplicate pair in it (a maximum independent set
+heuristic), for when rank order keeps too few.
 """
 
 from __future__ import annotations
