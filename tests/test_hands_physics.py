@@ -192,6 +192,27 @@ def test_dexterous_grip_reaches_max_grip_force(name: str, objects: dict) -> None
     assert len(contacts.fingers_touching) >= 2
 
 
+@pytest.mark.parametrize("name", [n for n in hands.names() if n.startswith(("inspire", "fourier"))])
+def test_dexterous_thumb_stays_opposed_under_the_squeeze(name: str, objects: dict) -> None:
+    """The fingers' squeeze on a can must not push the thumb out of opposition (its rotation servo is stiff).
+
+    With the bending tendons' soft servo on the rotation too, its tendon moved 0.018-0.057 (0.005 now) and the
+    object rolled toward it: the main cause of `slipped_lift` for power grasps.
+    """
+    scene = _scene(name, objects)
+    pose = grasp_pose(scene)
+    scene.reset(mount=pose)
+    rotation = scene.model.tendon("hand/thumb_rotation").id
+    opposed = float(scene.data.ten_length[rotation])
+    grip = GripController(0.7 * scene.hand.max_grip_force, scene.hand.max_grip_force, close_speed=2.0)
+    ctrl, turned = _hold(scene, pose), 0.0
+    for _ in range(15):  # 1.5 s of closing and regulated squeeze
+        _run(scene, ctrl, 50, grip, follow=True)
+        turned = max(turned, abs(float(scene.data.ten_length[rotation]) - opposed))
+    assert grip.mode == "force" and len(read_hand_contacts(scene).fingers_touching) >= 3
+    assert turned < 0.01, f"the thumb's rotation tendon moved {turned:.3f} off its opposed length"
+
+
 @pytest.mark.parametrize("name", hands.names())
 def test_lift_and_hold_two_seconds(name: str, objects: dict) -> None:
     scene = _scene(name, objects)

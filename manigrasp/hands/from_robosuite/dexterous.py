@@ -11,9 +11,11 @@ finger, one for the thumb's bend, one for its rotation):
   blocked by an object, the distal joints keep wrapping (an adaptive,
   underactuated finger);
 - one force-limited position servo per tendon, plus one for thumb rotation;
-  the servos are soft (`KP`), so a blocked finger's force grows gradually
-  with the command and the grip force can be regulated through the synergy
-  (`manigrasp.control.GripController`);
+  the bending servos are soft (`KP`), so a blocked finger's force grows
+  gradually with the command and the grip force can be regulated through the
+  synergy (`manigrasp.control.GripController`); the thumb's rotation, held at
+  its opposed stop, is stiff (`ROTATION_KP`) so the fingers' squeeze cannot
+  push the thumb out of opposition;
 - the thumb's rotation joint is re-referenced so that the model's default
   configuration (qpos0) is the open pre-shape: thumb rotated into opposition,
   everything else straight. The synergy s then flexes fingers and thumb
@@ -47,6 +49,11 @@ FINGERS = ("index", "middle", "ring", "pinky")
 # wide part of the synergy (0.6 N m / 0.5 = 1.2 rad of command, a third of a finger's travel) instead of
 # jumping to the limit within 3% of it (kp = 5), and the grip force can be regulated through the synergy.
 KP = 0.5
+# Servo stiffness of the thumb's rotation [N m/rad]. The rotation is always commanded to its opposed stop and takes
+# no part in regulating the grip, so it needs no softness: at KP the four curling fingers pushed the thumb off its
+# stop (1.30 -> 1.10 rad against 0.12 N m) and rolled the object toward it, 15-20 mm/s, the main cause of
+# `slipped_lift` for power grasps (reduced dexterous benchmark: 10/40 successes at KP, 22/40 at 50, 21/40 at 200).
+ROTATION_KP = 50.0
 # Rotor inertia reflected through each finger joint's drive [kg m^2] (MuJoCo armature). robosuite's links weigh
 # 0.1 kg with inertias of ~1e-5 kg m^2 and no armature; MuJoCo's joint limits (and contacts) are soft in proportion
 # to the inverse inertia they act on, so a 0.6-0.9 N m tendon pushed those joints up to 1.2 rad past their stops
@@ -72,7 +79,8 @@ class FiveFingerModel:
     finger_tip: str  # pattern with {f}
     finger_torque: float  # tendon force limit of a finger [N m]
     thumb_torque: float  # tendon force limit of the thumb bend and rotation [N m]
-    kp: float = KP  # servo stiffness of every tendon [N m/rad]
+    kp: float = KP  # servo stiffness of every bending tendon [N m/rad]
+    rotation_kp: float = ROTATION_KP  # servo stiffness of the thumb's rotation [N m/rad]
     armature: float = ARMATURE  # reflected drive inertia of every hinge joint [kg m^2]
     link_mass: float | None = None  # if set, the mass of every collision geom [kg]
 
@@ -150,8 +158,8 @@ def _base_spec(model: FiveFingerModel) -> mujoco.MjSpec:
         force = _force_limit(model, name)
         closed = _closed_length(spec, joints)
         high = closed if name == "thumb_rotation" else closed + force / model.kp
-        build.add_tendon_position_actuator(spec, name, joints, kp=model.kp, force_limit=force,
-                                           ctrlrange=(0.0, high))
+        kp = model.rotation_kp if name == "thumb_rotation" else model.kp
+        build.add_tendon_position_actuator(spec, name, joints, kp=kp, force_limit=force, ctrlrange=(0.0, high))
     return spec
 
 
