@@ -171,11 +171,11 @@ class AntipodalPlanner:
                 raise ConfigError(f"antipodal: {key} must be >= 1, got {getattr(self, key)}")
         if not 0.0 <= self.ray_cone <= 1.0:
             raise ConfigError(f"antipodal: ray_cone must be in [0, 1], got {self.ray_cone}")
-        for key, low, interval in (("depth_fractions", 0.0, "[0, 1)"), ("dense_depth_fractions", 0.0, "[0, 1)"),
-                                   ("lateral_fractions", np.nextafter(-1.0, 0.0), "(-1, 1)"),
-                                   ("dense_lateral_fractions", np.nextafter(-1.0, 0.0), "(-1, 1)")):
+        depth, lateral = ("[0, 1)", lambda x: 0.0 <= x < 1.0), ("(-1, 1)", lambda x: -1.0 < x < 1.0)
+        for key, (interval, valid) in (("depth_fractions", depth), ("dense_depth_fractions", depth),
+                                       ("lateral_fractions", lateral), ("dense_lateral_fractions", lateral)):
             fractions = tuple(float(x) for x in np.atleast_1d(getattr(self, key)))
-            if not fractions or not all(low <= x < 1.0 for x in fractions):
+            if not fractions or not all(valid(x) for x in fractions):
                 raise ConfigError(f"antipodal: {key} must be a non-empty list in {interval}, got {getattr(self, key)}")
             object.__setattr__(self, key, fractions)
         if self.epsilon_ref <= 0 or self.clearance < 0 or self.dense_below < 0:
@@ -200,20 +200,20 @@ class AntipodalPlanner:
         eps = grasp_metrics(*self._contacts(pairs), center, scale,
                             ContactModel(self.contact.mu, self.contact.gamma, min_friction=False)).epsilon_l1
         score = self.score(pairs, eps, self.hold(pairs, center, mass, hand))
-        ranked = ranked_poses(pairs, score, self.grid, probe.finger_extents(), hand.max_width, self.max_approach_z,
+        extents = probe.finger_extents()
+        ranked = ranked_poses(pairs, score, self.grid, extents, hand.max_width, self.max_approach_z,
                               observation.table_height, rng)
         nms = Suppressor(self.nms_distance, self.nms_angle, symmetric=True, capacity=max(n, 1))
         chosen = ranked.order[select_free(probe, nms, ranked.poses[ranked.order], n, self.pregrasp_offset,
                                           self.max_checks)]
         if len(chosen) < min(n, self.dense_below) and len(pairs):
-            dense = ranked_poses(pairs, score, self.dense_grid, probe.finger_extents(), hand.max_width,
-                                 self.max_approach_z, observation.table_height, rng, keep_unclear=False)
+            dense = ranked_poses(pairs, score, self.dense_grid, extents, hand.max_width, self.max_approach_z,
+                                 observation.table_height, rng, keep_unclear=False)
             packed = dense.order[pack_free(probe, dense.poses[dense.order], n, self.nms_distance, self.nms_angle,
                                            True, self.pregrasp_offset, self.dense_checks)]
             if len(packed) > len(chosen):
                 ranked, chosen = dense, packed
-        poses, pair_of = ranked.poses, ranked.pair_of
-        return self._candidates(pairs, score, eps, poses, pair_of, chosen, center, scale)
+        return self._candidates(pairs, score, eps, ranked.poses, ranked.pair_of, chosen, center, scale)
 
     def _mesh_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
         """Pairs on the mesh; centre of mass = the object frame's origin; the asset's mass (else volume x density)."""

@@ -34,7 +34,8 @@ a power grasp holds the object against the palm. The default palm_weight = 0
 is the earlier score (fingers and epsilon only): `benchmarks/bench_power.py`
 measured palm_weight 0.3 and 0.6 bringing the palm within 10 mm of the object
 in 95-100% of the candidates (68% without) but lowering the simulated success
-of the dexterous hands (6/40 vs 9/40), so the term is off by default.
+of the dexterous hands (with the stiff thumb rotation: 14/40 and 13/40 vs
+18/40), so the term is off by default.
 """
 
 from __future__ import annotations
