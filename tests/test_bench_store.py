@@ -11,7 +11,8 @@ import textwrap
 
 import pytest
 
-from manigrasp.bench.store import ResultsStore, TrialKey, export
+from manigrasp.bench.export import export
+from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
 
 

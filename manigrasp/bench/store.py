@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import sqlite3
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -110,24 +110,3 @@ def _py_value(value: object, name: str) -> object:
     if value is None:
         return "" if name in ("detail", "last_phase", "fingers_in_contact") else math.nan
     return value
-
-
-def export(rows: Iterable[dict[str, object]], path: Path) -> Path:
-    """Write rows to ``.csv`` or ``.parquet`` (by the suffix of `path`)."""
-    rows = list(rows)
-    path = Path(path)
-    if path.suffix == ".parquet":
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-
-        pq.write_table(pa.Table.from_pylist(rows), path)
-    elif path.suffix == ".csv":
-        import csv
-
-        with path.open("w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(rows[0]) if rows else list(KEY_COLUMNS))
-            writer.writeheader()
-            writer.writerows(rows)
-    else:
-        raise ValueError(f"unknown export format {path.suffix!r}: use .csv or .parquet")
-    return path
