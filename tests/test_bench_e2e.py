@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from manigrasp.bench.config import parse_config
@@ -40,6 +41,12 @@ def test_every_trial_is_stored_once_with_its_status(tmp_path):
     assert {r["status"] for r in rows} <= {s.value for s in Status}
     antipodal = [r for r in rows if r["planner"] == "antipodal"]
     assert sum(r["status"] == "success" for r in antipodal) >= 5  # boxes and cans are easy for antipodal
+    for r in antipodal:  # each row carries the grasp it executed and the object pose it was planned on
+        grasp = np.array([r[f"grasp_{k}"] for k in ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")])
+        obj = np.array([r[f"object_{k}"] for k in ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")])
+        assert np.all(np.isfinite(grasp)) and np.all(np.isfinite(obj))
+        assert abs(np.linalg.norm(grasp[3:]) - 1) < 1e-9 and np.linalg.norm(grasp[:3] - obj[:3]) < 0.15
+        assert 0 < r["grasp_width_m"] <= 0.08 and r["plan_time_s"] >= r["planning_time_s"] > 0
     again = run_benchmark(parse_config(SMALL), tmp_path / "run", progress=False)
     assert again.ran == 0 and again.already_done == 12 and len(_rows(tmp_path / "run")) == 12
 
@@ -47,7 +54,7 @@ def test_every_trial_is_stored_once_with_its_status(tmp_path):
 def test_same_config_and_seed_give_identical_rows(tmp_path):
     run_benchmark(parse_config(SMALL), tmp_path / "a", progress=False)
     run_benchmark(parse_config(SMALL), tmp_path / "b", progress=False)
-    timing = {"wall_time_s", "planning_time_s"}
+    timing = {"wall_time_s", "planning_time_s", "plan_time_s"}
     strip = [{k: v for k, v in r.items() if k not in timing} for r in _rows(tmp_path / "a")]
     assert strip == [{k: v for k, v in r.items() if k not in timing} for r in _rows(tmp_path / "b")]
     other = run_benchmark(parse_config(SMALL, ["seed=1"]), tmp_path / "c", progress=False)
@@ -113,7 +120,7 @@ def test_two_workers_give_the_same_rows_as_one(tmp_path):
     one = run_benchmark(parse_config(SMALL), tmp_path / "one", progress=False)
     two = run_benchmark(parse_config(SMALL), tmp_path / "two", jobs=2, progress=False)
     assert one.ran == two.ran == 12
-    timing = {"wall_time_s", "planning_time_s"}
+    timing = {"wall_time_s", "planning_time_s", "plan_time_s"}
     assert ([{k: v for k, v in r.items() if k not in timing} for r in _rows(tmp_path / "one")]
             == [{k: v for k, v in r.items() if k not in timing} for r in _rows(tmp_path / "two")])
 
@@ -136,7 +143,7 @@ def test_recording_keeps_the_chosen_trials_and_changes_no_result(tmp_path):
     small = dict(SMALL, objects=["004_sugar_box"], planners=["random"], grasps_per_object=4)
     run_benchmark(parse_config(small), tmp_path / "plain", progress=False)
     run_benchmark(parse_config(small), tmp_path / "rec", progress=False, record="failures")
-    timing = {"wall_time_s", "planning_time_s"}
+    timing = {"wall_time_s", "planning_time_s", "plan_time_s"}
     plain, rec = _rows(tmp_path / "plain"), _rows(tmp_path / "rec")
     assert [{k: v for k, v in r.items() if k not in timing} for r in plain] == [
         {k: v for k, v in r.items() if k not in timing} for r in rec]

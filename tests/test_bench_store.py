@@ -9,11 +9,13 @@ import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from manigrasp.bench.export import export
 from manigrasp.bench.store import ResultsStore, TrialKey
-from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
+from manigrasp.protocol.result import GraspMetrics, PoseRecord, Status, TrialResult
 
 
 def _result(i: int) -> TrialResult:
@@ -37,6 +39,44 @@ def test_round_trip_keeps_every_field_including_nan_and_inf(tmp_path):
     assert r1 == _result(1) and r1.simulated.min_friction == math.inf
     assert r0.status is Status.PLANNER_ERROR and r0.detail == "boom" and math.isnan(r0.planned.epsilon_l1)
     assert r0.fingers_in_contact == ()
+
+
+def test_grasp_and_object_poses_round_trip_through_the_store(tmp_path):
+    """The executed grasp and the settled object pose are stored, so a trial can be re-placed later."""
+    rng = np.random.default_rng(4)
+    grasp, obj = np.eye(4), np.eye(4)
+    grasp[:3, :3], grasp[:3, 3] = Rotation.random(random_state=rng).as_matrix(), [0.1, -0.2, 0.3]
+    obj[:3, :3], obj[:3, 3] = Rotation.random(random_state=rng).as_matrix(), [0.0, 0.01, 0.05]
+    result = TrialResult(Status.SUCCESS, grasp=PoseRecord.of(grasp), grasp_width_m=0.05, grasp_preshape=0.0,
+                         object_pose=PoseRecord.of(obj), plan_time_s=0.8)
+    with ResultsStore(tmp_path / "results.sqlite") as store:
+        store.add(_key(0), result)
+        (_, back), = list(store.results())
+    assert back == result
+    np.testing.assert_allclose(back.grasp.matrix(), grasp, atol=1e-12)
+    np.testing.assert_allclose(back.object_pose.matrix(), obj, atol=1e-12)
+    assert back.grasp.qw >= 0
+    assert math.isnan(PoseRecord.of(np.full((4, 4), np.nan)).x_m)
+
+
+def test_a_store_written_before_the_pose_columns_is_extended_not_lost(tmp_path):
+    """Resuming a run stored by an older version adds the new columns; old rows read as NaN there."""
+    import sqlite3
+
+    path = tmp_path / "results.sqlite"
+    with ResultsStore(path) as store:
+        store.add(_key(0), _result(0))
+    db = sqlite3.connect(path)
+    db.execute("ALTER TABLE trials DROP COLUMN plan_time_s")
+    db.execute("ALTER TABLE trials DROP COLUMN grasp_qw")
+    db.commit()
+    db.close()
+    with ResultsStore(path) as store:
+        assert store.add(_key(1), _result(1))
+        rows = dict(store.results())
+    assert rows[_key(1)] == _result(1)
+    assert math.isnan(rows[_key(0)].plan_time_s) and math.isnan(rows[_key(0)].grasp.qw)
+    assert rows[_key(0)].status is Status.SUCCESS
 
 
 def test_a_trial_is_never_stored_twice(tmp_path):

@@ -55,6 +55,11 @@ class ResultsStore:
         self._db.execute(
             "CREATE TABLE IF NOT EXISTS trials (trial_id TEXT PRIMARY KEY, object TEXT, hand TEXT, planner TEXT, "
             f"observation TEXT, protocol TEXT, grasp_index INTEGER, {cols})")
+        # A store written by an older manigrasp lacks newer result columns: add them (NULL = not recorded).
+        present = {row[1] for row in self._db.execute("PRAGMA table_info(trials)")}
+        for name, kind in self._columns:
+            if name not in present:
+                self._db.execute(f"ALTER TABLE trials ADD COLUMN {name} {kind}")
         self._db.commit()
 
     def close(self) -> None:
@@ -78,7 +83,8 @@ class ResultsStore:
         values += [_sql_value(flat[name]) for name, _ in self._columns]
         marks = ", ".join("?" * len(values))
         with self._db:
-            cursor = self._db.execute(f"INSERT OR IGNORE INTO trials VALUES ({marks})", values)
+            names = ", ".join(("trial_id", *KEY_COLUMNS[1:], *(n for n, _ in self._columns)))
+            cursor = self._db.execute(f"INSERT OR IGNORE INTO trials ({names}) VALUES ({marks})", values)
         return cursor.rowcount == 1
 
     def rows(self) -> Iterator[dict[str, object]]:

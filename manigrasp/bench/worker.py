@@ -19,7 +19,7 @@ from manigrasp.bench.observe import ObservationInfo, observe_with_info
 from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import Group
 from manigrasp.errors import ManigraspError
-from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.protocol.result import PoseRecord, Status, TrialResult
 from manigrasp.record.policy import trial_recording
 
 _SCENES: dict[tuple, object] = {}
@@ -102,8 +102,20 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
     """
     key, result = _run_trial(group, index, plan, record)
     info = plan.observation
-    return key, replace(result, pose_rotation_error_deg=info.rotation_error_deg,
-                        pose_translation_error_mm=info.translation_error_mm, pose_add_s_mm=info.add_s_mm)
+    result = replace(result, pose_rotation_error_deg=info.rotation_error_deg,
+                     pose_translation_error_mm=info.translation_error_mm, pose_add_s_mm=info.add_s_mm,
+                     object_pose=PoseRecord.of(plan.object_pose), plan_time_s=plan.planning_time_s)
+    if index < len(plan.candidates):
+        candidate = plan.candidates[index]
+        width = getattr(candidate, "width", None)
+        try:
+            width = float(width) if width is not None else math.nan
+            preshape = float(getattr(candidate, "preshape", 0.0) or 0.0)
+        except (TypeError, ValueError):
+            width, preshape = math.nan, math.nan
+        result = replace(result, grasp=PoseRecord.of(getattr(candidate, "pose", np.full((4, 4), np.nan))),
+                         grasp_width_m=width, grasp_preshape=preshape)
+    return key, result
 
 
 def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, TrialResult]:

@@ -10,6 +10,9 @@ import math
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 
+import numpy as np
+from scipy.spatial.transform import Rotation
+
 
 class Status(StrEnum):
     """Outcome of one trial (DESIGN.md, "The standard protocol")."""
@@ -46,6 +49,46 @@ class GraspMetrics:
 
 
 @dataclass(frozen=True)
+class PoseRecord:
+    """A rigid pose as stored with a trial: position [m] and unit quaternion (w, x, y, z); NaN: unknown."""
+
+    x_m: float = math.nan
+    y_m: float = math.nan
+    z_m: float = math.nan
+    qw: float = math.nan
+    qx: float = math.nan
+    qy: float = math.nan
+    qz: float = math.nan
+
+    @classmethod
+    def of(cls, pose: np.ndarray) -> PoseRecord:
+        """The record of a (4, 4) pose (NaN if it is not a finite rigid transform)."""
+        pose = np.asarray(pose, dtype=float)
+        if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
+            return cls()
+        try:
+            quat = Rotation.from_matrix(pose[:3, :3]).as_quat(scalar_first=True)
+        except ValueError:
+            return cls(*(float(v) for v in pose[:3, 3]))
+        quat = quat if quat[0] >= 0 else -quat  # one sign per rotation
+        return cls(*(float(v) for v in pose[:3, 3]), *(float(v) for v in quat))
+
+    def matrix(self) -> np.ndarray:
+        """The (4, 4) pose (raises ValueError if any field is NaN)."""
+        values = np.array([self.x_m, self.y_m, self.z_m, self.qw, self.qx, self.qy, self.qz])
+        if not np.all(np.isfinite(values)):
+            raise ValueError("the stored pose is incomplete (NaN)")
+        out = np.eye(4)
+        out[:3, :3] = Rotation.from_quat(values[3:], scalar_first=True).as_matrix()
+        out[:3, 3] = values[:3]
+        return out
+
+
+# Nested records of a trial, flattened as <prefix>_<field> columns.
+_NESTED = (("planned", "planned"), ("sim", "simulated"), ("grasp", "grasp"), ("object", "object_pose"))
+
+
+@dataclass(frozen=True)
 class TrialResult:
     """One trial's outcome.
 
@@ -70,6 +113,14 @@ class TrialResult:
             (observation "estimated_pose"; NaN otherwise).
         pose_translation_error_mm: translation error of that pose [mm] (NaN if not estimated).
         pose_add_s_mm: ADD-S of that pose [mm] (NaN if not estimated).
+        grasp: the executed grasp's TCP pose in the world (flattened as ``grasp_*`` columns).
+        grasp_width_m: the planned jaw opening [m] (NaN: none given).
+        grasp_preshape: the grasp's pre-shape synergy in [0, 1].
+        object_pose: the object's settled pose in the world that the grasp was planned on
+            (``object_*`` columns): with `grasp`, the grasp in the object's frame.
+        plan_time_s: wall time of the whole planning call that produced this trial's candidate
+            (one call per object x hand x planner x observation) [s]; `planning_time_s` is
+            that time divided by the number of candidates.
     """
 
     status: Status
@@ -90,6 +141,11 @@ class TrialResult:
     pose_rotation_error_deg: float = math.nan
     pose_translation_error_mm: float = math.nan
     pose_add_s_mm: float = math.nan
+    grasp: PoseRecord = field(default_factory=PoseRecord)
+    grasp_width_m: float = math.nan
+    grasp_preshape: float = math.nan
+    object_pose: PoseRecord = field(default_factory=PoseRecord)
+    plan_time_s: float = math.nan
 
     @property
     def success(self) -> bool:
@@ -97,11 +153,11 @@ class TrialResult:
         return self.status is Status.SUCCESS
 
     def flat(self) -> dict[str, object]:
-        """A flat dict (metrics prefixed planned_/sim_) for tables and the results store."""
+        """A flat dict (metrics prefixed planned_/sim_, poses grasp_/object_) for tables and the results store."""
         row = asdict(self)
         row["status"] = self.status.value
         row["fingers_in_contact"] = ",".join(self.fingers_in_contact)
-        for prefix, key in (("planned", "planned"), ("sim", "simulated")):
+        for prefix, key in _NESTED:
             for name, value in row.pop(key).items():
                 row[f"{prefix}_{name}"] = value
         return row
@@ -110,9 +166,10 @@ class TrialResult:
     def from_flat(cls, row: dict[str, object]) -> TrialResult:
         """Inverse of `flat`."""
         row = dict(row)
-        metrics = {}
-        for prefix, key in (("planned", "planned"), ("sim", "simulated")):
-            metrics[key] = GraspMetrics(**{n: row.pop(f"{prefix}_{n}") for n in GraspMetrics.__dataclass_fields__})
+        metrics: dict[str, object] = {}
+        for prefix, key in _NESTED:
+            kind = TrialResult.__dataclass_fields__[key].default_factory  # type: ignore[misc]
+            metrics[key] = kind(**{n: row.pop(f"{prefix}_{n}", math.nan) for n in kind.__dataclass_fields__})
         fingers = str(row.pop("fingers_in_contact") or "")
         return cls(status=Status(row.pop("status")), fingers_in_contact=tuple(f for f in fingers.split(",") if f),
                    **metrics, **row)  # type: ignore[arg-type]
