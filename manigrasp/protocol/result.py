@@ -26,6 +26,7 @@ class Status(StrEnum):
     PLANNER_ERROR = "planner_error"
     INVALID_GRASP = "invalid_grasp"
     TIMEOUT = "timeout"
+    HARNESS_FAULT = "harness_fault"
 
 
 PHASES = ("settle", "pregrasp", "approach", "close", "lift", "perturb")
