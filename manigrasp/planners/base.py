@@ -149,6 +149,9 @@ class GraspCandidate:
         planner: name of the planner that made it.
         planning_time_s: wall time of the planning call that produced it [s]
             (set by `manigrasp.planners.run.plan`).
+        invalid: why this grasp cannot be executed ("" if it can): a grasp read from a file that
+            cannot be placed (wrong hand, NaN, not a rotation). It is passed through unchecked and
+            its trial is recorded as `invalid_grasp` with this detail, never dropped.
     """
 
     pose: np.ndarray
@@ -163,6 +166,7 @@ class GraspCandidate:
     pregrasp_offset: float = PREGRASP_OFFSET
     planner: str = ""
     planning_time_s: float = 0.0
+    invalid: str = ""
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__

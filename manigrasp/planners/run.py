@@ -93,7 +93,10 @@ def validate_candidates(returned: object, name: str, n: int) -> list[GraspCandid
 
 
 def candidate_defect(candidate: GraspCandidate) -> str | None:
-    """What is wrong with `candidate` (a sentence), or None if it is valid."""
+    """What is wrong with `candidate` (a sentence), or None if it is valid (or declared `invalid`:
+    then its trial is `invalid_grasp`; only its score must rank)."""
+    if candidate.invalid:
+        return None if np.isfinite(candidate.score) else f"score is {candidate.score}"
     pose = candidate.pose
     if pose.shape != (4, 4):
         return f"pose has shape {pose.shape}, not (4, 4)"

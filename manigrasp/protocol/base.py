@@ -45,6 +45,8 @@ class Grasp:
         planning_time_s: the planner's time for this grasp [s] (NaN: unknown).
         planned_metrics: the metrics of `contacts` if already computed (the harness scores a
             whole plan at once with `protocol.metrics.planned_metrics_batch`); None: computed here.
+        invalid: why the grasp cannot be executed, as its planner declared ("": it may be); the
+            trial is then `invalid_grasp` with this detail.
     """
 
     pose: np.ndarray
@@ -54,6 +56,7 @@ class Grasp:
     contact_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     planning_time_s: float = float("nan")
     planned_metrics: GraspMetrics | None = None
+    invalid: str = ""
 
 
 def as_grasp(grasp: Any) -> Grasp:
@@ -68,7 +71,8 @@ def as_grasp(grasp: Any) -> Grasp:
     timing = getattr(grasp, "planning_time_s", float("nan"))
     return Grasp(pose=np.asarray(grasp.pose, dtype=float), preshape=float(getattr(grasp, "preshape", 0.0) or 0.0),
                  width=getattr(grasp, "width", None), contacts=contacts, contact_normals=normals,
-                 planning_time_s=float(timing) if timing is not None else float("nan"))
+                 planning_time_s=float(timing) if timing is not None else float("nan"),
+                 invalid=str(getattr(grasp, "invalid", "") or ""))
 
 
 class Protocol(ABC, Generic[P]):

@@ -306,7 +306,10 @@ class TrialRun:
 
 
 def check_grasp(grasp: Grasp) -> str | None:
-    """Why `grasp` cannot be executed (a non-finite or non-rigid pose, a bad pre-shape), or None."""
+    """Why `grasp` cannot be executed (declared invalid, a non-finite or non-rigid pose, a bad pre-shape),
+    or None."""
+    if grasp.invalid:
+        return grasp.invalid
     pose = np.asarray(grasp.pose, float)
     if pose.shape == (7,):
         if not np.isfinite(pose).all():
