@@ -1,18 +1,24 @@
 """Strict construction of frozen config dataclasses from plain mappings.
 
-A misspelled key is an error that names the nearest valid key; nested
-dataclass fields are built recursively; lists become tuples. Overrides are
+A misspelled key is an error that names the nearest valid key; every value
+is checked against its field's annotation (an `int` field refuses ``2.5``,
+``true`` and ``"abc"``); nested dataclass fields are built recursively; lists
+become tuples. Overrides are
 ``dotted.key=value`` strings whose values are parsed as YAML scalars/lists.
 """
 
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
+import math
+import numbers
 import types
 import typing
 from collections.abc import Mapping, Sequence
 from typing import Any, TypeVar
 
+import numpy as np
 import yaml
 
 from manigrasp.errors import ConfigError
@@ -21,14 +27,26 @@ from manigrasp.registry import nearest
 T = TypeVar("T")
 
 
+MAX_DEPTH = 20
+"""Deepest nesting accepted in free-form parameter values (lists and mappings)."""
+
+
 def from_mapping(cls: type[T], data: Mapping[str, Any] | None, where: str = "config") -> T:
-    """Build dataclass `cls` from `data`, refusing unknown keys with a hint."""
-    data = dict(data or {})
-    if not isinstance(data, dict):
-        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
+    """Build dataclass `cls` from `data`, refusing unknown keys with a hint and values of the wrong type.
+
+    Every value is checked against the field's annotation before the dataclass is built: ``int`` takes
+    integers only (not ``true``, not ``2.5``, not ``"3"``), ``float`` takes finite integers or floats,
+    ``str`` strings, ``bool`` booleans, ``tuple[X, ...]`` lists of X, a nested dataclass a mapping, and
+    ``Mapping[str, Any]`` a mapping of plain YAML data (nested at most `MAX_DEPTH` deep).
+    """
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{where}: expected a mapping, got {_kind(data)}")
+    data = dict(data)
     fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     for key in data:
-        if key not in fields:
+        if not isinstance(key, str) or key not in fields:
             hint = nearest(str(key), list(fields))
             did_you_mean = f"; did you mean {hint!r}?" if hint else ""
             raise ConfigError(f"{where}: unknown key {key!r}{did_you_mean} (valid: {', '.join(fields)})")
@@ -40,17 +58,90 @@ def from_mapping(cls: type[T], data: Mapping[str, Any] | None, where: str = "con
         raise ConfigError(f"{where}: {exc}") from exc
 
 
+def _kind(value: Any) -> str:
+    """A value's type as a user reads it in YAML terms, with the value when short."""
+    names = {bool: "a boolean", int: "an integer", float: "a number", str: "a string", list: "a list",
+             tuple: "a list", dict: "a mapping", type(None): "null"}
+    name = names.get(type(value), type(value).__name__)
+    text = repr(value)
+    return f"{name} ({text})" if len(text) <= 40 else name
+
+
 def _convert(hint: Any, value: Any, where: str) -> Any:
+    """`value` checked against the annotation `hint` (and converted: lists to tuples, ints to floats)."""
     origin = typing.get_origin(hint)
-    if dataclasses.is_dataclass(hint) and isinstance(value, Mapping):
+    if hint is Any:
+        return _plain(value, where)
+    if dataclasses.is_dataclass(hint):
+        if isinstance(value, hint):
+            return value
         return from_mapping(hint, value, where)  # type: ignore[arg-type]
-    if origin is tuple and isinstance(value, Sequence) and not isinstance(value, str):
-        return tuple(value)
-    if hint is float and isinstance(value, int) and not isinstance(value, bool):
-        return float(value)
     if origin in (typing.Union, types.UnionType):
+        options = typing.get_args(hint)
+        if value is None and type(None) in options:
+            return None
+        errors = []
+        for option in (o for o in options if o is not type(None)):
+            try:
+                return _convert(option, value, where)
+            except ConfigError as exc:
+                errors.append(exc)
+        raise errors[0] if len(errors) == 1 else ConfigError(f"{where}: {_kind(value)} is not one of {hint}")
+    if origin is tuple:
+        if not isinstance(value, list | tuple):
+            raise ConfigError(f"{where}: expected a list, got {_kind(value)}")
+        args = typing.get_args(hint)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(args[0], v, f"{where}[{i}]") for i, v in enumerate(value))
+        if len(value) != len(args):
+            raise ConfigError(f"{where}: expected a list of {len(args)} values, got {len(value)}")
+        return tuple(_convert(a, v, f"{where}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True)))
+    if origin in (Mapping, dict, collections.abc.Mapping):
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{where}: expected a mapping, got {_kind(value)}")
+        bad = [k for k in value if not isinstance(k, str)]
+        if bad:
+            raise ConfigError(f"{where}: keys must be strings, got {bad[0]!r}")
+        return _plain(dict(value), where)
+    return _scalar(hint, value, where)
+
+
+def _scalar(hint: Any, value: Any, where: str) -> Any:
+    if hint is bool:
+        if not isinstance(value, bool | np.bool_):
+            raise ConfigError(f"{where}: expected true or false, got {_kind(value)}")
+        return bool(value)
+    if hint is int:
+        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
+            raise ConfigError(f"{where}: expected an integer, got {_kind(value)}")
+        return int(value)
+    if hint is float:
+        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+            raise ConfigError(f"{where}: expected a number, got {_kind(value)}")
+        if not math.isfinite(float(value)):
+            raise ConfigError(f"{where}: expected a finite number, got {value}")
+        return float(value)
+    if hint is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{where}: expected a string, got {_kind(value)}")
         return value
     return value
+
+
+def _plain(value: Any, where: str, depth: int = 0) -> Any:
+    """`value` if it is plain YAML data (null, booleans, numbers, strings, lists, string-keyed mappings)."""
+    if depth > MAX_DEPTH:
+        raise ConfigError(f"{where}: nested more than {MAX_DEPTH} levels deep")
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    if isinstance(value, list | tuple):
+        return [_plain(v, f"{where}[{i}]", depth + 1) for i, v in enumerate(value)]
+    if isinstance(value, Mapping):
+        bad = [k for k in value if not isinstance(k, str)]
+        if bad:
+            raise ConfigError(f"{where}: keys must be strings, got {bad[0]!r}")
+        return {k: _plain(v, f"{where}.{k}", depth + 1) for k, v in value.items()}
+    raise ConfigError(f"{where}: {_kind(value)} is not plain data (null, boolean, number, string, list, mapping)")
 
 
 def to_mapping(obj: Any) -> Any:

@@ -42,3 +42,8 @@ class SimulationError(ManigraspError):
 
 class PlannerError(ManigraspError):
     """A planner that raised or returned an invalid grasp."""
+
+
+class PerceptionError(ManigraspError):
+    """Perception failed at run time on one view (object not in view, no model fits): a recorded result
+    of the group that needed it, not a user error."""

@@ -90,9 +90,9 @@ def test_a_planner_that_raises_or_returns_nan_is_a_recorded_status(tmp_path):
     run_benchmark(parse_config(data), tmp_path / "run", progress=False)
     rows = _rows(tmp_path / "run")
     assert len(rows) == 6 and {r["status"] for r in rows} == {"planner_error"}
-    raised = [r for r in rows if r["planner"] == "faulty_planners:Raises"]
+    raised = [r for r in rows if r["planner"] == "Raises"]
     assert all("planner exploded" in r["detail"] for r in raised)
-    nan = [r for r in rows if r["planner"] == "faulty_planners:ReturnsNaN"]
+    nan = [r for r in rows if r["planner"] == "ReturnsNaN"]
     assert all("NaN" in r["detail"] for r in nan)
 
 

@@ -7,6 +7,8 @@ overrides (dotted for nested keys) are applied before validation.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,6 +44,12 @@ class ObjectEntry:
     mass: float | None = None
     density: float = 500.0
 
+    def __post_init__(self) -> None:
+        for key in ("scale", "density", "mass"):
+            value = getattr(self, key)
+            if value is not None and not value > 0:
+                raise ConfigError(f"object {self.name or self.mesh or self.ycb or ''}: {key} must be > 0, got {value}")
+
     def source(self, base: Path | None = None) -> catalog.ObjectSource:
         """The `ObjectSource` this entry names (paths resolved against `base`)."""
         given = [k for k in ("mesh", "ycb") if getattr(self, k)]
@@ -63,15 +71,73 @@ class ObjectEntry:
 
 @dataclass(frozen=True)
 class NamedEntry:
-    """A registry name (or ``module:attribute``) with keyword parameters."""
+    """A registry name (or ``module:attribute``) with keyword parameters.
+
+    A ``module:attribute`` name imports that module and calls that attribute: a config that
+    names one runs code (treat it like a script).
+    """
 
     name: str
     params: Mapping[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if not self.name.strip():
+            raise ConfigError("a planner/protocol name must not be empty")
+
     @property
     def label(self) -> str:
-        """Name used in result tables."""
-        return self.name
+        """Name used in result tables: the registry name, or the attribute of ``module:attribute``.
+
+        Two entries with the same label in one config are told apart by `labels`.
+        """
+        return self.name.rpartition(":")[2] if ":" in self.name else self.name
+
+    def identity(self) -> str:
+        """The entry's name and parameters as canonical JSON (equal entries give equal strings)."""
+        return json.dumps({"name": self.name, "params": dict(self.params)}, sort_keys=True, default=str)
+
+
+def labels(entries: Sequence[NamedEntry]) -> tuple[str, ...]:
+    """Distinct readable labels of `entries`: each `NamedEntry.label`, and where two share one, a suffix
+    with the parameters that set them apart (``side[lift=0.04]``; a short hash if that is not enough).
+
+    Raises:
+        ConfigError: two entries are identical (same name and parameters).
+    """
+    seen: dict[str, int] = {}
+    for i, entry in enumerate(entries):
+        if entry.identity() in seen:
+            raise ConfigError(f"planner {entry.name!r} with params {dict(entry.params)} is listed twice "
+                              f"(entries {seen[entry.identity()] + 1} and {i + 1})")
+        seen[entry.identity()] = i
+    out = [e.label for e in entries]
+    for base in {b for b in out if out.count(b) > 1}:
+        same = [i for i, b in enumerate(out) if b == base]
+        keys = sorted({k for i in same for k in entries[i].params})
+        differing = [k for k in keys if len({_param_text(entries[i].params, k) for i in same}) > 1]
+        names_differ = len({entries[i].name for i in same}) > 1
+        for i in same:
+            parts = [f"{k}={_param_text(entries[i].params, k)}" for k in differing if k in entries[i].params]
+            if names_differ:
+                parts.insert(0, entries[i].name.rpartition(":")[0] or entries[i].name)
+            out[i] = f"{base}[{','.join(parts)}]" if parts else base
+    if len(set(out)) < len(out):  # the readable suffixes did not tell them apart
+        out = [f"{lab}#{hashlib.sha256(e.identity().encode()).hexdigest()[:6]}" if out.count(lab) > 1 else lab
+               for lab, e in zip(out, entries, strict=True)]
+    return tuple(out)
+
+
+def _param_text(params: Mapping[str, Any], key: str) -> str:
+    if key not in params:
+        return "default"
+    text = json.dumps(params[key], sort_keys=True, separators=(",", ":"), default=str)
+    return text if len(text) <= 24 else hashlib.sha256(text.encode()).hexdigest()[:6]
+
+
+MAX_GRASPS_PER_OBJECT = 10_000
+"""Upper bound of `grasps_per_object` (each is one planned candidate and one simulated trial)."""
+
+MAX_SEED = 2**63 - 1
 
 
 @dataclass(frozen=True)
@@ -108,8 +174,10 @@ class BenchConfig:
             raise ConfigError("config lists no objects")
         if not self.hands or not self.planners:
             raise ConfigError("config needs at least one hand and one planner")
-        if self.grasps_per_object < 1:
-            raise ConfigError(f"grasps_per_object must be >= 1, got {self.grasps_per_object}")
+        if not 1 <= self.grasps_per_object <= MAX_GRASPS_PER_OBJECT:
+            raise ConfigError(f"grasps_per_object must be in 1..{MAX_GRASPS_PER_OBJECT}, got {self.grasps_per_object}")
+        if not 0 <= self.seed <= MAX_SEED:
+            raise ConfigError(f"seed must be an integer in 0..2**63-1, got {self.seed}")
         for kind in self.observation:
             if kind not in OBSERVATIONS:
                 raise ConfigError(f"unknown observation {kind!r}; available: {', '.join(OBSERVATIONS)}")
@@ -117,54 +185,68 @@ class BenchConfig:
             raise ConfigError(f"observation must list distinct kinds, got {list(self.observation)}")
         if not self.trial_timeout_s > 0:
             raise ConfigError("trial_timeout_s must be > 0")
+        _refuse_duplicates("hand", self.hands)
+        _refuse_duplicates("object", self.objects)
+        labels(self.planners)  # refuses identical planner entries
+
+    @property
+    def planner_labels(self) -> tuple[str, ...]:
+        """The planners' labels in result tables (see `labels`), aligned with `planners`."""
+        return labels(self.planners)
+
+
+def _refuse_duplicates(kind: str, items: Sequence[Any]) -> None:
+    for i, item in enumerate(items):
+        if item in items[:i]:
+            shown = item if isinstance(item, str) else {k: v for k, v in vars(item).items() if v is not None}
+            raise ConfigError(f"{kind} {shown} is listed twice; each {kind} may appear once")
+
+
+LIST_FIELDS = ("objects", "hands", "planners", "observation")
+"""Fields that hold a list; a single value (``objects=mug``, ``hands=panda``) is a one-element list."""
 
 
 def _normalise(data: dict[str, Any]) -> dict[str, Any]:
-    """Accept the short forms: an object or planner given as a bare name string."""
+    """Accept the short forms: a single value for a list field, an object or planner as a bare name."""
     data = dict(data)
+    for key in LIST_FIELDS:
+        if key in data and not isinstance(data[key], list):
+            data[key] = [data[key]]
     if "objects" in data:
-        data["objects"] = [{"name": o} if isinstance(o, str) else o for o in _as_list(data["objects"], "objects")]
+        data["objects"] = [{"name": o} if isinstance(o, str) else o for o in data["objects"]]
     if "planners" in data:
-        data["planners"] = [{"name": p} if isinstance(p, str) else p for p in _as_list(data["planners"], "planners")]
+        data["planners"] = [{"name": p} if isinstance(p, str) else p for p in data["planners"]]
     if isinstance(data.get("protocol"), str):
         data["protocol"] = {"name": data["protocol"]}
-    for key in ("hands", "observation"):
-        if isinstance(data.get(key), str):
-            data[key] = [data[key]]
     return data
 
 
-def _as_list(value: Any, key: str) -> list:
-    if not isinstance(value, list):
-        raise ConfigError(f"'{key}' must be a list")
-    return value
-
-
 def parse_config(data: Mapping[str, Any], overrides: Sequence[str] = (), where: str = "config") -> BenchConfig:
-    """Validate a config mapping (after applying `overrides`)."""
-    if not isinstance(data, Mapping):
-        raise ConfigError(f"{where}: expected a mapping at the top level")
-    data = apply_overrides(dict(data), overrides)
-    data = _normalise(data)
-    config = from_mapping(BenchConfig, data, where)
-    objects = tuple(o if isinstance(o, ObjectEntry) else from_mapping(ObjectEntry, o, f"{where}.objects")
-                    for o in config.objects)
-    planners = tuple(p if isinstance(p, NamedEntry) else from_mapping(NamedEntry, p, f"{where}.planners")
-                     for p in config.planners)
-    protocol = config.protocol if isinstance(config.protocol, NamedEntry) else from_mapping(
-        NamedEntry, config.protocol, f"{where}.protocol")
-    from dataclasses import replace
+    """Validate a config mapping (after applying `overrides`): keys, types, ranges and duplicates.
 
-    return replace(config, objects=objects, planners=planners, protocol=protocol)
+    Raises:
+        ConfigError: the first problem, in one line naming the key.
+    """
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{where}: expected a mapping at the top level, got {type(data).__name__}")
+    try:
+        data = apply_overrides(dict(data), overrides)
+        return from_mapping(BenchConfig, _normalise(data), where)
+    except RecursionError:
+        raise ConfigError(f"{where}: nested too deeply") from None
 
 
 def load_config(path: str | Path, overrides: Sequence[str] = ()) -> BenchConfig:
     """Read and validate a YAML config file."""
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise ConfigError(f"cannot read config {path}: {exc.strerror}") from exc
+    except UnicodeDecodeError:
+        raise ConfigError(f"config {path} is not a text (UTF-8) file") from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"config {path} is not valid YAML: {exc}") from exc
-    return parse_config(data or {}, overrides, where=path.name)
+        raise ConfigError(f"config {path} is not valid YAML: {' '.join(str(exc).split())}") from exc
+    except RecursionError:
+        raise ConfigError(f"config {path} is nested too deeply") from None
+    return parse_config({} if data is None else data, overrides, where=path.name)

@@ -5,14 +5,20 @@
   that the perception pipeline estimates from one noisy depth view (FPFH +
   RANSAC + ICP against the object's own model: the object's identity is
   given, its pose is not). The trial itself still runs on the true physics.
-- "point_cloud": the raw segmented cloud of that view, world frame, table
-  removed, normals estimated and oriented toward the camera. Its
-  `object_pose` has the identity rotation and the centroid of the points as
-  origin: nothing of the true pose leaks to the planner.
+- "point_cloud": the raw segmented cloud of every camera of the setup,
+  fused (`manigrasp.perception.fusion`), world frame, table removed, normals
+  estimated and oriented toward each point's camera, with the depth frames
+  themselves (a `free_space.ViewedObservation`: the antipodal planner's
+  default ``completion="free_space"`` tests the hand against the space no
+  camera saw through). Its `object_pose` has the identity rotation and the
+  centroid of the points as origin: nothing of the true pose leaks to the planner.
 
-The view is `DEFAULT_CAMERA` aimed at the object's resting position; the
-noise is drawn from a generator seeded by (`seed`, object name), so a group
-sees the same frame every time it is planned.
+The cameras are a `manigrasp.perception.setup.CameraSetup` (default: one
+camera at azimuth 30 deg, elevation 45 deg, 0.55 m) aimed at the object's
+resting position; "estimated_pose" uses its first camera. Camera 0's noise is
+drawn from a generator seeded by (`seed`, object name), camera i's by
+(`seed`, object name, i), so a group sees the same frames every time it is
+planned and a second camera leaves the first one's frame unchanged.
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from manigrasp.errors import ConfigError
+from manigrasp.errors import ConfigError, ManigraspError, PerceptionError
 
 KINDS = ("ground_truth", "estimated_pose", "point_cloud")
 
@@ -38,6 +44,8 @@ class ObservationInfo:
         fitness: fraction of observed points the placed model explains.
         n_points: points in the segmented cloud (0 for ground truth).
         backend: depth backend that ran ("" for ground truth).
+        camera: the camera setup of a perception kind (None for ground truth); `camera.record()` gives
+            its flat fields (views, azimuths, elevation, distance, noise).
     """
 
     kind: str
@@ -47,6 +55,7 @@ class ObservationInfo:
     fitness: float = math.nan
     n_points: int = 0
     backend: str = ""
+    camera: object = None
 
 
 _DATABASES: dict[tuple[str, str], object] = {}  # (name, visual mesh path) -> ModelDatabase, per process
@@ -61,18 +70,22 @@ def _database(asset):
     return _DATABASES[key]
 
 
-def _camera(object_pose: np.ndarray, table_height: float):
-    from manigrasp.perception.pipeline import CameraConfig
-
-    return CameraConfig().camera(object_pose[:2, 3], table_height)
+def view_rngs(seed: int, name: str, views: int) -> list[np.random.Generator]:
+    """The noise generator of each camera: (`seed`, crc32(`name`)) for camera 0, with the camera's index after."""
+    key = zlib.crc32(name.encode())
+    return [np.random.default_rng([seed, key] if i == 0 else [seed, key, i]) for i in range(views)]
 
 
 def observe_with_info(kind: str, asset, object_pose: np.ndarray, scene=None, seed: int = 0,
-                      table_height: float = 0.0):
+                      table_height: float = 0.0, camera=None):
     """(`Observation`, `ObservationInfo`) of `asset` resting at `object_pose` (4, 4) in `scene`.
 
+    Args:
+        camera: the `manigrasp.perception.setup.CameraSetup` of the perception kinds (None: the default).
+
     Raises:
-        ConfigError: unknown kind, or a perception kind without a scene.
+        ConfigError: unknown kind, a perception kind without a scene, or `camera` not a CameraSetup.
+        PerceptionError: perception failed on this view (the object is not in view, no model fits).
     """
     from manigrasp.planners.base import Observation
 
@@ -82,26 +95,51 @@ def observe_with_info(kind: str, asset, object_pose: np.ndarray, scene=None, see
         return Observation.from_asset(asset, object_pose, table_height), ObservationInfo(kind)
     if scene is None:
         raise ConfigError(f"observation {kind!r} needs the simulated scene to take a depth image of")
-    from manigrasp.perception.pipeline import perceive
+    from manigrasp.perception.setup import CameraSetup
 
+    setup = CameraSetup() if camera is None else camera
+    if not isinstance(setup, CameraSetup):
+        raise ConfigError(f"camera must be a CameraSetup, got {type(setup).__name__}")
     scene.forward()
-    rng = np.random.default_rng([seed, zlib.crc32(asset.name.encode())])
     geoms = np.flatnonzero(scene.model.geom_bodyid == scene.object_body)
-    database = _database(asset)
-    result = perceive(scene.model, scene.data, geoms, _camera(object_pose, table_height), database, rng,
-                      object_name=asset.name, true_pose=object_pose, table_height=table_height)
-    if kind == "point_cloud":
-        pose = np.eye(4)
-        pose[:3, 3] = result.cloud.points.mean(axis=0)
-        observation = Observation(object_pose=pose, points=result.cloud.points, normals=result.cloud.normals,
-                                  table_height=table_height)
-        return observation, ObservationInfo(kind, n_points=len(result.cloud), backend=result.backend)
+    cameras = setup.cameras(object_pose[:2, 3], table_height)
+    rngs = view_rngs(seed, asset.name, setup.views)
+    try:
+        if kind == "point_cloud":
+            return _point_cloud(scene, geoms, cameras, setup, rngs, table_height)
+        from manigrasp.perception.pipeline import perceive
+
+        result = perceive(scene.model, scene.data, geoms, cameras[0], _database(asset), rngs[0],
+                          object_name=asset.name, true_pose=object_pose, noise=setup.noise,
+                          backend=setup.backend, table_height=table_height)
+    except PerceptionError:
+        raise
+    except ManigraspError as exc:  # a failure on this view (object not in view...): the group's result
+        raise PerceptionError(f"{kind} of {asset.name}: {exc}") from exc
+    if len(result.cloud) == 0:
+        raise PerceptionError(f"{kind} of {asset.name}: the view holds no object points")
     errors = result.errors
     info = ObservationInfo(kind, errors.rotation_deg, errors.translation_mm, errors.add_s_mm,
-                           result.estimate.fitness, len(result.cloud), result.backend)
+                           result.estimate.fitness, len(result.cloud), result.backend, setup)
     return Observation.from_asset(asset, result.estimate.pose, table_height), info
 
 
-def observe(kind: str, asset, object_pose: np.ndarray, scene=None, seed: int = 0):
+def _point_cloud(scene, geoms: np.ndarray, cameras: tuple, setup, rngs: list, table_height: float):
+    """The fused cloud of every camera with its depth views (module docstring)."""
+    from manigrasp.perception.fusion import observe_views
+    from manigrasp.planners.free_space import ViewedObservation
+
+    fused = observe_views(scene.model, scene.data, geoms, cameras, setup.noise, rngs, setup.backend,
+                          table_height)
+    pose = np.eye(4)
+    pose[:3, 3] = fused.cloud.points.mean(axis=0)
+    observation = ViewedObservation(object_pose=pose, points=fused.cloud.points, normals=fused.cloud.normals,
+                                    table_height=table_height, views=fused.depth_views())
+    info = ObservationInfo("point_cloud", n_points=len(fused.cloud), backend=fused.images[0].backend,
+                           camera=setup)
+    return observation, info
+
+
+def observe(kind: str, asset, object_pose: np.ndarray, scene=None, seed: int = 0, camera=None):
     """The `Observation` of `asset` resting at `object_pose` (4, 4); see `observe_with_info`."""
-    return observe_with_info(kind, asset, object_pose, scene, seed)[0]
+    return observe_with_info(kind, asset, object_pose, scene, seed, camera=camera)[0]

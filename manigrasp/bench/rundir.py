@@ -1,16 +1,23 @@
 """A run directory: `run.json` (resolved config, versions, seed, host) beside `results.sqlite`.
 
 Re-running into an existing directory resumes it, but only with the same
-resolved config: a different one is refused, so one results file never mixes
-two experiments.
+run identity (resolved config and the content of its mesh files): a different
+one is refused with the keys that differ, so one results file never mixes two
+experiments. A directory with results but no run.json is refused too, and
+`locked` keeps a second process out of a directory that is in use.
 """
 
 from __future__ import annotations
 
+import fcntl
+import hashlib
 import json
+import os
 import platform
 import socket
 import subprocess
+from collections.abc import Iterator
+from contextlib import contextmanager
 from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -48,34 +55,163 @@ def git_commit() -> str | None:
     return commit + ("+dirty" if dirty else "")
 
 
-def prepare(run_dir: Path, config: BenchConfig) -> dict:
-    """Create `run_dir` with run.json, or check that an existing one holds the same config."""
-    run_dir.mkdir(parents=True, exist_ok=True)
+def identity(config: BenchConfig, base: Path | None = None) -> dict:
+    """The run's identity: a hash of the resolved config and the content hash of every mesh file it names.
+
+    Two runs with equal identities enumerate the same trials with the same inputs; a run directory
+    accepts only its own identity.
+    """
+    resolved = json.loads(json.dumps(to_mapping(config), default=str))
+    text = json.dumps(resolved, sort_keys=True, separators=(",", ":"))
+    meshes = {}
+    for entry in config.objects:
+        for kind in ("mesh", "ycb"):
+            if getattr(entry, kind):
+                path = ((base or Path.cwd()) / getattr(entry, kind)).resolve()
+                meshes[entry.name or path.stem] = _content_hash(path)
+    return {"config_sha256": hashlib.sha256(text.encode()).hexdigest(), "mesh_sha256": meshes}
+
+
+def _content_hash(path: Path) -> str:
+    """sha256 of a file, or of every file under a folder (names and bytes); "" if unreadable."""
+    digest = hashlib.sha256()
+    try:
+        files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+        for file in files:
+            digest.update(str(file.relative_to(path) if path.is_dir() else file.name).encode())
+            digest.update(file.read_bytes())
+    except OSError:
+        return ""
+    return digest.hexdigest()
+
+
+def differing_keys(old: object, new: object, prefix: str = "") -> list[str]:
+    """Dotted keys whose values differ between two plain-data trees (a list compares as a whole)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for key in sorted(set(old) | set(new), key=str):
+            out += differing_keys(old.get(key), new.get(key), f"{prefix}{key}.")
+        return out
+    return [] if old == new else [prefix.rstrip(".") or "(whole config)"]
+
+
+def _describe(keys: list[str], old: dict, new: dict) -> str:
+    parts = []
+    for key in keys[:6]:
+        was, now = _get(old, key), _get(new, key)
+        parts.append(f"{key}: {_short(was)} -> {_short(now)}")
+    more = f" (and {len(keys) - 6} more)" if len(keys) > 6 else ""
+    return "; ".join(parts) + more
+
+
+def _get(tree: object, dotted: str) -> object:
+    for part in dotted.split("."):
+        tree = tree.get(part) if isinstance(tree, dict) else None
+    return tree
+
+
+def _short(value: object) -> str:
+    text = json.dumps(value, default=str)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict:
+    """Create `run_dir` with run.json, or check that an existing one holds the same run.
+
+    Raises:
+        ConfigError: `run_dir` is a file; it holds a run of a different config (the message names the keys
+            that differ) or of changed mesh files; or it holds results but no readable run.json.
+    """
+    if run_dir.exists() and not run_dir.is_dir():
+        raise ConfigError(f"--out {run_dir} is a file, not a run directory")
     meta_path = run_dir / "run.json"
-    resolved = to_mapping(config)
-    if meta_path.exists():
-        existing = json.loads(meta_path.read_text())
-        if existing.get("config") != json.loads(json.dumps(resolved)):
-            raise ConfigError(f"{run_dir} holds a run with a different config; use another --out to start a new run")
+    resolved = json.loads(json.dumps(to_mapping(config), default=str))
+    ident = identity(config, base)
+    if meta_path.exists() or meta_path.is_symlink():
+        existing = read_meta(run_dir)
+        old_config = existing.get("config")
+        if old_config != resolved:
+            keys = differing_keys(old_config, resolved)
+            raise ConfigError(f"{run_dir} holds a run with a different config ({_describe(keys, old_config, resolved)}"
+                              "); use another --out to start a new run")
+        old_meshes = existing.get("identity", {}).get("mesh_sha256", {})
+        changed = sorted(k for k, v in ident["mesh_sha256"].items() if k in old_meshes and old_meshes[k] != v)
+        if changed:
+            raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
+                              "use another --out to start a new run")
+        existing.setdefault("identity", ident)
         existing.setdefault("resumed", []).append(datetime.now(UTC).isoformat())
-        meta_path.write_text(json.dumps(existing, indent=2))
+        _write_json(meta_path, existing)
         return existing
+    stray = [p.name for p in (run_dir / "results.sqlite", run_dir / "recordings") if p.exists()]
+    if stray:
+        raise ConfigError(f"{run_dir} holds {' and '.join(stray)} but no run.json, so the config that made them is "
+                          "unknown; use another --out (or restore run.json)")
+    run_dir.mkdir(parents=True, exist_ok=True)
     meta = {
         "config": resolved,
         "seed": config.seed,
+        "identity": ident,
         "versions": versions(),
         "git_commit": git_commit(),
         "host": socket.gethostname(),
         "platform": platform.platform(),
         "started": datetime.now(UTC).isoformat(),
     }
-    meta_path.write_text(json.dumps(meta, indent=2))
+    _write_json(meta_path, meta)
     return meta
 
 
-def load_meta(run_dir: Path) -> dict:
-    """The run.json of `run_dir`."""
+def _write_json(path: Path, data: dict) -> None:
+    """Write `data` as JSON atomically (a kill never leaves a half-written run.json)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2))
+    os.replace(tmp, path)
+
+
+def read_meta(run_dir: Path) -> dict:
+    """The run.json of `run_dir` as a mapping; `ConfigError` if it is missing, unreadable or not a JSON object."""
     path = Path(run_dir) / "run.json"
-    if not path.is_file():
-        raise ConfigError(f"{run_dir} is not a run directory (no run.json)")
-    return json.loads(path.read_text())
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"{run_dir} is not a run directory (no run.json)") from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ConfigError(f"{path} is not readable run metadata ({type(exc).__name__}); use another --out") from None
+    if not isinstance(meta, dict) or not isinstance(meta.get("config"), dict):
+        raise ConfigError(f"{path} is not run metadata (expected a JSON object with a 'config'); use another --out")
+    return meta
+
+
+@contextmanager
+def locked(run_dir: Path) -> Iterator[None]:
+    """Hold an exclusive lock on `run_dir` (its `.lock` file) for the block; released when the process ends.
+
+    Raises:
+        ConfigError: another process holds it (the message says which: pid, host, since when).
+    """
+    if run_dir.exists() and not run_dir.is_dir():
+        raise ConfigError(f"--out {run_dir} is a file, not a run directory")
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot create run directory {run_dir}: {exc.strerror}") from None
+    path = run_dir / ".lock"
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
+            raise ConfigError(f"{run_dir} is in use by {holder}; wait for it to finish or use another --out") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()} since {datetime.now(UTC):%Y-%m-%d %H:%M:%S} UTC"
+                  .encode(), 0)
+        yield
+    finally:
+        os.close(fd)
+
+
+def load_meta(run_dir: Path) -> dict:
+    """The run.json of `run_dir` (see `read_meta`)."""
+    return read_meta(run_dir)

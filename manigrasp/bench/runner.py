@@ -1,29 +1,32 @@
 """Running a benchmark: validate, enumerate, plan, run trials in parallel, store as they finish.
 
-Executors: "local" (a process pool on this machine; inline when jobs = 1)
-and "ray" (the same tasks on a Ray cluster, or a local Ray instance when no
-address is given; needs the optional `ray` extra). Planning is one task per
-group, each trial one task, so a killed run loses at most the trials that
-were running; re-running the same command resumes from the store.
+Executors: "local" (worker processes on this machine, `manigrasp.bench.pool`:
+planning and trials have hard wall-clock budgets, and a worker that hangs or
+dies is replaced with its task recorded) and "ray" (the same tasks on a Ray
+cluster, or a local Ray instance when no address is given; needs the optional
+`ray` extra; no hard budgets). Planning is one task per group, each trial one
+task, so a killed run loses at most the trials that were running; re-running
+the same command resumes from the store. The run directory is locked while a
+run uses it.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from multiprocessing import get_context
 from pathlib import Path
 
 from manigrasp.bench import rundir
 from manigrasp.bench.config import BenchConfig
+from manigrasp.bench.pool import Outcome, Pool, Task
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.bench.trials import Group, groups
 from manigrasp.bench.worker import Plan, plan_group, run_trial
 from manigrasp.errors import ConfigError
-from manigrasp.protocol.result import TrialResult
+from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.record.policy import RecordSettings
 
 EXECUTORS = ("local", "ray")
@@ -42,17 +45,55 @@ class RunSummary:
 
 
 def validate(config: BenchConfig, base: Path | None = None) -> list[Group]:
-    """Resolve every name in `config` (objects, hands, planners, protocol): errors before any trial."""
+    """Resolve every name in `config` (objects, hands, planners, protocol): errors before any trial.
+
+    A ``module:attribute`` entry must be of the right kind (a planner class or object, a `Hand` or a
+    function returning one, a `Protocol` class or factory function) before it is called.
+    """
     from manigrasp import hands, planners
+    from manigrasp.errors import PlannerError
     from manigrasp.protocol import PROTOCOLS
 
     found = groups(config, base)
     for hand in config.hands:
+        _check_kind(hand, "hand")
         hands.load(hand)
     for planner in config.planners:
-        planners.load(planner.name, **dict(planner.params))
+        try:
+            planners.load(planner.name, **dict(planner.params))
+        except PlannerError as exc:
+            if "building it raised" not in str(exc):  # a planner whose constructor raises is its trials' status
+                raise
+    _check_kind(config.protocol.name, "protocol")
     PROTOCOLS.load(config.protocol.name, **dict(config.protocol.params))
     return found
+
+
+def _check_kind(name: str, kind: str) -> None:
+    """Refuse a ``module:attribute`` hand or protocol that is not of its kind, before anything calls it."""
+    if ":" not in name:
+        return
+    import types
+
+    from manigrasp.hands import Hand
+    from manigrasp.protocol.base import Protocol
+    from manigrasp.registry import import_attribute
+
+    attr = import_attribute(name, kind)
+    expected = Hand if kind == "hand" else Protocol
+    if isinstance(attr, expected) or (isinstance(attr, type) and issubclass(attr, expected)) \
+            or isinstance(attr, types.FunctionType):
+        return
+    raise ConfigError(f"{kind} {name!r} is a {type(attr).__name__}: only a {expected.__name__}, a {expected.__name__} "
+                      "class or a Python function returning one is accepted (it was not called)")
+
+
+def max_jobs() -> int:
+    """The cores this process may use: the cap of `--jobs`."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
 
 
 def run_benchmark(
@@ -74,33 +115,37 @@ def run_benchmark(
     """
     if executor not in EXECUTORS:
         raise ConfigError(f"unknown executor {executor!r}; available: {', '.join(EXECUTORS)}")
+    if executor == "local" and jobs > max_jobs():
+        print(f"manigrasp: --jobs {jobs} capped at the {max_jobs()} cores of this machine", file=sys.stderr)
+        jobs = max_jobs()
     start = time.perf_counter()
     all_groups = validate(config, base)
     run_dir = Path(run_dir)
-    rundir.prepare(run_dir, config)
-    settings = RecordSettings.for_run(run_dir, record)
-    _prebuild_objects(all_groups, jobs)
-    store = ResultsStore(run_dir / "results.sqlite")
-    done = store.done_ids()
-    todo = {id(g): [i for i in range(g.n_grasps) if g.key(i).trial_id not in done] for g in all_groups}
-    pending = [g for g in all_groups if todo[id(g)]]
-    total = sum(g.n_grasps for g in all_groups)
-    already = total - sum(len(v) for v in todo.values())
-    bar = _progress_bar(total, already, progress)
-    ran = successes = 0
-    try:
-        tasks = _iter_ray if executor == "ray" else _iter_local
-        for key, result in tasks(pending, todo, jobs, address, settings):
-            if store.add(key, result):
-                ran += 1
-                successes += result.success
-            if on_result is not None:
-                on_result(key, result)
-            bar.update(1)
-            bar.set_postfix(success=f"{successes}/{ran}", refresh=False)
-    finally:
-        bar.close()
-        store.close()
+    with rundir.locked(run_dir):
+        rundir.prepare(run_dir, config, base)
+        settings = RecordSettings.for_run(run_dir, record)
+        _prebuild_objects(all_groups, jobs)
+        store = ResultsStore(run_dir / "results.sqlite")
+        done = store.done_ids()
+        todo = {id(g): [i for i in range(g.n_grasps) if g.key(i).trial_id not in done] for g in all_groups}
+        pending = [g for g in all_groups if todo[id(g)]]
+        total = sum(g.n_grasps for g in all_groups)
+        already = total - sum(len(v) for v in todo.values())
+        bar = _progress_bar(total, already, progress)
+        ran = successes = 0
+        try:
+            tasks = _iter_ray if executor == "ray" else _iter_local
+            for key, result in tasks(pending, todo, jobs, address, settings):
+                if store.add(key, result):
+                    ran += 1
+                    successes += result.success
+                if on_result is not None:
+                    on_result(key, result)
+                bar.update(1)
+                bar.set_postfix(success=f"{successes}/{ran}", refresh=False)
+        finally:
+            bar.close()
+            store.close()
     return RunSummary(run_dir, total, already, ran, successes, time.perf_counter() - start)
 
 
@@ -121,27 +166,45 @@ def _progress_bar(total: int, initial: int, enabled: bool):
                 disable=not enabled, dynamic_ncols=True, smoothing=0.1)
 
 
+TRIAL_GRACE_S = 10.0
+"""Hard budget of a trial beyond its `trial_timeout_s` (the protocol's own deadline stops it first when it can)."""
+
+
 def _iter_local(pending: list[Group], todo: dict, jobs: int, address: str | None, settings
                 ) -> Iterator[tuple[TrialKey, TrialResult]]:
-    if jobs <= 1:
+    """Plan each group, then run its trials, in `jobs` worker processes (`manigrasp.bench.pool`).
+
+    A group whose planner call overruns `trial_timeout_s` is `timeout` for all its trials; a trial that
+    overruns its budget by `TRIAL_GRACE_S` is `timeout`; a worker that dies while planning makes its group
+    `planner_error`, while running a trial that trial `harness_fault`; the run goes on.
+    """
+    with Pool(jobs) as pool:
         for group in pending:
-            plan = plan_group(group)
-            for index in todo[id(group)]:
-                yield run_trial(group, index, plan, settings)
-        return
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
-        plans: dict[Future, Group] = {pool.submit(plan_group, g): g for g in pending}
-        trials: set[Future] = set()
-        while plans or trials:
-            finished, _ = wait(set(plans) | trials, return_when=FIRST_COMPLETED)
-            for future in finished:
-                if future in plans:
-                    group = plans.pop(future)
-                    plan: Plan = future.result()
-                    trials |= {pool.submit(run_trial, group, i, plan, settings) for i in todo[id(group)]}
-                else:
-                    trials.discard(future)
-                    yield future.result()
+            pool.submit(Task(("plan", group), plan_group, (group,), group.timeout_s))
+        for outcome in pool.outcomes():
+            kind, group, *index = outcome.task.tag
+            if kind == "plan":
+                plan = outcome.value if outcome.kind == "done" else _failed_plan(group, outcome)
+                for i in reversed(todo[id(group)]):  # trials before further plans: results stream early
+                    pool.submit(Task(("trial", group, i), run_trial, (group, i, plan, settings),
+                                     group.timeout_s + TRIAL_GRACE_S), first=True)
+            elif outcome.kind == "done":
+                yield outcome.value
+            else:
+                yield group.key(index[0]), _failed_trial(group, index[0], outcome)
+
+
+def _failed_plan(group: Group, outcome: Outcome) -> Plan:
+    if outcome.kind == "timeout":
+        return Plan.failed(group, Status.TIMEOUT, f"planning {outcome.detail}", group.timeout_s)
+    if outcome.kind == "died":
+        return Plan.failed(group, Status.PLANNER_ERROR, f"while planning, {outcome.detail}")
+    return Plan.failed(group, Status.HARNESS_FAULT, f"planning failed: {outcome.detail}")
+
+
+def _failed_trial(group: Group, index: int, outcome: Outcome) -> TrialResult:
+    status = Status.TIMEOUT if outcome.kind == "timeout" else Status.HARNESS_FAULT
+    return TrialResult(status, detail=f"trial {outcome.detail}"[:800], seed=group.trial_seed(index))
 
 
 def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None, settings

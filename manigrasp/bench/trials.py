@@ -15,6 +15,7 @@ import numpy as np
 
 from manigrasp.bench.config import BenchConfig, NamedEntry
 from manigrasp.bench.store import TrialKey
+from manigrasp.errors import ConfigError
 from manigrasp.objects.catalog import ObjectSource
 from manigrasp.sim.config import SceneConfig
 
@@ -39,6 +40,8 @@ class Group:
         n_grasps: candidates requested from the planner = trials of the group.
         seed: the planning seed of the group.
         timeout_s: wall-clock budget per trial [s].
+        label: the planner's label in trial ids and tables (`manigrasp.bench.config.labels`: distinct for
+            every planner entry of a config, so two parameter sets of one planner never share a trial id).
     """
 
     object_source: ObjectSource
@@ -50,10 +53,16 @@ class Group:
     n_grasps: int
     seed: int
     timeout_s: float
+    label: str = ""
+
+    @property
+    def planner_label(self) -> str:
+        """The planner's label (its `NamedEntry.label` when none was set)."""
+        return self.label or self.planner.label
 
     def key(self, index: int) -> TrialKey:
         """The key of trial `index` of this group."""
-        return TrialKey(self.object_source.name, self.hand, self.planner.label, self.observation,
+        return TrialKey(self.object_source.name, self.hand, self.planner_label, self.observation,
                         self.protocol.name, index)
 
     def trial_seed(self, index: int) -> int:
@@ -72,12 +81,18 @@ def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
     file is an error before any trial runs.
     """
     sources = [entry.source(base) for entry in config.objects]
+    names = [s.name for s in sources]
+    for i, name in enumerate(names):
+        if name in names[:i]:
+            raise ConfigError(f"two objects of the config are both named {name!r} (entries {names.index(name) + 1} "
+                              f"and {i + 1}); give each a distinct 'name'")
+    labels = config.planner_labels
     out = []
     for source in sources:
         for hand in config.hands:
-            for planner in config.planners:
+            for planner, label in zip(config.planners, labels, strict=True):
                 for observation in config.observation:
-                    seed = stable_seed(config.seed, source.name, hand, planner.label, observation)
+                    seed = stable_seed(config.seed, source.name, hand, label, observation)
                     out.append(Group(source, hand, planner, config.protocol, observation, config.scene,
-                                     config.grasps_per_object, seed, config.trial_timeout_s))
+                                     config.grasps_per_object, seed, config.trial_timeout_s, label))
     return out

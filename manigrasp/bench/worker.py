@@ -2,8 +2,13 @@
 
 Each worker keeps its compiled scenes (one per object x hand x physics) and
 reuses them across trials by resetting state, never recompiling per grasp.
-Every failure inside a trial becomes that trial's status; only a broken
-harness raises.
+Every failure inside a trial becomes that trial's status, and every failure of
+a group's planning (settling, observing, the planner) that group's: a
+perception failure or a planner's exception is `planner_error`, anything else
+(a harness bug) is `harness_fault` with the traceback's last lines in
+`detail`, never a physics status. The process pool (`manigrasp.bench.pool`)
+adds the hard wall-clock budgets: it hears `timed_start` and ends a worker
+that overruns.
 """
 
 from __future__ import annotations
@@ -18,12 +23,26 @@ import numpy as np
 from manigrasp.bench.observe import ObservationInfo, observe_with_info
 from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import Group
-from manigrasp.errors import ManigraspError
+from manigrasp.errors import ManigraspError, PerceptionError
 from manigrasp.protocol.result import PoseRecord, Status, TrialResult
 from manigrasp.record.policy import trial_recording
 
 _SCENES: dict[tuple, object] = {}
 _ASSETS: dict[str, object] = {}
+_ON_TIMED_START: list = []  # callbacks of the hosting pool process (`manigrasp.bench.pool`)
+
+
+def timed_start() -> None:
+    """Tell the hosting pool that the budgeted part of a task (planner call, protocol run) starts now."""
+    for callback in _ON_TIMED_START:
+        callback()
+
+
+def fault_detail(exc: BaseException, limit: int = 800) -> str:
+    """`Type: message` and the last lines of the traceback, for a result's `detail`."""
+    lines = traceback.format_exception(exc)
+    tail = "".join(lines[-4:]).strip().replace("\n", " | ")
+    return f"{type(exc).__name__}: {exc} | {tail}"[:limit]
 
 
 @dataclass(frozen=True)
@@ -32,12 +51,14 @@ class Plan:
 
     Attributes:
         candidates: the planner's candidates (may be fewer than requested).
-        error: the planner's error message (then `candidates` is empty).
+        error: why planning failed (then `candidates` is empty), or None.
         planning_time_s: wall time of the planning call [s].
         object_pose: (4, 4) settled (true) object pose.
         observation: how the planner's observation was made and its pose errors.
         planned: the analytic metrics of each candidate's planned contacts, scored in one batch
             with the protocol's contact model (aligned with `candidates`).
+        status: the status of every trial of the group when `error` is set (`planner_error` for the
+            planner or perception, `harness_fault` for the harness, `timeout` for an overrun budget).
     """
 
     candidates: tuple
@@ -46,6 +67,12 @@ class Plan:
     object_pose: np.ndarray
     observation: ObservationInfo
     planned: tuple = ()
+    status: Status = Status.PLANNER_ERROR
+
+    @classmethod
+    def failed(cls, group: Group, status: Status, detail: str, seconds: float = math.nan) -> Plan:
+        """A plan that failed before any candidate: every trial of the group gets `status` and `detail`."""
+        return cls((), detail, seconds, np.full((4, 4), np.nan), ObservationInfo(group.observation), (), status)
 
 
 def _asset(group: Group):
@@ -68,21 +95,37 @@ def scene_for(group: Group):
 
 
 def plan_group(group: Group) -> Plan:
-    """Settle the object, observe it, and ask the group's planner for `n_grasps` candidates."""
+    """Settle the object, observe it, and ask the group's planner for `n_grasps` candidates.
+
+    Never raises for the group's fault: the failure is the returned plan's `status` and `error`.
+    """
     from manigrasp import planners
     from manigrasp.protocol import settle_object
 
-    scene = scene_for(group)
-    pose = settle_object(scene)
-    observation, info = observe_with_info(group.observation, _asset(group), pose, scene, seed=group.seed)
     start = time.perf_counter()
+    stage = "setting up"
     try:
+        scene = scene_for(group)
+        stage = "settling the object"
+        pose = settle_object(scene)
+        stage = "observing"
+        observation, info = observe_with_info(group.observation, _asset(group), pose, scene, seed=group.seed)
+        stage = "planning"
         planner = planners.load(group.planner.name, **dict(group.planner.params))
+        start = time.perf_counter()
+        timed_start()
         result = planners.plan(planner, observation, scene.hand, group.n_grasps, group.rng())
+        stage = "scoring the planned contacts"
+        planned = _planned_metrics(group, scene, result.candidates, pose)
+    except PerceptionError as exc:
+        return Plan.failed(group, Status.PLANNER_ERROR, f"perception failed: {exc}"[:800])
     except ManigraspError as exc:  # planners.plan turns anything a planner raises into a PlannerError
-        return Plan((), str(exc), time.perf_counter() - start, pose, info)
-    return Plan(result.candidates, None, result.planning_time_s, pose, info,
-                _planned_metrics(group, scene, result.candidates, pose))
+        status = Status.PLANNER_ERROR if stage == "planning" else Status.HARNESS_FAULT
+        detail = str(exc) if stage == "planning" else f"{stage}: {fault_detail(exc)}"
+        return Plan.failed(group, status, detail[:800], time.perf_counter() - start)
+    except Exception as exc:  # a harness bug in one group must not end the run: record it
+        return Plan.failed(group, Status.HARNESS_FAULT, f"{stage}: {fault_detail(exc)}")
+    return Plan(result.candidates, None, result.planning_time_s, pose, info, planned)
 
 
 def _planned_metrics(group: Group, scene, candidates: tuple, object_pose: np.ndarray) -> tuple:
@@ -122,8 +165,7 @@ def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, 
     key, seed = group.key(index), group.trial_seed(index)
     planning_time = plan.planning_time_s / max(1, len(plan.candidates))
     if plan.error is not None:
-        return key, TrialResult(Status.PLANNER_ERROR, detail=plan.error[:500], planning_time_s=planning_time,
-                                seed=seed)
+        return key, TrialResult(plan.status, detail=plan.error[:800], planning_time_s=planning_time, seed=seed)
     if index >= len(plan.candidates):
         detail = f"planner returned {len(plan.candidates)} of {group.n_grasps} requested candidates"
         return key, TrialResult(Status.PLANNER_ERROR, detail=detail, planning_time_s=planning_time, seed=seed)
@@ -136,13 +178,14 @@ def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, 
         grasp = as_grasp(plan.candidates[index])
         if plan.planned:
             grasp = replace(grasp, planned_metrics=plan.planned[index])
+        scene = scene_for(group)
+        timed_start()
         with trial_recording(record, key.trial_id, index, plan.candidates[index]) as recording:
-            result = protocol.run(scene_for(group), grasp, np.random.default_rng(seed),
+            result = protocol.run(scene, grasp, np.random.default_rng(seed),
                                   deadline=time.monotonic() + group.timeout_s, object_pose=plan.object_pose,
                                   observer=recording.observer)
-    except Exception as exc:  # a harness or physics bug in one trial must not end the run: record it
-        detail = f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-300:]}"
-        result = TrialResult(Status.UNSTABLE, detail=detail[:800])
+    except Exception as exc:  # protocols never raise for the trial's fault: this is the harness's
+        result = TrialResult(Status.HARNESS_FAULT, detail=fault_detail(exc))
     return key, replace(result, seed=seed, planning_time_s=planning_time, score=float(plan.candidates[index].score),
                         wall_time_s=time.perf_counter() - start if math.isnan(result.wall_time_s)
                         else result.wall_time_s)

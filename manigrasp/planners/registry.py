@@ -1,7 +1,10 @@
-"""The planner registry: ``antipodal``, ``power``, ``random``, and users' ``package.module:attribute``.
+"""The planner registry: ``antipodal``, ``file``, ``power``, ``random``, and users' ``package.module:attribute``.
 
-A user attribute is a class or function that takes keyword parameters and
-returns a planner, or a ready planner object (then without parameters).
+A user attribute is a planner class (one with a ``plan`` method; it is built
+with the keyword parameters) or a ready planner object (then without
+parameters). Anything else (a function, ``os:system``) is refused before it is
+called; but importing the module runs its code, so a config that names
+``module:attribute`` is code: run only configs you trust.
 """
 
 from __future__ import annotations
@@ -9,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from manigrasp.errors import ConfigError, PlannerError
+from manigrasp.errors import ConfigError, ManigraspError, PlannerError
 from manigrasp.planners.base import Planner
 from manigrasp.registry import Registry, import_attribute
 
@@ -17,6 +20,7 @@ PLANNERS: Registry[Planner] = Registry("planner")
 
 _BUILTIN: dict[str, str] = {
     "antipodal": "manigrasp.planners.antipodal:AntipodalPlanner",
+    "file": "manigrasp.planners.file:FilePlanner",
     "power": "manigrasp.planners.power:PowerPlanner",
     "random": "manigrasp.planners.random_planner:RandomPlanner",
 }
@@ -48,12 +52,19 @@ def load(name: str, **params: Any) -> Planner:
         PlannerError: the attribute does not give a planner (no ``plan`` method).
     """
     entry = _entry(name)
+    if name not in PLANNERS and not (_is_planner(entry) or _is_planner_class(entry)):
+        raise PlannerError(f"planner {name!r} is a {type(entry).__name__} with no plan(observation, hand, n, rng) "
+                           "method: only a planner class or object is accepted (it was not called)")
     if callable(entry) and not _is_planner(entry):
         try:
             planner = entry(**params)
         except TypeError as exc:
             raise ConfigError(f"planner {name!r}: bad parameters {sorted(params)}: {exc}"
                               f"{_valid_fields(name)}") from exc
+        except ManigraspError:
+            raise
+        except Exception as exc:  # the planner's own constructor failed: a planner error, not a traceback
+            raise PlannerError(f"planner {name!r}: building it raised {type(exc).__name__}: {exc}") from exc
     else:
         if params:
             raise ConfigError(f"planner {name!r} is a ready object and takes no parameters, got {sorted(params)}")
@@ -72,6 +83,10 @@ def _entry(name: str) -> object:
 
 def _is_planner(obj: object) -> bool:
     return not isinstance(obj, type) and callable(getattr(obj, "plan", None))
+
+
+def _is_planner_class(obj: object) -> bool:
+    return isinstance(obj, type) and callable(getattr(obj, "plan", None))
 
 
 def _valid_fields(name: str) -> str:

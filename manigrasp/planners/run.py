@@ -12,6 +12,7 @@ import dataclasses
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from numbers import Real
 
 import numpy as np
 
@@ -66,7 +67,7 @@ def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np
     start = time.perf_counter()
     try:
         returned = planner.plan(observation, hand, n, rng)
-    except Exception as exc:  # a planner's failure is reported, never swallowed
+    except (Exception, SystemExit) as exc:  # a planner's failure (even sys.exit) is reported, never swallowed
         raise PlannerError(f"planner {name!r} raised {type(exc).__name__}: {exc}") from exc
     elapsed = time.perf_counter() - start
     candidates = validate_candidates(returned, name, n)
@@ -95,6 +96,14 @@ def validate_candidates(returned: object, name: str, n: int) -> list[GraspCandid
 def candidate_defect(candidate: GraspCandidate) -> str | None:
     """What is wrong with `candidate` (a sentence), or None if it is valid (or declared `invalid`:
     then its trial is `invalid_grasp`; only its score must rank)."""
+    for key in ("score", "preshape", "pregrasp_offset", "width"):
+        value = getattr(candidate, key)
+        if not (value is None and key == "width") and (isinstance(value, bool) or not isinstance(value, Real)):
+            return f"{key} is {value!r}, not a number"
+    for key in ("pose", "contacts", "contact_normals"):
+        value = getattr(candidate, key)
+        if not isinstance(value, np.ndarray) or not np.issubdtype(value.dtype, np.number):
+            return f"{key} is a {type(value).__name__}, not a numeric array"
     if candidate.invalid:
         return None if np.isfinite(candidate.score) else f"score is {candidate.score}"
     pose = candidate.pose

@@ -40,7 +40,7 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     if observer is not None:
         dropped = scene.object_rest_pose() if object_pose is None else np.asarray(object_pose, float)
         observer.on_start(scene, grasp, dropped)
-    problem = check_grasp(grasp)
+    problem = check_grasp(grasp) or _mount_problem(grasp)
     if problem is not None:
         result = TrialResult(Status.INVALID_GRASP, detail=problem, planning_time_s=grasp.planning_time_s,
                              wall_time_s=time.perf_counter() - start, seed=seed)
@@ -77,6 +77,18 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     if observer is not None:
         observer.on_end(scene, result)
     return result
+
+
+def _mount_problem(grasp: Grasp) -> str | None:
+    """Why the scene would refuse the grasp's pose as the hand's mount (its rigid-transform tolerance is
+    tighter than `check_grasp`'s), or None: the trial is then `invalid_grasp` instead of an exception."""
+    from manigrasp.sim.transforms import check_pose
+
+    try:
+        check_pose(grasp_matrix(grasp), "grasp pose")
+    except ValueError as exc:
+        return str(exc)
+    return None
 
 
 def _fingers_now(run: TrialRun) -> tuple[str, ...]:

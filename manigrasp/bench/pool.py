@@ -1,0 +1,208 @@
+"""Worker processes with hard wall-clock budgets: a task that overruns, or whose worker dies, is reported
+and its worker replaced, so one hanging or crashing planner or trial never stops a run.
+
+Each worker runs one task at a time and tells the pool when the budgeted part starts
+(`manigrasp.bench.worker.timed_start`); before that (building the scene, loading the object) a task
+has `setup_s`. A worker that overruns is killed (SIGKILL); one that dies (os._exit, a segfault) is
+noticed by its process sentinel. Workers end with the main process: on Linux the kernel sends them
+SIGKILL when it dies (even by kill -9), elsewhere they notice within a second that their parent is gone.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from multiprocessing import get_context
+from multiprocessing.connection import Connection, wait
+
+DEFAULT_SETUP_S = 600.0
+"""Budget of a task's part before `timed_start` (scene compile, object load) [s]."""
+
+
+@dataclass(frozen=True)
+class Task:
+    """One call to run in a worker: `fn(*args)`, whose budgeted part may last `budget_s` [s]."""
+
+    tag: object
+    fn: Callable
+    args: tuple
+    budget_s: float
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a task ended: "done" (`value` is its return value), "error" (it raised: `detail`),
+    "timeout" (it overran its budget and its worker was killed) or "died" (its worker died)."""
+
+    task: Task
+    kind: str
+    value: object = None
+    detail: str = ""
+
+
+def _serve(conn: Connection, parent: int) -> None:  # pragma: no cover - runs in the worker process
+    """A worker's loop: receive a task, run it, send back its outcome; end with the parent."""
+    _die_with_parent(parent)
+    from manigrasp.bench import worker
+
+    worker._ON_TIMED_START.append(lambda: conn.send(("start", None)))
+    while True:
+        try:
+            message = conn.recv()
+        except (EOFError, OSError):
+            return
+        if message is None:
+            return
+        fn, args = message
+        try:
+            value = fn(*args)
+        except BaseException as exc:  # noqa: BLE001 - reported to the main process, which records it
+            conn.send(("error", worker.fault_detail(exc)))
+            continue
+        try:
+            conn.send(("done", value))
+        except Exception as exc:  # an unpicklable result
+            conn.send(("error", worker.fault_detail(exc)))
+
+
+def _die_with_parent(parent: int) -> None:  # pragma: no cover - runs in the worker process
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:
+        os._exit(1)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+class _Worker:
+    def __init__(self, context) -> None:
+        self.conn, child = context.Pipe()
+        self.process = context.Process(target=_serve, args=(child, os.getpid()), daemon=True)
+        self.process.start()
+        child.close()
+        self.task: Task | None = None
+        self.deadline = 0.0
+
+    def give(self, task: Task, setup_s: float) -> None:
+        self.task, self.deadline = task, time.monotonic() + setup_s + task.budget_s
+        self.conn.send((task.fn, task.args))
+
+    def kill(self) -> None:
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(5.0)
+        self.conn.close()
+
+
+class Pool:
+    """`jobs` worker processes (spawned) running `Task`s under their budgets.
+
+    Args:
+        jobs: number of worker processes.
+        setup_s: budget of a task's part before it calls `timed_start` [s].
+    """
+
+    def __init__(self, jobs: int, setup_s: float = DEFAULT_SETUP_S) -> None:
+        self._context = get_context("spawn")
+        self._jobs = max(1, jobs)
+        self._setup_s = setup_s
+        self._queue: deque[Task] = deque()
+        self._workers: list[_Worker] = []
+
+    def submit(self, task: Task, first: bool = False) -> None:
+        """Queue `task` (at the front with `first`)."""
+        if first:
+            self._queue.appendleft(task)
+        else:
+            self._queue.append(task)
+
+    def outcomes(self) -> Iterator[Outcome]:
+        """Run the queued tasks (and any submitted meanwhile), yielding each one's `Outcome` as it ends."""
+        while self._queue or any(w.task for w in self._workers):
+            self._dispatch()
+            busy = [w for w in self._workers if w.task is not None]
+            timeout = max(0.0, min(w.deadline for w in busy) - time.monotonic())
+            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy], timeout=min(timeout, 1.0))
+            for w in busy:
+                outcome = self._check(w, ready)
+                if outcome is not None:
+                    yield outcome
+
+    def _dispatch(self) -> None:
+        self._workers = [w for w in self._workers if w.process.is_alive() or w.task is not None]
+        while self._queue and len(self._workers) < self._jobs:
+            self._workers.append(_Worker(self._context))
+        for w in self._workers:
+            if w.task is None and self._queue:
+                w.give(self._queue.popleft(), self._setup_s)
+
+    def _check(self, w: _Worker, ready: list) -> Outcome | None:
+        task = w.task
+        assert task is not None
+        if w.conn in ready:
+            try:
+                kind, value = w.conn.recv()
+            except (EOFError, OSError):
+                return self._replace(w, Outcome(task, "died", detail=_death(w)))
+            if kind == "start":
+                w.deadline = time.monotonic() + task.budget_s
+                return None
+            w.task = None
+            return Outcome(task, "done", value) if kind == "done" else Outcome(task, "error", detail=str(value))
+        if w.process.sentinel in ready or not w.process.is_alive():
+            return self._replace(w, Outcome(task, "died", detail=_death(w)))
+        if time.monotonic() > w.deadline:
+            return self._replace(w, Outcome(task, "timeout", detail=f"overran its {task.budget_s:g} s budget; "
+                                                                     "its worker process was ended"))
+        return None
+
+    def _replace(self, w: _Worker, outcome: Outcome) -> Outcome:
+        w.kill()
+        w.task = None
+        self._workers.remove(w)
+        return outcome
+
+    def close(self) -> None:
+        """End every worker (idle ones are asked to stop, busy ones are killed)."""
+        for w in self._workers:
+            if w.task is None and w.process.is_alive():
+                try:
+                    w.conn.send(None)
+                except OSError:
+                    pass
+                w.process.join(2.0)
+            w.kill()
+        self._workers = []
+
+    def __enter__(self) -> Pool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _death(w: _Worker) -> str:
+    w.process.join(2.0)
+    code = w.process.exitcode
+    if code is not None and code < 0:
+        try:
+            return f"its worker process died of signal {signal.Signals(-code).name}"
+        except ValueError:
+            return f"its worker process died of signal {-code}"
+    return f"its worker process exited with code {code} before finishing"
