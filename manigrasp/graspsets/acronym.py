@@ -1,0 +1,152 @@
+"""ACRONYM's HDF5 layout (Eppner et al., ICRA 2021), read and written (needs the `datasets` extra: h5py).
+
+Layout::
+
+    grasps/transforms        (n, 4, 4) gripper poses in the frame of the scaled object mesh [m]
+    grasps/qualities/<...>   (n,) per-grasp labels (ACRONYM: flex/object_in_gripper, 1 = success)
+    object/file              path of the object mesh (relative: to the .h5 file)
+    object/scale             factor applied to the mesh's vertices
+    object/mass              [kg] (optional)
+
+The gripper frame is the Franka Panda hand's (`panda_hand`): origin at the hand's base, z = approach,
+the fingers at x = +-4.1 cm closing along x. manigrasp's TCP (every parallel hand's: the centre
+between the finger pads, z = approach, y = closing) is that frame moved `ACRONYM_TCP_DEPTH` along z
+and turned -90 degrees about z, so TCP y = gripper x and TCP x = -gripper y:
+
+    T_tcp = T_acronym @ ACRONYM_TO_TCP
+
+The same transform serves every parallel hand (panda, parallel_jaw, robotiq_2f85): each one's TCP
+sits between its own pads, where ACRONYM's grasp puts the object. Jaws are symmetric, so the sign
+of the closing axis does not matter. ACRONYM grasps are parallel-jaw grasps: on a dexterous hand
+they are `invalid_grasp`.
+
+Files written by `manigrasp label` add ``grasps/qualities/manigrasp/*`` (status, success as
+``object_in_gripper``, metrics, the planner's score as ``planner_score``) and
+``grasps/manigrasp/widths``; ``object/file`` is then the object's built visual mesh, whose frame is
+manigrasp's object frame.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef
+
+# Franka's documented flange-to-TCP distance of the Panda hand (`panda_hand_tcp` in franka_description),
+# the fingertip pads' centre; Contact-GraspNet's "gripper depth" for ACRONYM grasps is the same 0.1034 m.
+ACRONYM_TCP_DEPTH = 0.1034  # [m]
+ACRONYM_TO_TCP = np.array([[0.0, 1.0, 0.0, 0.0],
+                           [-1.0, 0.0, 0.0, 0.0],
+                           [0.0, 0.0, 1.0, ACRONYM_TCP_DEPTH],
+                           [0.0, 0.0, 0.0, 1.0]])
+SUFFIXES = (".h5", ".hdf5")
+SCORE_KEY = "manigrasp/planner_score"
+WIDTH_KEY = "grasps/manigrasp/widths"
+
+
+def tcp_from_acronym(transforms: np.ndarray) -> np.ndarray:
+    """(..., 4, 4) TCP poses of ACRONYM gripper poses (..., 4, 4), in the same frame."""
+    return np.asarray(transforms, float) @ ACRONYM_TO_TCP
+
+
+def acronym_from_tcp(poses: np.ndarray) -> np.ndarray:
+    """(..., 4, 4) ACRONYM gripper poses of TCP poses (..., 4, 4): the inverse of `tcp_from_acronym`."""
+    return np.asarray(poses, float) @ np.linalg.inv(ACRONYM_TO_TCP)
+
+
+def _h5py() -> Any:
+    try:
+        import h5py
+    except ImportError as exc:
+        raise GraspFileError("ACRONYM's HDF5 layout needs h5py: pip install 'manigrasp[datasets]'") from exc
+    return h5py
+
+
+def read(path: str | Path) -> GraspSet:
+    """Read an ACRONYM-layout file: TCP poses in the scaled mesh's frame ("mesh"), labels from
+    ``grasps/qualities``; `GraspFileError` names a missing key or a wrong shape."""
+    h5py = _h5py()
+    path = Path(path)
+    if not path.is_file():
+        raise GraspFileError(f"{path}: no such grasp file")
+    try:
+        handle = h5py.File(path, "r")
+    except OSError as exc:
+        raise GraspFileError(f"{path}: not a readable HDF5 file ({exc})") from exc
+    with handle:
+        transforms = _dataset(handle, "grasps/transforms", path)
+        if transforms.ndim != 3 or transforms.shape[1:] != (4, 4):
+            raise GraspFileError(f"{path}: 'grasps/transforms' must be (n, 4, 4), got shape {transforms.shape}")
+        n = len(transforms)
+        mesh = _dataset(handle, "object/file", path)
+        scale = _scalar(_dataset(handle, "object/scale", path), "object/scale", path)
+        mass = _scalar(handle["object/mass"][()], "object/mass", path) if "object/mass" in handle else None
+        labels = _qualities(handle, n, path)
+        widths = handle[WIDTH_KEY][()].astype(float) if WIDTH_KEY in handle else np.full(n, np.nan)
+    scores = labels.get(SCORE_KEY, np.zeros(n)).astype(float)
+    mesh_path = mesh.item().decode() if isinstance(mesh.item(), bytes) else str(mesh.item())
+    return GraspSet(tcp_from_acronym(transforms.astype(float)), widths, np.zeros(n), scores, frame="mesh",
+                    hand_kind="parallel", object=ObjectRef(name=Path(mesh_path).stem, mesh=mesh_path, scale=scale,
+                                                           mass=mass),
+                    labels=labels, source=str(path))
+
+
+def _dataset(handle: Any, key: str, path: Path) -> np.ndarray:
+    if key not in handle:
+        raise GraspFileError(f"{path}: missing key {key!r} (ACRONYM layout: grasps/transforms, object/file, "
+                             "object/scale)")
+    return np.asarray(handle[key][()])
+
+
+def _scalar(value: Any, key: str, path: Path) -> float:
+    array = np.asarray(value)
+    if array.size != 1 or not np.issubdtype(array.dtype, np.number):
+        raise GraspFileError(f"{path}: {key!r} must be one number, got shape {array.shape}")
+    number = float(array.reshape(()))
+    if not np.isfinite(number):
+        raise GraspFileError(f"{path}: {key!r} is {number}")
+    return number
+
+
+def _qualities(handle: Any, n: int, path: Path) -> dict[str, np.ndarray]:
+    out: dict[str, np.ndarray] = {}
+    if "grasps/qualities" not in handle:
+        return out
+
+    def visit(name: str, item: Any) -> None:
+        if hasattr(item, "shape"):
+            value = np.asarray(item[()])
+            if value.shape[:1] != (n,):
+                raise GraspFileError(f"{path}: 'grasps/qualities/{name}' must have one value per grasp ({n}), "
+                                     f"got shape {value.shape}")
+            out[name] = value.astype(str) if value.dtype.kind in "SO" else value
+
+    handle["grasps/qualities"].visititems(visit)
+    return out
+
+
+def write(grasps: GraspSet, path: str | Path) -> Path:
+    """Write a parallel-jaw `grasps` set in ACRONYM's layout. Its poses must be in the frame of
+    ``grasps.object.mesh`` (scaled by ``object.scale``); labels go to ``grasps/qualities/manigrasp/``."""
+    h5py = _h5py()
+    path = Path(path)
+    if grasps.object.mesh is None:
+        raise GraspFileError(f"{path}: ACRONYM's layout needs the object's mesh file (object/file)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with h5py.File(path, "w") as handle:
+        handle["grasps/transforms"] = acronym_from_tcp(grasps.poses)
+        handle[WIDTH_KEY] = grasps.widths
+        handle[f"grasps/qualities/{SCORE_KEY}"] = grasps.scores
+        for key, value in grasps.labels.items():
+            value = np.asarray(value)
+            name = key if "/" in key else f"manigrasp/{key}"
+            handle[f"grasps/qualities/{name}"] = value.astype("S") if value.dtype.kind == "U" else value
+        handle["object/file"] = str(grasps.object.mesh)
+        handle["object/scale"] = float(grasps.object.scale)
+        if grasps.object.mass is not None:
+            handle["object/mass"] = float(grasps.object.mass)
+        handle["gripper/type"] = "panda"
+    return path

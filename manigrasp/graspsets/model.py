@@ -1,0 +1,154 @@
+"""A grasp set in memory: TCP poses in an object's frame, jaw widths, pre-shapes, scores and labels.
+
+Pure data and math (no file I/O, no mujoco). Readers (`native`, `acronym`) check a file's
+structure and raise `GraspFileError` naming the problem; what they cannot decide (a NaN pose,
+a rotation that is not one, the wrong hand) is left in the set and decided per grasp by
+`placement_defect` when the set is placed on an object: that grasp's trial is `invalid_grasp`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from manigrasp.errors import ManigraspError
+
+Frame = Literal["object", "mesh"]
+FRAMES: tuple[str, ...] = ("object", "mesh")
+ROTATION_TOLERANCE = 1e-4  # allowed deviation of R^T R from the identity (as `planners.run.candidate_defect`)
+
+
+class GraspFileError(ManigraspError, ValueError):
+    """A grasp file that cannot be read: missing keys, wrong shapes, non-finite values where none may be."""
+
+
+@dataclass(frozen=True)
+class ObjectRef:
+    """The object a grasp set was made for, as the file names it.
+
+    Attributes:
+        name: object name (a shipped name such as "025_mug", or the name given to a mesh), or None.
+        mesh: path of its mesh file (relative paths are relative to the grasp file), or None.
+        scale: factor applied to the mesh file's vertices (ACRONYM's ``object/scale``).
+        mass: [kg], or None.
+    """
+
+    name: str | None = None
+    mesh: str | None = None
+    scale: float = 1.0
+    mass: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class GraspSet:
+    """Grasps of one hand kind on one object.
+
+    Attributes:
+        poses: (n, 4, 4) TCP poses (z approach, y closing) in the object's frame [m]; may hold
+            NaN or non-rotations (then that grasp is `invalid_grasp`, see `placement_defect`).
+        widths: (n,) jaw opening at contact [m]; NaN: not given.
+        preshapes: (n,) the hand's pre-shape synergy in [0, 1] (0 = open): a dexterous hand's
+            joint configuration as manigrasp drives it.
+        scores: (n,) finite ranking scores (higher first).
+        frame: "object": manigrasp's object frame (origin at the centre of mass, axes of the mesh);
+            "mesh": the frame of `object.mesh` scaled by `object.scale` (ACRONYM's convention).
+        hand: the hand the grasps were made for, or None (any hand of `hand_kind`).
+        hand_kind: "parallel", "dexterous" or None (not stated).
+        object: the object, as the file names it.
+        labels: per-grasp columns (n,) of a labelled set: "status", "success", metrics...
+        source: where the set was read from (for messages).
+    """
+
+    poses: np.ndarray
+    widths: np.ndarray
+    preshapes: np.ndarray
+    scores: np.ndarray
+    frame: Frame = "object"
+    hand: str | None = None
+    hand_kind: str | None = None
+    object: ObjectRef = field(default_factory=ObjectRef)
+    labels: Mapping[str, np.ndarray] = field(default_factory=dict)
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        where = self.source or "grasp set"
+        poses = np.asarray(self.poses, dtype=float)
+        if poses.ndim != 3 or poses.shape[1:] != (4, 4):
+            raise GraspFileError(f"{where}: poses must be (n, 4, 4), got shape {poses.shape}")
+        n = len(poses)
+        for name in ("widths", "preshapes", "scores"):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.shape != (n,):
+                raise GraspFileError(f"{where}: {name} must have shape ({n},) (one per grasp), got {value.shape}")
+            object.__setattr__(self, name, value)
+        bad = np.flatnonzero(~np.isfinite(self.scores))
+        if bad.size:
+            raise GraspFileError(f"{where}: score of grasp {bad[0]} is {self.scores[bad[0]]} (scores rank the "
+                                 "grasps: give finite scores, or none)")
+        if self.frame not in FRAMES:
+            raise GraspFileError(f"{where}: frame must be one of {', '.join(FRAMES)}, got {self.frame!r}")
+        labels = {k: np.asarray(v) for k, v in self.labels.items()}
+        for key, value in labels.items():
+            if value.shape[:1] != (n,):
+                raise GraspFileError(f"{where}: label {key!r} must have one value per grasp ({n}), "
+                                     f"got shape {value.shape}")
+        scale, mass = self.object.scale, self.object.mass
+        if not (np.isfinite(scale) and scale > 0):
+            raise GraspFileError(f"{where}: object scale must be a finite number > 0, got {scale}")
+        if mass is not None and not (np.isfinite(mass) and mass > 0):
+            raise GraspFileError(f"{where}: object mass must be a finite number > 0 [kg], got {mass}")
+        object.__setattr__(self, "poses", poses)
+        object.__setattr__(self, "labels", labels)
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+    def ranked(self) -> np.ndarray:
+        """(n,) grasp indices by score, best first (stable: equal scores keep file order)."""
+        return np.argsort(-self.scores, kind="stable")
+
+
+def rotation_defect(pose: np.ndarray) -> str | None:
+    """Why the (4, 4) `pose` is not a finite rigid transform, or None."""
+    if not np.all(np.isfinite(pose)):
+        return "its pose contains NaN or inf"
+    rot = pose[:3, :3]
+    if not np.allclose(pose[3], [0.0, 0.0, 0.0, 1.0]):
+        return f"its pose's last row is {pose[3].tolist()}, not [0, 0, 0, 1]"
+    if not np.allclose(rot.T @ rot, np.eye(3), atol=ROTATION_TOLERANCE) or np.linalg.det(rot) < 0:
+        return "its pose's rotation block is not a rotation (not orthonormal with det +1)"
+    return None
+
+
+def placement_defect(grasps: GraspSet, index: int, hand_name: str, hand_kind: str, max_width: float,
+                     transfer: bool = False) -> str | None:
+    """Why grasp `index` of `grasps` cannot be executed by the hand `hand_name` (of `hand_kind`, opening at
+    most `max_width` [m]), as a sentence, or None.
+
+    `transfer`: accept a set made for another hand of the same kind (the TCP convention is the same
+    for every hand of a kind, so a parallel-jaw set can run on any parallel jaw).
+    """
+    prefix = f"grasp {index} of {grasps.source or 'the grasp set'}"
+    if grasps.hand_kind is not None and grasps.hand_kind != hand_kind:
+        return f"{prefix} is a {grasps.hand_kind} grasp; hand {hand_name!r} is {hand_kind}"
+    if grasps.hand is not None and grasps.hand != hand_name and not transfer:
+        return f"{prefix} was made for hand {grasps.hand!r}, not {hand_name!r} (planner param transfer: true runs it)"
+    problem = rotation_defect(grasps.poses[index])
+    if problem:
+        return f"{prefix}: {problem}"
+    preshape, width = grasps.preshapes[index], grasps.widths[index]
+    if not (np.isfinite(preshape) and 0.0 <= preshape <= 1.0):
+        return f"{prefix}: pre-shape {preshape} is outside [0, 1]"
+    if np.isfinite(width) and not 0.0 <= width <= max_width + 1e-9:
+        return f"{prefix}: width {width:.4g} m is outside [0, {max_width:.4g}] m, the opening of {hand_name!r}"
+    return None
+
+
+def translation(offset: np.ndarray) -> np.ndarray:
+    """(4, 4) the pure translation by `offset` (3,) [m]."""
+    out = np.eye(4)
+    out[:3, 3] = offset
+    return out

@@ -1,0 +1,238 @@
+"""manigrasp's own grasp-set format, as JSON or NPZ (the file's suffix decides).
+
+JSON::
+
+    {"format": "manigrasp.grasps", "version": 1,
+     "hand": "parallel_jaw",                 # optional: the hand the grasps were made for
+     "hand_kind": "parallel",                # optional: "parallel" or "dexterous"
+     "frame": "object",                      # optional: "object" (default) or "mesh"
+     "object": {"name": "box", "mesh": "box.obj", "scale": 1.0, "mass": 0.2},   # optional, any of these
+     "grasps": [
+       {"pose": [[...4...], [...], [...], [0, 0, 0, 1]],   # TCP in the object frame [m], or:
+        "position": [x, y, z], "quaternion": [w, x, y, z],
+        "width": 0.05,                       # optional jaw opening at contact [m]
+        "preshape": 0.0,                     # optional synergy in [0, 1] (dexterous hands)
+        "score": 0.9,                        # optional (default 0), higher first
+        "label": {"status": "success", ...}} # optional (written by `manigrasp label`)
+     ]}
+
+NPZ: arrays ``poses`` (n, 4, 4) or ``positions`` (n, 3) with ``quaternions`` (n, 4) (w, x, y, z);
+optional ``widths``, ``preshapes``, ``scores`` (n,); optional scalars ``hand``, ``hand_kind``, ``frame``,
+``object_name``, ``object_mesh``, ``object_scale``, ``object_mass``; labels as ``label_<name>`` (n,).
+
+The object frame is manigrasp's (origin at the object's centre of mass, axes of its mesh); "mesh"
+means the frame of the object's mesh file scaled by ``object.scale``. TCP: z = approach (hand
+toward object), y = closing (finger 1 toward finger 2), x = y cross z. NaN widths mean "not given".
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef
+
+FORMAT = "manigrasp.grasps"
+VERSION = 1
+SUFFIXES = (".json", ".npz")
+_TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "grasps")
+_GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label")
+_OBJECT_KEYS = ("name", "mesh", "scale", "mass")
+
+
+def quat_matrix(position: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    """(n, 4, 4) poses from positions (n, 3) and quaternions (n, 4) (w, x, y, z), NOT normalised
+    (a non-unit quaternion gives a non-rotation, which placing the grasp reports)."""
+    w, x, y, z = np.moveaxis(np.asarray(quat, float), -1, 0)
+    out = np.zeros((len(position), 4, 4))
+    out[:, :3, :3] = np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
+    out[:, :3, 3] = position
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def read(path: str | Path) -> GraspSet:
+    """Read a native grasp file (.json or .npz); `GraspFileError` names what is wrong with it."""
+    path = Path(path)
+    if path.suffix.lower() not in SUFFIXES:
+        raise GraspFileError(f"{path}: a native grasp file ends in {' or '.join(SUFFIXES)}")
+    if not path.is_file():
+        raise GraspFileError(f"{path}: no such grasp file")
+    return _read_json(path) if path.suffix.lower() == ".json" else _read_npz(path)
+
+
+def _read_json(path: Path) -> GraspSet:
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise GraspFileError(f"{path}: not valid JSON ({exc})") from exc
+    if not isinstance(data, dict):
+        raise GraspFileError(f"{path}: the top level must be an object with a 'grasps' list")
+    _unknown(data, _TOP_KEYS, str(path))
+    if data.get("format", FORMAT) != FORMAT:
+        raise GraspFileError(f"{path}: format is {data.get('format')!r}, expected {FORMAT!r}")
+    grasps = data.get("grasps")
+    if not isinstance(grasps, list):
+        raise GraspFileError(f"{path}: missing key 'grasps' (a list of grasps)")
+    poses, widths, preshapes, scores, labels = [], [], [], [], []
+    for i, grasp in enumerate(grasps):
+        where = f"{path}: grasp {i}"
+        if not isinstance(grasp, dict):
+            raise GraspFileError(f"{where} must be an object")
+        _unknown(grasp, _GRASP_KEYS, where)
+        poses.append(_pose(grasp, where))
+        widths.append(_number(grasp.get("width"), f"{where}: width", math.nan))
+        preshapes.append(_number(grasp.get("preshape"), f"{where}: preshape", 0.0))
+        scores.append(_number(grasp.get("score"), f"{where}: score", 0.0))
+        labels.append(grasp.get("label") or {})
+    columns = _label_columns(labels, str(path))
+    return GraspSet(np.array(poses).reshape(-1, 4, 4), np.array(widths), np.array(preshapes), np.array(scores),
+                    frame=data.get("frame", "object"), hand=data.get("hand"), hand_kind=data.get("hand_kind"),
+                    object=_object(data.get("object") or {}, str(path)), labels=columns, source=str(path))
+
+
+def _pose(grasp: dict, where: str) -> np.ndarray:
+    if "pose" in grasp:
+        pose = _array(grasp["pose"], f"{where}: pose")
+        if pose.shape != (4, 4):
+            raise GraspFileError(f"{where}: pose must be 4x4, got shape {pose.shape}")
+        return pose
+    if "position" not in grasp or "quaternion" not in grasp:
+        raise GraspFileError(f"{where}: missing key 'pose' (4x4) or 'position' and 'quaternion'")
+    pos, quat = _array(grasp["position"], f"{where}: position"), _array(grasp["quaternion"], f"{where}: quaternion")
+    if pos.shape != (3,) or quat.shape != (4,):
+        raise GraspFileError(f"{where}: position must have 3 numbers and quaternion 4 (w, x, y, z), got "
+                             f"shapes {pos.shape} and {quat.shape}")
+    return quat_matrix(pos[None], quat[None])[0]
+
+
+def _array(value: Any, where: str) -> np.ndarray:
+    try:
+        return np.array([np.nan if v is None else v for v in np.ravel(np.array(value, dtype=object))],
+                        dtype=float).reshape(np.shape(value))
+    except (TypeError, ValueError) as exc:
+        raise GraspFileError(f"{where} must be numbers ({exc})") from exc
+
+
+def _number(value: Any, where: str, default: float) -> float:
+    if value is None:
+        return default
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise GraspFileError(f"{where} must be a number, got {value!r}")
+    return float(value)
+
+
+def _object(data: Any, where: str) -> ObjectRef:
+    if not isinstance(data, dict):
+        raise GraspFileError(f"{where}: 'object' must be an object with name, mesh, scale or mass")
+    _unknown(data, _OBJECT_KEYS, f"{where}: object")
+    scale = _number(data.get("scale"), f"{where}: object scale", 1.0)
+    mass = data.get("mass")
+    return ObjectRef(name=data.get("name"), mesh=data.get("mesh"), scale=scale,
+                     mass=None if mass is None else _number(mass, f"{where}: object mass", math.nan))
+
+
+def _unknown(data: dict, valid: tuple[str, ...], where: str) -> None:
+    extra = sorted(set(data) - set(valid))
+    if extra:
+        raise GraspFileError(f"{where}: unknown key {extra[0]!r}; valid keys: {', '.join(valid)}")
+
+
+def _label_columns(labels: list[dict], where: str) -> dict[str, np.ndarray]:
+    names = sorted({k for label in labels for k in label})
+    if not names:
+        return {}
+    missing = [i for i, label in enumerate(labels) if set(label) != set(names)]
+    if missing:
+        raise GraspFileError(f"{where}: grasp {missing[0]} has labels {sorted(labels[missing[0]])}, "
+                             f"others have {names} (label every grasp alike, or none)")
+    return {name: np.array([label[name] for label in labels]) for name in names}
+
+
+def _read_npz(path: Path) -> GraspSet:
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in data.files}
+    except (OSError, ValueError) as exc:
+        raise GraspFileError(f"{path}: not a readable NPZ file ({exc})") from exc
+    if "poses" in arrays:
+        poses = arrays["poses"].astype(float)
+        if poses.ndim != 3 or poses.shape[1:] != (4, 4):
+            raise GraspFileError(f"{path}: 'poses' must be (n, 4, 4), got shape {poses.shape}")
+    elif "positions" in arrays and "quaternions" in arrays:
+        pos, quat = arrays["positions"].astype(float), arrays["quaternions"].astype(float)
+        if pos.ndim != 2 or pos.shape[1] != 3 or quat.shape != (len(pos), 4):
+            raise GraspFileError(f"{path}: 'positions' must be (n, 3) and 'quaternions' (n, 4), got "
+                                 f"{pos.shape} and {quat.shape}")
+        poses = quat_matrix(pos, quat)
+    else:
+        raise GraspFileError(f"{path}: missing key 'poses' (n, 4, 4) or 'positions' and 'quaternions'")
+    n = len(poses)
+
+    def column(key: str, default: float) -> np.ndarray:
+        return arrays[key].astype(float) if key in arrays else np.full(n, default)
+
+    def scalar(key: str) -> Any:
+        return arrays[key].item() if key in arrays else None
+
+    mass = scalar("object_mass")
+    ref = ObjectRef(name=scalar("object_name"), mesh=scalar("object_mesh"),
+                    scale=float(scalar("object_scale") or 1.0) if "object_scale" in arrays else 1.0,
+                    mass=None if mass is None else float(mass))
+    labels = {k.removeprefix("label_"): v for k, v in arrays.items() if k.startswith("label_")}
+    return GraspSet(poses, column("widths", math.nan), column("preshapes", 0.0), column("scores", 0.0),
+                    frame=scalar("frame") or "object", hand=scalar("hand"), hand_kind=scalar("hand_kind"),
+                    object=ref, labels=labels, source=str(path))
+
+
+def write(grasps: GraspSet, path: str | Path) -> Path:
+    """Write `grasps` as a native file (.json or .npz by `path`'s suffix); returns the path."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise GraspFileError(f"{path}: a native grasp file ends in {' or '.join(SUFFIXES)}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".npz":
+        _write_npz(grasps, path)
+    else:
+        path.write_text(json.dumps(_json_payload(grasps), indent=1, allow_nan=True))
+    return path
+
+
+def _json_payload(grasps: GraspSet) -> dict[str, Any]:
+    ref = grasps.object
+    obj = {k: v for k, v in (("name", ref.name), ("mesh", ref.mesh), ("scale", ref.scale), ("mass", ref.mass))
+           if v is not None}
+    rows = []
+    for i in range(len(grasps)):
+        row: dict[str, Any] = {"pose": grasps.poses[i].tolist(), "score": float(grasps.scores[i]),
+                               "preshape": float(grasps.preshapes[i])}
+        if np.isfinite(grasps.widths[i]):
+            row["width"] = float(grasps.widths[i])
+        if grasps.labels:
+            row["label"] = {k: v[i].item() for k, v in grasps.labels.items()}
+        rows.append(row)
+    head = {"format": FORMAT, "version": VERSION, "hand": grasps.hand, "hand_kind": grasps.hand_kind,
+            "frame": grasps.frame, "object": obj}
+    return {**{k: v for k, v in head.items() if v is not None}, "grasps": rows}
+
+
+def _write_npz(grasps: GraspSet, path: Path) -> None:
+    ref = grasps.object
+    arrays: dict[str, Any] = {"poses": grasps.poses, "widths": grasps.widths, "preshapes": grasps.preshapes,
+                              "scores": grasps.scores, "frame": np.array(grasps.frame),
+                              "object_scale": np.array(ref.scale)}
+    for key, value in (("hand", grasps.hand), ("hand_kind", grasps.hand_kind), ("object_name", ref.name),
+                       ("object_mesh", ref.mesh), ("object_mass", ref.mass)):
+        if value is not None:
+            arrays[key] = np.array(value)
+    arrays.update({f"label_{k}": v for k, v in grasps.labels.items()})
+    with path.open("wb") as handle:
+        np.savez_compressed(handle, **arrays)

@@ -1,0 +1,135 @@
+"""The `file` planner: grasps read from a file (native JSON / NPZ, or ACRONYM's HDF5), placed on the object.
+
+    planners: [{name: file, params: {path: grasps.json}}]          # in a benchmark config
+
+The file's grasps are TCP poses in the object's frame; each is placed on the pose the planner
+observes (the settled pose, or the estimated one under ``observation: estimated_pose``):
+``world = object_pose @ mesh_to_object @ grasp``. A grasp that cannot be placed (made for another
+hand, NaN, not a rotation, a width the hand cannot open to, a pre-shape outside [0, 1]) is returned
+marked `invalid`: its trial is recorded as `invalid_grasp`, never dropped. The `n` best grasps by
+score are returned (equal scores keep file order).
+
+`path` may be a directory: the file named ``<object>__<hand>*`` (or ``<object>.*``) with a grasp-file
+suffix is used, so one config can evaluate a whole dataset written by `manigrasp label`.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+from manigrasp.errors import PlannerError
+from manigrasp.graspsets import SUFFIXES, GraspSet, placement_defect, read
+from manigrasp.graspsets.model import translation
+from manigrasp.hands.base import Hand
+from manigrasp.planners.base import GraspCandidate, Observation
+
+
+@functools.lru_cache(maxsize=16)
+def _read_cached(path: str, mtime_ns: int) -> GraspSet:
+    return read(path)
+
+
+def load_grasps(path: str | Path) -> GraspSet:
+    """`graspsets.read(path)`, cached per file version (a worker reads a file once)."""
+    path = Path(path).resolve()
+    if not path.is_file():
+        from manigrasp.graspsets import GraspFileError
+
+        raise GraspFileError(f"{path}: no such grasp file")
+    return _read_cached(str(path), path.stat().st_mtime_ns)
+
+
+def grasp_file_for(path: str | Path, object_name: str | None, hand_name: str) -> Path:
+    """`path` itself, or in a directory the one grasp file for `object_name` and `hand_name`."""
+    path = Path(path)
+    if not path.is_dir():
+        return path
+    if object_name is None:
+        raise PlannerError(f"file planner: {path} is a directory, and the observation names no object")
+    files = sorted(p for p in path.iterdir() if p.suffix.lower() in SUFFIXES)
+    for stem in (f"{object_name}__{hand_name}", object_name):
+        found = [p for p in files if p.stem == stem or p.stem.startswith(stem + "__")]
+        if len(found) == 1:
+            return found[0]
+        if len(found) > 1:
+            raise PlannerError(f"file planner: {len(found)} grasp files in {path} match {stem!r}: "
+                               f"{', '.join(p.name for p in found)}; give one as path")
+    raise PlannerError(f"file planner: no grasp file for object {object_name!r} and hand {hand_name!r} in {path} "
+                       f"(expected {object_name}__{hand_name}.json or similar)")
+
+
+@dataclass(frozen=True)
+class FilePlanner:
+    """Grasps from a file, placed on the observed object.
+
+    Attributes:
+        path: the grasp file (.json, .npz: manigrasp's format; .h5, .hdf5: ACRONYM's layout), or a
+            directory of them named ``<object>__<hand>...``. Relative paths are relative to the
+            working directory.
+        transfer: run a set made for another hand of the same kind (default: such grasps are `invalid_grasp`).
+        check_object: refuse a file that names a different object than the one observed.
+    """
+
+    path: str
+    transfer: bool = False
+    check_object: bool = True
+
+    name: ClassVar[str] = "file"
+    needs: ClassVar[str] = "mesh"
+
+    def plan(self, observation: Observation, hand: Hand, n: int,
+             rng: np.random.Generator) -> Sequence[GraspCandidate]:
+        """The `n` best grasps of the file on `observation`'s object pose (`rng` is not used)."""
+        asset = observation.asset
+        object_name = asset.name if asset is not None else None
+        grasps = load_grasps(grasp_file_for(self.path, object_name, hand.name))
+        if self.check_object and object_name and grasps.object.name and grasps.object.name != object_name \
+                and grasps.frame == "object":
+            raise PlannerError(f"file planner: {grasps.source} holds grasps of object {grasps.object.name!r}, "
+                               f"not {object_name!r} (planner param check_object: false runs them anyway)")
+        base = observation.object_pose @ mesh_to_object(grasps, asset)
+        out = []
+        for index in grasps.ranked()[:n]:
+            defect = placement_defect(grasps, int(index), hand.name, hand.kind, hand.max_width, self.transfer)
+            width = float(grasps.widths[index])
+            fields = dict(score=float(grasps.scores[index]), width=width if np.isfinite(width) else None,
+                          planner=self.name)
+            if defect:
+                out.append(GraspCandidate(pose=np.full((4, 4), np.nan), invalid=defect, **fields))
+            else:
+                out.append(GraspCandidate(pose=base @ grasps.poses[index], preshape=float(grasps.preshapes[index]),
+                                          **fields))
+        return out
+
+
+def mesh_to_object(grasps: GraspSet, asset: object | None) -> np.ndarray:
+    """(4, 4) from the set's frame to manigrasp's object frame (origin at the centre of mass).
+
+    "object" frame: the identity. "mesh" frame (ACRONYM): the object's mesh file scaled by
+    ``object.scale``, whose centre of mass the built object records (``com_offset_m``); a set whose
+    mesh is the built object's own visual mesh (as `manigrasp label` writes) is already in the object frame.
+    """
+    if grasps.frame == "object":
+        return np.eye(4)
+    if asset is None:
+        raise PlannerError(f"file planner: {grasps.source} is in its mesh's frame; placing it needs the built object")
+    mesh = grasps.object.mesh
+    if mesh is not None:
+        mesh_path = Path(mesh) if Path(mesh).is_absolute() else Path(grasps.source).parent / mesh
+        if mesh_path.resolve() == Path(asset.visual_path).resolve():
+            return np.eye(4)
+    metadata = getattr(asset, "metadata", {}) or {}
+    if "com_offset_m" not in metadata:
+        raise PlannerError(f"file planner: object {asset.name!r} does not record its centre-of-mass offset "
+                           "(rebuild it) to place mesh-frame grasps")
+    scale = float(metadata.get("scale", 1.0))
+    if not np.isclose(scale, grasps.object.scale):
+        raise PlannerError(f"file planner: {grasps.source} is for the mesh at scale {grasps.object.scale:g}; "
+                           f"object {asset.name!r} was built at scale {scale:g}")
+    return translation(-np.asarray(metadata["com_offset_m"], float))

@@ -1,0 +1,210 @@
+"""Grasp files in: the native format and ACRONYM's layout, placing grasps on the object, bad files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp import hands
+from manigrasp.graspsets import GraspFileError, acronym, native, read
+from manigrasp.objects import catalog
+from manigrasp.planners import Observation, plan
+from manigrasp.planners.file import FilePlanner
+from manigrasp.protocol.result import Status
+
+# A top-down grasp of a (4, 4) TCP in the object frame: z (approach) = -z, y (closing) = +y, x = y cross z = -x.
+TOP_DOWN = np.array([[-1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, -1, 0], [0, 0, 0, 1]])
+
+
+def _rot_z(deg: float) -> np.ndarray:
+    out = np.eye(4)
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    out[:2, :2] = [[c, -s], [s, c]]
+    return out
+
+
+def _write_json(path: Path, data: dict) -> Path:
+    path.write_text(json.dumps(data))
+    return path
+
+
+@pytest.fixture(scope="module")
+def shifted_box(tmp_path_factory) -> tuple:
+    """A 4 x 6 x 8 cm box whose mesh file puts its centre (= centre of mass) at COM, not at the origin."""
+    folder = tmp_path_factory.mktemp("box")
+    com = np.array([0.01, -0.02, 0.05])
+    mesh = trimesh.creation.box(extents=(0.04, 0.06, 0.08))
+    mesh.apply_translation(com)
+    path = folder / "shifted_box.obj"
+    mesh.export(path)
+    asset = catalog.build(catalog.ObjectSource(name="shifted_box", mesh=str(path), mass=0.2)).asset
+    return asset, path, com
+
+
+def test_acronym_gripper_frame_maps_onto_the_tcp_and_back():
+    # ACRONYM's fingers close along its x and its pads' centre lies 0.1034 m along z: TCP y = gripper x, same z.
+    gripper = _rot_z(30.0)
+    gripper[:3, 3] = [0.1, 0.2, 0.3]
+    tcp = acronym.tcp_from_acronym(gripper)
+    np.testing.assert_allclose(tcp[:3, 1], gripper[:3, 0], atol=1e-12)
+    np.testing.assert_allclose(tcp[:3, 2], gripper[:3, 2], atol=1e-12)
+    np.testing.assert_allclose(tcp[:3, 3], gripper[:3, 3] + 0.1034 * gripper[:3, 2], atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(tcp[:3, :3]), 1.0)
+    np.testing.assert_allclose(acronym.acronym_from_tcp(tcp), gripper, atol=1e-12)
+
+
+def test_acronym_file_lands_on_the_expected_world_poses(tmp_path, shifted_box):
+    asset, mesh_path, com = shifted_box
+    down = np.eye(4)  # gripper 2 cm + 0.1034 m above the box centre, pointing down (180 degrees about x)
+    down[:3, :3] = np.diag([1.0, -1.0, -1.0])
+    down[:3, 3] = com + [0, 0, 0.1034 + 0.02]
+    side = np.eye(4)  # approaching along +x, fingers (x) along +y, reaching the box centre
+    side[:3, :3] = np.column_stack([[0, 1, 0], [0, 0, 1], [1, 0, 0]])
+    side[:3, 3] = com - [0.1034, 0, 0]
+    broken = np.full((4, 4), np.nan)
+    path = tmp_path / "box.h5"
+    with h5py.File(path, "w") as f:
+        f["grasps/transforms"] = np.stack([down, side, broken])
+        f["grasps/qualities/flex/object_in_gripper"] = np.array([1, 0, 1])
+        f["object/file"] = mesh_path.name
+        f["object/scale"] = 1.0
+        f["object/mass"] = 0.2
+    mesh_path_copy = tmp_path / mesh_path.name
+    mesh_path_copy.write_bytes(mesh_path.read_bytes())
+    grasps = read(path)
+    assert grasps.frame == "mesh" and grasps.object.mesh == mesh_path.name and grasps.object.mass == 0.2
+    np.testing.assert_array_equal(grasps.labels["flex/object_in_gripper"], [1, 0, 1])
+
+    rest = _rot_z(40.0)
+    rest[:3, 3] = [0.3, -0.1, 0.04]
+    observation = Observation.from_asset(asset, rest)
+    result = plan(FilePlanner(str(path)), observation, hands.load("parallel_jaw"), 3, np.random.default_rng(0))
+    first, second, third = result.candidates
+    world = rest[:3, :3]
+    np.testing.assert_allclose(first.position, rest[:3, 3] + world @ [0, 0, 0.02], atol=1e-9)
+    np.testing.assert_allclose(first.approach, world @ [0, 0, -1], atol=1e-9)
+    np.testing.assert_allclose(first.closing, world @ [1, 0, 0], atol=1e-9)
+    np.testing.assert_allclose(second.position, rest[:3, 3], atol=1e-9)
+    np.testing.assert_allclose(second.approach, world @ [1, 0, 0], atol=1e-9)
+    np.testing.assert_allclose(second.closing, world @ [0, 1, 0], atol=1e-9)
+    assert not first.invalid and not second.invalid and "NaN" in third.invalid
+    # ACRONYM grasps are parallel-jaw grasps: every one is invalid on a five-finger hand, none is dropped.
+    dexterous = plan(FilePlanner(str(path)), observation, hands.load("inspire_right"), 3, np.random.default_rng(0))
+    assert len(dexterous.candidates) == 3 and all("dexterous" in c.invalid for c in dexterous.candidates)
+
+
+def test_native_json_and_npz_read_the_same_grasps(tmp_path):
+    pose = TOP_DOWN.copy()
+    pose[:3, 3] = [0, 0, 0.07]
+    data = {"hand": "parallel_jaw", "object": {"name": "004_sugar_box"},
+            "grasps": [{"pose": pose.tolist(), "width": 0.04, "score": 0.2},
+                       {"position": [0, 0, 0.07], "quaternion": [0, 0, 1, 0], "score": 0.9, "preshape": 0.1}]}
+    from_json = read(_write_json(tmp_path / "g.json", data))
+    np.testing.assert_allclose(from_json.poses[0], pose)
+    np.testing.assert_allclose(from_json.poses[1], pose, atol=1e-12)  # (0, 0, 1, 0): 180 degrees about y
+    assert np.isnan(from_json.widths[1]) and from_json.widths[0] == 0.04
+    assert list(from_json.ranked()) == [1, 0] and from_json.hand == "parallel_jaw"
+    from_npz = read(native.write(from_json, tmp_path / "g.npz"))
+    for name in ("poses", "widths", "preshapes", "scores"):
+        np.testing.assert_array_equal(getattr(from_npz, name), getattr(from_json, name))
+    assert from_npz.object.name == "004_sugar_box" and from_npz.hand == "parallel_jaw"
+
+
+def _h5(path: Path, **datasets) -> Path:
+    with h5py.File(path, "w") as f:
+        for key, value in datasets.items():
+            f[key.replace("__", "/")] = value
+    return path
+
+
+GOOD_POSE = np.eye(4).tolist()
+
+
+@pytest.mark.parametrize(("name", "content", "message"), [
+    ("nograsps.json", {"hand": "parallel_jaw"}, "missing key 'grasps'"),
+    ("nopose.json", {"grasps": [{"width": 0.03}]}, "grasp 0: missing key 'pose'"),
+    ("shape.json", {"grasps": [{"pose": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}]}, "grasp 0: pose must be 4x4"),
+    ("quat.json", {"grasps": [{"position": [0, 0, 0], "quaternion": [1, 0, 0]}]}, "quaternion 4"),
+    ("score.json", {"grasps": [{"pose": GOOD_POSE, "score": float("nan")}]}, "score of grasp 0 is nan"),
+    ("scale.json", {"object": {"name": "x", "scale": float("nan")}, "grasps": []}, "object scale"),
+    ("typo.json", {"grasps": [{"pose": GOOD_POSE, "widht": 0.03}]}, "unknown key 'widht'"),
+])
+def test_bad_native_files_give_a_one_line_error_naming_the_problem(tmp_path, name, content, message):
+    with pytest.raises(GraspFileError, match=message) as info:
+        read(_write_json(tmp_path / name, content))
+    assert "\n" not in str(info.value) and name in str(info.value)
+
+
+def test_bad_npz_and_acronym_files_give_a_one_line_error(tmp_path):
+    np.savez(tmp_path / "a.npz", poses=np.zeros((3, 3, 3)))
+    np.savez(tmp_path / "b.npz", widths=np.zeros(3))
+    np.savez(tmp_path / "c.npz", poses=np.tile(np.eye(4), (2, 1, 1)), scores=np.zeros(3))
+    cases = [
+        (tmp_path / "a.npz", "'poses' must be \\(n, 4, 4\\)"),
+        (tmp_path / "b.npz", "missing key 'poses'"),
+        (tmp_path / "c.npz", "scores must have shape \\(2,\\)"),
+        (_h5(tmp_path / "a.h5", object__file="m.obj", object__scale=1.0), "missing key 'grasps/transforms'"),
+        (_h5(tmp_path / "b.h5", grasps__transforms=np.zeros((2, 3, 4)), object__file="m.obj", object__scale=1.0),
+         "must be \\(n, 4, 4\\)"),
+        (_h5(tmp_path / "c.h5", grasps__transforms=np.tile(np.eye(4), (2, 1, 1)), object__file="m.obj"),
+         "missing key 'object/scale'"),
+        (_h5(tmp_path / "d.h5", grasps__transforms=np.tile(np.eye(4), (2, 1, 1)), object__file="m.obj",
+             object__scale=np.nan), "'object/scale' is nan"),
+        (_h5(tmp_path / "e.h5", grasps__transforms=np.tile(np.eye(4), (2, 1, 1)), object__file="m.obj",
+             object__scale=1.0, grasps__qualities__flex__object_in_gripper=np.zeros(3)), "one value per grasp"),
+        (tmp_path / "missing.json", "no such grasp file"),
+    ]
+    for path, message in cases:
+        with pytest.raises(GraspFileError, match=message) as info:
+            read(path)
+        assert "\n" not in str(info.value), path
+
+
+def _sugar_box_grasps(tmp_path: Path) -> Path:
+    """A top-down grasp across the sugar box's 3.8 cm side, 1.5 cm below its top (the box is 17.5 cm tall,
+    its frame at its centre); the same grasp 15 cm to the side of the box; a NaN grasp; one for another hand."""
+    good = TOP_DOWN.copy()
+    good[:3, 3] = [0, 0, 0.0875 - 0.015]
+    beside = good.copy()
+    beside[0, 3] = 0.15
+    nan = good.copy()
+    nan[2, 3] = np.nan
+    grasps = [{"pose": good.tolist(), "width": 0.038, "score": 4.0}, {"pose": beside.tolist(), "score": 3.0},
+              {"pose": nan.tolist(), "score": 2.0}]
+    return _write_json(tmp_path / "sugar.json", {"hand": "parallel_jaw", "object": {"name": "004_sugar_box"},
+                                                 "grasps": grasps})
+
+
+def test_native_grasps_on_a_box_succeed_or_fail_as_placed(tmp_path):
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.runner import run_benchmark
+    from manigrasp.bench.store import ResultsStore
+
+    path = _sugar_box_grasps(tmp_path)
+    config = parse_config({"objects": ["004_sugar_box"], "planners": [{"name": "file", "params": {"path": str(path)}}],
+                           "grasps_per_object": 3, "protocol": "lift"})
+    run_benchmark(config, tmp_path / "run", progress=False)
+    with ResultsStore(tmp_path / "run" / "results.sqlite") as store:
+        results = [r for _, r in sorted(store.results(), key=lambda kr: kr[0].grasp_index)]
+    assert [r.status for r in results] == [Status.SUCCESS, Status.NO_CONTACT, Status.INVALID_GRASP]
+    assert "NaN" in results[2].detail
+    # Placed on the settled pose: the executed TCP is 1.5 cm below the box's top, straight down.
+    obj, tcp = results[0].object_pose.matrix(), results[0].grasp.matrix()
+    np.testing.assert_allclose(np.linalg.inv(obj) @ tcp, np.asarray(json.loads(path.read_text())["grasps"][0]["pose"]),
+                               atol=1e-9)
+
+
+def test_a_grasp_set_for_another_hand_is_invalid_unless_transferred(tmp_path):
+    path = _sugar_box_grasps(tmp_path)
+    asset = catalog.build(catalog.shipped("004_sugar_box")).asset
+    observation = Observation.from_asset(asset)
+    panda = hands.load("panda")
+    refused = plan(FilePlanner(str(path)), observation, panda, 3, np.random.default_rng(0)).candidates
+    assert len(refused) == 3 and all("made for hand 'parallel_jaw'" in c.invalid for c in refused)
+    moved = plan(FilePlanner(str(path), transfer=True), observation, panda, 3, np.random.default_rng(0)).candidates
+    assert [bool(c.invalid) for c in moved] == [False, False, True]
