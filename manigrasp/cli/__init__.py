@@ -15,7 +15,7 @@ from manigrasp import __version__
 from manigrasp.errors import ManigraspError
 
 # Command-group modules, in the order they appear in --help.
-_GROUPS = ("objects", "hands", "plan", "bench", "report", "perceive", "view")
+_GROUPS = ("objects", "hands", "plan", "bench", "evaluate", "label", "replay", "report", "perceive", "view")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,221 @@
+"""Physics-labelled grasp datasets: a benchmark run with many candidates, then an exporter.
+
+    manigrasp label CONFIG --out DIR
+
+runs CONFIG like `manigrasp bench` (resumable, local pool or Ray, progress bar) into DIR, then
+writes every stored trial's grasp with its label to ``DIR/grasps/``, one file per object x hand x
+planner (x observation, protocol):
+
+    <object>__<hand>__<planner>.json   manigrasp's native format (or .npz)
+    <object>__<hand>__<planner>.h5     ACRONYM's layout (parallel hands only; needs h5py)
+
+Grasps are written in the object's frame (``inv(object_pose) @ grasp``), best first (trial order),
+with labels: status, success, trial id, seed, the protocol's measures and the object's settled pose.
+Trials that executed no grasp (`planner_error`: the planner returned fewer than asked) have no
+grasp to write; the summary counts them.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from manigrasp.bench.config import BenchConfig
+from manigrasp.bench.store import ResultsStore
+from manigrasp.errors import ManigraspError
+from manigrasp.graspsets import GraspSet, ObjectRef, acronym, native
+from manigrasp.protocol.result import PoseRecord, Status
+
+POSE_FIELDS = ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")
+LABEL_COLUMNS = ("status", "trial_id", "seed", "detail", "last_phase", "max_translation_m", "max_rotation_deg",
+                 "grip_force_n", "sim_force_closure", "sim_epsilon_l1", "planned_epsilon_l1", "fingers_in_contact",
+                 *(f"object_{f}" for f in POSE_FIELDS))
+DATASET_DIR = "grasps"
+
+
+@dataclass(frozen=True)
+class Exported:
+    """One exported grasp set: its files, how many grasps, how many succeeded."""
+
+    group: str
+    object: str
+    hand: str
+    grasps: int
+    successes: int
+    files: tuple[Path, ...]
+
+
+@dataclass(frozen=True)
+class LabelSummary:
+    """What `label` did.
+
+    Attributes:
+        run_dir: the run directory (the dataset is in ``run_dir/grasps``).
+        ran: trials simulated by this call; already_done: found in the store (resumed).
+        seconds: wall time of the run (simulation and planning) [s].
+        exported: the grasp sets written.
+        skipped: trials with no grasp to write (planner errors).
+    """
+
+    run_dir: Path
+    ran: int
+    already_done: int
+    seconds: float
+    exported: tuple[Exported, ...]
+    skipped: int
+
+    @property
+    def labelled_per_second(self) -> float:
+        """Trials simulated per second of this call's wall time."""
+        return self.ran / self.seconds if self.seconds > 0 else math.nan
+
+    def success_share(self) -> dict[str, tuple[int, int]]:
+        """Per object: (successes, grasps) over every exported set."""
+        out: dict[str, list[int]] = defaultdict(lambda: [0, 0])
+        for item in self.exported:
+            out[item.object][0] += item.successes
+            out[item.object][1] += item.grasps
+        return {k: (v[0], v[1]) for k, v in out.items()}
+
+
+def label(config: BenchConfig, run_dir: Path, jobs: int = 1, executor: str = "local", address: str | None = None,
+          base: Path | None = None, progress: bool = True, native_suffix: str = ".json") -> LabelSummary:
+    """Run (or resume) `config` into `run_dir` and export its labelled grasps to ``run_dir/grasps``."""
+    from manigrasp.bench.runner import run_benchmark
+
+    start = time.perf_counter()
+    summary = run_benchmark(config, Path(run_dir), jobs=jobs, executor=executor, address=address, base=base,
+                            progress=progress)
+    seconds = time.perf_counter() - start
+    exported, skipped = export_dataset(run_dir, config, base, native_suffix)
+    return LabelSummary(Path(run_dir), summary.ran, summary.already_done, seconds, tuple(exported), skipped)
+
+
+def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path | None = None,
+                   native_suffix: str = ".json") -> tuple[list[Exported], int]:
+    """Write every stored trial's grasp and label under ``run_dir/grasps``; returns (sets, trials skipped).
+
+    `config` (default: the run's own, from run.json) names each object's source, needed for the
+    ACRONYM file's ``object/file`` (the built object's visual mesh, whose frame is the object frame).
+    """
+    from manigrasp import hands
+
+    run_dir = Path(run_dir)
+    config = config or _run_config(run_dir)
+    sources = _sources(config, base)
+    with ResultsStore(run_dir / "results.sqlite") as store:
+        rows = list(store.rows())
+    by_group: dict[str, list[dict]] = defaultdict(list)
+    for row in rows:
+        by_group[_group_id(row)].append(row)
+    out, skipped = [], 0
+    names = _file_names(by_group)
+    for group, members in by_group.items():
+        members.sort(key=lambda r: int(r["grasp_index"]))
+        kept = [r for r in members if not (r["status"] == Status.PLANNER_ERROR.value and _nan_grasp(r))]
+        skipped += len(members) - len(kept)
+        if not kept:
+            continue
+        first = kept[0]
+        hand = hands.load(str(first["hand"]))
+        grasps = grasp_set(kept, hand.kind)
+        stem = run_dir / DATASET_DIR / names[group]
+        files = [native.write(grasps, stem.with_suffix(native_suffix))]
+        source = sources.get(str(first["object"]))
+        if hand.kind == "parallel" and source is not None and _has_h5py():
+            files.append(acronym.write(_in_visual_frame(grasps, source), stem.with_suffix(".h5")))
+        successes = int(np.sum(grasps.labels["success"]))
+        out.append(Exported(group, str(first["object"]), str(first["hand"]), len(grasps), successes, tuple(files)))
+    return out, skipped
+
+
+def grasp_set(rows: list[dict], hand_kind: str) -> GraspSet:
+    """The labelled `GraspSet` (object frame) of one group's stored rows, in row order."""
+    poses = np.array([_object_frame(r) for r in rows]).reshape(-1, 4, 4)
+    labels = {name: np.array([r.get(name, math.nan) for r in rows]) for name in LABEL_COLUMNS}
+    labels["success"] = np.array([r["status"] == Status.SUCCESS.value for r in rows])
+    first = rows[0]
+    return GraspSet(poses, np.array([float(r["grasp_width_m"]) for r in rows], dtype=float),
+                    np.nan_to_num(np.array([float(r["grasp_preshape"]) for r in rows], dtype=float)),
+                    np.array([_finite(r["score"]) for r in rows]), frame="object", hand=str(first["hand"]),
+                    hand_kind=hand_kind, object=ObjectRef(name=str(first["object"])), labels=labels,
+                    source=str(first["trial_id"]).rsplit("/", 1)[0])
+
+
+def _object_frame(row: dict) -> np.ndarray:
+    """The grasp in the object's frame, inv(object) @ grasp (NaN if either is not stored)."""
+    try:
+        grasp = PoseRecord(*(float(row[f"grasp_{f}"]) for f in POSE_FIELDS)).matrix()
+        obj = PoseRecord(*(float(row[f"object_{f}"]) for f in POSE_FIELDS)).matrix()
+    except ValueError:
+        return np.full((4, 4), np.nan)
+    return np.linalg.inv(obj) @ grasp
+
+
+def _nan_grasp(row: dict) -> bool:
+    return not np.all(np.isfinite([float(row[f"grasp_{f}"]) for f in POSE_FIELDS]))
+
+
+def _finite(value: object) -> float:
+    value = float(value)  # type: ignore[arg-type]
+    return value if math.isfinite(value) else 0.0
+
+
+def _group_id(row: dict) -> str:
+    """A trial's group: its id without the trailing grasp index."""
+    return str(row["trial_id"]).rsplit("/", 1)[0]
+
+
+def _file_names(groups: dict[str, list[dict]]) -> dict[str, str]:
+    """``<object>__<hand>__<planner>`` per group, with observation and protocol added where needed to be unique."""
+    from manigrasp.record.policy import trial_file_name
+
+    def name(row: dict, full: bool) -> str:
+        parts = [row["object"], row["hand"], row["planner"]] + ([row["observation"], row["protocol"]] if full else [])
+        return trial_file_name("/".join(str(p) for p in parts)).removesuffix(".rrd")
+
+    short = {g: name(rows[0], False) for g, rows in groups.items()}
+    unique = len(set(short.values())) == len(short)
+    return short if unique else {g: name(rows[0], True) for g, rows in groups.items()}
+
+
+def _in_visual_frame(grasps: GraspSet, source) -> GraspSet:
+    """The set as ACRONYM sees it: poses in the frame of the built object's visual mesh (= the object frame)."""
+    from dataclasses import replace
+
+    from manigrasp.objects import catalog
+
+    asset = catalog.build(source).asset
+    return replace(grasps, frame="mesh", object=ObjectRef(name=grasps.object.name, mesh=str(asset.visual_path),
+                                                          scale=1.0, mass=float(asset.mass)))
+
+
+def _sources(config: BenchConfig, base: Path | None) -> dict:
+    out = {}
+    for entry in config.objects:
+        try:
+            source = entry.source(base)
+        except ManigraspError:  # a mesh moved since the run: the native export still works
+            continue
+        out[source.name] = source
+    return out
+
+
+def _run_config(run_dir: Path) -> BenchConfig:
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.rundir import load_meta
+
+    return parse_config(load_meta(run_dir)["config"], where=f"{run_dir}/run.json")
+
+
+def _has_h5py() -> bool:
+    try:
+        import h5py  # noqa: F401
+    except ImportError:
+        return False
+    return True

@@ -1,0 +1,58 @@
+"""Replaying stored trials: the same status from the stored grasp and seed, and recording after the fact."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from manigrasp.bench.config import parse_config
+from manigrasp.bench.replay import ReplayError, record_trials, replay_trial, stored_trials
+from manigrasp.bench.runner import run_benchmark
+from manigrasp.cli import main
+from manigrasp.protocol.result import Status
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("replay") / "run"
+    config = {"objects": ["004_sugar_box"], "planners": ["antipodal", "random"], "grasps_per_object": 2,
+              "protocol": "lift"}
+    run_benchmark(parse_config(config), out, progress=False)
+    return out
+
+
+def test_every_replayed_trial_ends_with_its_stored_status(run_dir):
+    trials = stored_trials(run_dir)
+    assert len(trials) == 4
+    statuses = set()
+    for trial_id in trials:
+        replay = replay_trial(run_dir, trial_id)
+        assert replay.same_status, (trial_id, replay.stored.status, replay.replayed.status, replay.replayed.detail)
+        assert replay.object_pose_error < 1e-9 and replay.replayed.seed == replay.stored.seed
+        statuses.add(replay.stored.status)
+    assert Status.SUCCESS in statuses and len(statuses) > 1  # both outcomes are replayed
+
+
+def test_replay_cli_records_and_exits_zero_when_the_status_agrees(run_dir, tmp_path, capsys):
+    trial_id = sorted(stored_trials(run_dir))[0]
+    rrd = tmp_path / "trial.rrd"
+    assert main(["replay", str(run_dir), trial_id, "--record", str(rrd)]) == 0
+    assert rrd.is_file() and rrd.stat().st_size > 0
+    assert f"{trial_id}: stored" in capsys.readouterr().out
+
+
+def test_unknown_trial_names_the_closest(run_dir):
+    trial_id = sorted(stored_trials(run_dir))[0]
+    with pytest.raises(ReplayError, match="closest: .*" + re.escape(trial_id)):
+        replay_trial(run_dir, trial_id[:-1] + "9")
+
+
+def test_record_failures_of_a_finished_run(run_dir, tmp_path):
+    from manigrasp.record.policy import trial_file_name
+
+    failures = {t for t, s in stored_trials(run_dir).items() if s.result.status is not Status.SUCCESS}
+    replays = record_trials(run_dir, "failures", directory=tmp_path / "rec")
+    assert {r.trial_id for r in replays} == failures and all(r.same_status for r in replays)
+    assert sorted(p.name for p in (tmp_path / "rec").iterdir()) == sorted(trial_file_name(t) for t in failures)
