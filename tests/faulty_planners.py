@@ -27,3 +27,117 @@ class ReturnsNaN:
         pose = np.eye(4)
         pose[0, 3] = np.nan
         return [GraspCandidate(pose=pose, score=1.0)]
+
+
+class TopDown:
+    """A working planner with a parameter: top-down grasps over the object's origin, `lift` [m] higher."""
+
+    name = "top_down"
+    needs = "mesh"
+
+    def __init__(self, lift: float = 0.0) -> None:
+        self.lift = lift
+
+    def plan(self, observation, hand, n, rng):
+        pose = np.diag([1.0, -1.0, -1.0, 1.0])  # TCP z (approach) pointing down
+        pose[:3, 3] = observation.object_pose[:3, 3] + [0.0, 0.0, self.lift]
+        return [GraspCandidate(pose=pose.copy(), score=1.0 - 0.01 * i) for i in range(n)]
+
+
+class Sleeps:
+    """A planner that never returns."""
+
+    name = "sleeps"
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        import time
+
+        while True:
+            time.sleep(1.0)
+
+
+class Exits:
+    """A planner that ends its process without a word (os._exit)."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        import os
+
+        os._exit(3)
+
+
+class Segfaults:
+    """A planner that crashes its process (SIGSEGV)."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        import ctypes
+
+        ctypes.string_at(0)
+
+
+class CallsSysExit:
+    """A planner that raises SystemExit(5)."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        raise SystemExit(5)
+
+
+class WideWidth:
+    """A planner whose candidate has width="wide"."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        return [GraspCandidate(pose=np.eye(4), score=1.0, width="wide")]
+
+
+class NoPreshape:
+    """A planner whose candidate has preshape=None."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        return [GraspCandidate(pose=np.eye(4), score=1.0, preshape=None)]
+
+
+class FactoryRaises:
+    """A planner whose constructor raises."""
+
+    needs = "mesh"
+
+    def __init__(self) -> None:
+        raise RuntimeError("cannot build me")
+
+    def plan(self, observation, hand, n, rng):  # pragma: no cover - never built
+        return []
+
+
+def raising_protocol(**params):
+    """A protocol (factory function) whose trials raise inside the harness."""
+    from manigrasp.protocol.lift import LiftProtocol
+
+    class Raising(LiftProtocol):
+        def run(self, *args, **kwargs):
+            raise RuntimeError("protocol bug")
+
+    return Raising()
+
+
+def sleeping_protocol(**params):
+    """A protocol (factory function) whose trials never end."""
+    from manigrasp.protocol.lift import LiftProtocol
+
+    class Sleeping(LiftProtocol):
+        def run(self, *args, **kwargs):
+            import time
+
+            while True:
+                time.sleep(1.0)
+
+    return Sleeping()

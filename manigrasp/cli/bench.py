@@ -9,18 +9,43 @@ from pathlib import Path
 from manigrasp.errors import ConfigError
 
 
+class _IntermixedParser(argparse.ArgumentParser):
+    """A parser whose positionals may come anywhere among the options (``bench quick --out X seed=1``)."""
+
+    _inner = False
+
+    def parse_known_args(self, args=None, namespace=None):  # noqa: ANN001, ANN201 - argparse's signature
+        if self._inner:  # parse_known_intermixed_args calls back into parse_known_args
+            return super().parse_known_args(args, namespace)
+        self._inner = True
+        try:
+            return self.parse_known_intermixed_args(args, namespace)
+        finally:
+            self._inner = False
+
+
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     """Register `bench`."""
     p = subparsers.add_parser(
         "bench", help="run a benchmark config (resumes an interrupted run)",
         description="Plan grasps and run every trial of CONFIG in simulation; results go to RUN_DIR/results.sqlite "
-                    "as each trial finishes. Re-running the same command resumes: stored trials are skipped.")
+                    "as each trial finishes. Re-running the same command resumes: stored trials are skipped; a "
+                    "different config (or changed mesh files) in the same RUN_DIR is refused, naming the keys that "
+                    "differ. A config that names a planner, hand or protocol as `module:attribute` imports and "
+                    "runs that module's code: treat such a config as a program and run only configs you trust.",
+        epilog="Bad input (a wrong type, a value out of range, a duplicate entry) stops before anything is written, "
+               "with a one-line error and exit code 2. A planner or trial that fails, hangs past trial_timeout_s "
+               "or crashes its worker is a recorded status, and the run goes on.")
+    p.__class__ = _IntermixedParser
     p.add_argument("config",
                    help="a YAML config file, or the name of a shipped one (quick, standard, dexterous, perception)")
     p.add_argument("overrides", nargs="*", metavar="key=value",
-                   help="config overrides, dotted for nested keys (grasps_per_object=5 scene.timestep=0.001)")
+                   help="config overrides, anywhere on the line, dotted for nested keys (grasps_per_object=5 "
+                        "scene.timestep=0.001); a list field takes one value or a list (objects=mug, "
+                        "hands=[panda, parallel_jaw])")
     p.add_argument("--out", required=True, type=Path, metavar="RUN_DIR", help="run directory")
-    p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="worker processes (default 1; capped at the cores of this machine)")
     p.add_argument("--executor", choices=("local", "ray"), default="local",
                    help="local process pool (default) or a Ray cluster")
     p.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
@@ -52,7 +77,9 @@ def _bench(args: argparse.Namespace) -> int:
 
     path = resolve_config(args.config)
     config = load_config(path, args.overrides)
-    summary = run_benchmark(config, args.out, jobs=max(1, args.jobs), executor=args.executor,
+    if args.jobs < 1:
+        raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
+    summary = run_benchmark(config, args.out, jobs=args.jobs, executor=args.executor,
                             address=args.address, base=path.parent, progress=not args.quiet, record=args.record)
     print(f"{summary.ran} trials run, {summary.already_done} already stored, {summary.total} in all "
           f"({summary.seconds:.0f} s)", file=sys.stderr)
