@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
-from manigrasp.bench.compare import compare
 from manigrasp.bench.markdown import write_markdown
-from manigrasp.bench.report import report_from_json, summarize
+from manigrasp.bench.report import POOLED, format_auc, report_from_json, summarize
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.cli import main
 from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
@@ -36,47 +42,145 @@ def test_summary_counts_rates_intervals_and_modes():
     random = report.by_method[("parallel_jaw", "random", "ground_truth")]
     assert random.failure_modes == {"dropped_perturb+x": 8, "no_contact": 8}
     assert report.overall.trials == 40 and report.overall.successes == 22
-    assert report.auc["epsilon_l1"] == 1.0  # epsilon separates successes perfectly here
-    assert report.auc["force_closure"] == 1.0
-    assert 0.3 < report.auc["planner_score"] < 0.7  # a score unrelated to the outcome is near chance
+    antipodal = report.auc[("parallel_jaw", "antipodal", "ground_truth")]
+    assert antipodal["epsilon_l1"].auc == 1.0  # epsilon separates successes perfectly here
+    assert antipodal["force_closure"].auc == 1.0 and antipodal["force_closure"].n == 20
+    assert 0.3 < antipodal["planner_score"].auc < 0.7  # a score unrelated to the outcome is near chance
 
 
-def test_report_json_round_trips():
-    report = summarize(_results({("025_mug", "antipodal"): 18}))
-    again = report_from_json(json.loads(json.dumps(report.to_json())))
+def test_report_json_round_trips_as_strict_json():
+    """NaN (an undefined AUC, an untimed plan) is written as null, so the JSON is standard; it reads back equal."""
+    report = summarize(_results({("025_mug", "antipodal"): 18, ("025_mug", "random"): 0}))
+    text = json.dumps(report.to_json(), allow_nan=False)
+    again = report_from_json(json.loads(text))
     assert again.groups == report.groups and again.overall == report.overall
+    assert again.by_method == report.by_method
+    random = again.auc[("parallel_jaw", "random", "ground_truth")]["epsilon_l1"]
+    assert random.undefined == "no successes" and math.isnan(random.auc)
+    def same(e):  # NaN != NaN: compare the printed form and counts
+        return format_auc(e), e.n, e.successes
+
+    for method, per in report.auc.items():
+        assert {k: same(e) for k, e in again.auc[method].items()} == {k: same(e) for k, e in per.items()}
 
 
-def test_compare_flags_a_drop_and_passes_equal_rates():
-    base = summarize(_results({("025_mug", "antipodal"): 18, ("048_hammer", "antipodal"): 17}, n=40))
-    same = summarize(_results({("025_mug", "antipodal"): 18, ("048_hammer", "antipodal"): 16}, n=40))
-    worse = summarize(_results({("025_mug", "antipodal"): 5, ("048_hammer", "antipodal"): 17}, n=40))
-    assert not any(c.regression for c in compare(same, base))
-    flagged = {c.group for c in compare(worse, base) if c.regression}
-    assert flagged == {"overall", "parallel_jaw/antipodal/ground_truth/025_mug"}
+RUN_META = {"config": {"name": "t", "protocol": {"name": "standard", "params": {}}, "hands": ["parallel_jaw"],
+                       "scene": {"timestep": 0.002}, "objects": ["025_mug", "048_hammer"]},
+            "seed": 0, "versions": {"manigrasp": "0.1.0", "mujoco": "4.0.0"}}
 
 
-def test_report_and_compare_cli(tmp_path, capsys):
-    run = tmp_path / "run"
-    run.mkdir()
-    (run / "run.json").write_text(json.dumps({"config": {"name": "t", "protocol": {"name": "standard"}}, "seed": 0}))
-    with ResultsStore(run / "results.sqlite") as store:
-        for key, result in _results({("025_mug", "antipodal"): 18, ("025_mug", "random"): 4}):
+def make_run(path, results, meta=RUN_META):
+    """A run directory with run.json and a store holding `results`."""
+    path.mkdir(parents=True, exist_ok=True)
+    (path / "run.json").write_text(json.dumps(meta))
+    with ResultsStore(path / "results.sqlite") as store:
+        for key, result in results:
             store.add(key, result)
+    return path
+
+
+def test_report_cli_prints_per_planner_lines_and_writes_markdown_and_plots(tmp_path, capsys):
+    run = make_run(tmp_path / "run", _results({("025_mug", "antipodal"): 18, ("025_mug", "random"): 4}))
+    assert main(["report", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "parallel_jaw / antipodal: 18/20 successes" in out and "parallel_jaw / random: 4/20 successes" in out
+    assert "mixes planners" in out and "overall" not in out.lower()
+    assert (run / "report.md").is_file() and (run / "success_by_object.png").stat().st_size > 1000
+
+
+def test_report_json_is_json_only_with_the_runs_config_and_versions(tmp_path, capsys):
+    """`report --json` prints JSON and writes nothing (no report.md, no PNGs): it is the baseline format."""
+    run = make_run(tmp_path / "run", _results({("025_mug", "antipodal"): 18, ("025_mug", "random"): 4}))
     assert main(["report", str(run), "--json"]) == 0
     payload = json.loads(capsys.readouterr().out)
+    assert _files(run) == ["results.sqlite", "run.json"]  # (SQLite's own -wal/-shm aside)
     group = next(g for g in payload["groups"] if g["planner"] == "antipodal")
     assert {"hand", "planner", "object", "trials", "successes", "success_rate", "ci_low", "ci_high"} <= set(group)
-    assert (run / "report.md").is_file() and (run / "success_by_object.png").stat().st_size > 1000
-    baseline = tmp_path / "baseline.json"
-    baseline.write_text(json.dumps(payload))
-    assert main(["compare", str(run), str(baseline)]) == 0
-    worse = dict(payload)
-    worse["groups"] = [dict(g, successes=g["trials"]) for g in payload["groups"]]
-    worse["overall"] = dict(payload["overall"], successes=payload["overall"]["trials"])
-    baseline.write_text(json.dumps(worse))
-    assert main(["compare", str(run), str(baseline)]) == 1
-    assert "REGRESSION" in capsys.readouterr().out
+    assert payload["run"]["config"] == RUN_META["config"] and payload["run"]["versions"]["mujoco"] == "4.0.0"
+    assert payload["overall"]["pools"] == POOLED
+
+
+def _files(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if not p.name.endswith(("-wal", "-shm")))
+
+
+def test_report_on_a_folder_with_only_run_json_is_an_error_and_creates_nothing(tmp_path, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "run.json").write_text(json.dumps(RUN_META))
+    assert main(["report", str(run)]) == 2
+    assert "holds no results.sqlite" in capsys.readouterr().err
+    assert sorted(p.name for p in run.iterdir()) == ["run.json"]
+
+
+def test_report_on_a_garbage_store_is_a_one_line_error(tmp_path, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "run.json").write_text(json.dumps(RUN_META))
+    (run / "results.sqlite").write_bytes(b"not a database" * 100)
+    assert main(["report", str(run)]) == 2
+    assert "not a readable manigrasp results store" in capsys.readouterr().err
+
+
+_READ_ONLY_MOUNT = 'mount --bind "$0" "$0" && mount -o remount,ro,bind "$0" "$0" && exec "$@"'
+
+
+def _read_only_runner(folder: Path) -> list[str]:
+    """A command prefix under which `folder` cannot be written: a read-only bind mount in a private mount
+    namespace for root (who ignores file modes), the file modes otherwise; skips where neither works."""
+    if os.geteuid() != 0:
+        for path in [folder, *folder.rglob("*")]:
+            path.chmod(0o555 if path.is_dir() else 0o444)
+        return []
+    prefix = ["unshare", "-m", "sh", "-c", _READ_ONLY_MOUNT, str(folder)]
+    if shutil.which("unshare") is None or subprocess.run(
+            [*prefix, "sh", "-c", f"! touch {folder}/probe 2>/dev/null"], capture_output=True).returncode != 0:
+        pytest.skip("cannot make a read-only folder here (root without mount namespaces)")
+    return prefix
+
+
+def test_report_and_compare_read_a_read_only_run_directory(tmp_path):
+    """The store is opened read-only: report, report --json, compare and export (to a writable --out) work on
+    a run directory that cannot be written, and nothing is written there."""
+    pair = _results({("025_mug", "antipodal"): 18, ("025_mug", "random"): 4})
+    run, baseline = make_run(tmp_path / "ro" / "run", pair), make_run(tmp_path / "ro" / "base", pair)
+    before = _files(run)
+    prefix = _read_only_runner(tmp_path / "ro")
+
+    commands = [["report", str(run)], ["report", str(run), "--json"], ["compare", str(run), str(baseline)],
+                ["export", str(run), "--out", str(tmp_path / "t.csv")]]
+    script = ("import contextlib, io, json, sys\nfrom manigrasp.cli import main\nout = []\n"
+              "for args in json.loads(sys.argv[1]):\n"
+              "    o, e = io.StringIO(), io.StringIO()\n"
+              "    with contextlib.redirect_stdout(o), contextlib.redirect_stderr(e):\n"
+              "        code = main(args)\n"
+              "    out.append([code, o.getvalue(), e.getvalue()])\n"
+              "print(json.dumps(out))\n")
+    done = subprocess.run([*prefix, sys.executable, "-c", script, json.dumps(commands)], capture_output=True,
+                          text=True, timeout=120, env=dict(os.environ, MPLCONFIGDIR=str(tmp_path)))
+    assert done.returncode == 0, done.stderr
+    (report, report_json, compared, exported) = json.loads(done.stdout.splitlines()[-1])
+    assert [report[0], report_json[0], compared[0], exported[0]] == [0, 0, 0, 0], (report, compared, exported)
+    assert "parallel_jaw / antipodal: 18/20 successes" in report[1] and "read-only" in report[2]
+    assert json.loads(report_json[1])["overall"]["trials"] == 40
+    assert "0 significant regression(s)" in compared[1]
+    assert (tmp_path / "t.csv").read_text().count("\n") == 41
+    assert _files(run) == before
+
+
+def test_planning_time_is_one_value_per_planning_call(tmp_path):
+    """Two objects planned in 2.0 s and 4.0 s, 20 candidates each (0.1 and 0.2 s per candidate): the median
+    planning time is over the 2 calls (3.0 s), not the per-candidate share repeated per trial (0.15 s)."""
+    results = []
+    for obj, call in (("025_mug", 2.0), ("048_hammer", 4.0)):
+        for key, r in _results({(obj, "antipodal"): 10}):
+            results.append((key, replace(r, plan_time_s=call, planning_time_s=call / 20)))
+    report = summarize(results)
+    method = report.by_method[("parallel_jaw", "antipodal", "ground_truth")]
+    assert method.median_planning_time_s == 3.0 and method.planning_calls == 2
+    assert report.groups[("parallel_jaw", "antipodal", "ground_truth", "048_hammer")].median_planning_time_s == 4.0
+    text = write_markdown(report, results, tmp_path, RUN_META).read_text()
+    assert "median planning_time_s (calls)" in text and "3.000 (2 calls)" in text
 
 
 def test_markdown_lists_every_group(tmp_path):
@@ -106,3 +210,42 @@ def test_pose_errors_are_summarised_per_observation_and_shown_side_by_side(tmp_p
     assert report_from_json(json.loads(json.dumps(report.to_json()))).pose_errors == report.pose_errors
     text = write_markdown(report, results, tmp_path, {"config": {}}).read_text()
     assert "Observations side by side" in text and "estimated_pose" in text
+
+
+def _two_planners() -> list[tuple[TrialKey, TrialResult]]:
+    """Antipodal: force closure 1 and score 1 on every candidate, 16/20 succeed; random: closure 0 and score 0
+    on every candidate, 2/20 succeed. Within each planner both metrics are constant; pooled, they only tell the
+    planners apart."""
+    out = []
+    for planner, k, value in (("antipodal", 16, 1.0), ("random", 2, 0.0)):
+        for i in range(20):
+            result = TrialResult(Status.SUCCESS if i < k else Status.SLIPPED_LIFT,
+                                 planned=GraspMetrics(2, value, 0.1 * value + 0.001 * i, 0.3), score=value)
+            out.append((TrialKey("025_mug", "parallel_jaw", planner, "ground_truth", "standard", i), result))
+    return out
+
+
+def test_aucs_are_per_planner_and_a_constant_metric_is_undefined_not_chance(tmp_path):
+    report = summarize(_two_planners())
+    for planner in ("antipodal", "random"):
+        per = report.auc[("parallel_jaw", planner, "ground_truth")]
+        assert per["force_closure"].undefined == "metric constant" and math.isnan(per["force_closure"].auc)
+        assert per["planner_score"].undefined == "metric constant" and per["planner_score"].n == 20
+    # Pooled, a score constant per planner "predicts" success only by naming the planner (ties count one half).
+    pooled = report.auc_pooled["planner_score"]
+    assert pooled.auc == pytest.approx((16 * 18 + 0.5 * 2 * 18 + 0.5 * 16 * 4 + 0 * 2 * 4) / (18 * 22))
+    # Within antipodal, epsilon rises with the index while successes are the first 16: AUC 0 (a worse ranking).
+    antipodal = report.auc[("parallel_jaw", "antipodal", "ground_truth")]["epsilon_l1"]
+    assert antipodal.auc == 0.0 and antipodal.low == 0.0 and antipodal.high == 0.0
+    text = write_markdown(report, _two_planners(), tmp_path, RUN_META).read_text()
+    assert "| parallel_jaw | antipodal | ground_truth | force_closure | 20 (16) | undefined (metric constant) |" in text
+    assert "0.50" not in text.split("## Analytic metrics")[1].split("##")[0]
+
+
+def test_report_leads_with_one_line_per_planner_and_labels_the_pooled_line(tmp_path):
+    text = write_markdown(summarize(_two_planners()), _two_planners(), tmp_path, RUN_META).read_text()
+    head = text.split("## Per hand and planner")[0]
+    assert "- **parallel_jaw / antipodal: 16/20 successes, rate 0.80 [0.58, 0.92]**" in head
+    assert "- **parallel_jaw / random: 2/20 successes" in head
+    assert "Overall" not in text and "**Pooled" not in head
+    assert f"Pooled ({POOLED}, 2 combination(s), so it mixes planners): 18/40" in head

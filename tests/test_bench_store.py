@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from manigrasp.bench.export import export
 from manigrasp.bench.store import ResultsStore, TrialKey
+from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import GraspMetrics, PoseRecord, Status, TrialResult
 
 
@@ -122,18 +122,35 @@ def test_kill_9_loses_nothing_committed_and_resume_completes_the_set(tmp_path):
         assert sorted(k.grasp_index for k, _ in store.results()) == list(range(200))
 
 
-@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
-def test_export(tmp_path, suffix):
+def test_a_read_only_open_writes_nothing_and_refuses_writes(tmp_path):
+    """Opening read-only creates no file where there is none, and cannot add a trial."""
+    import sqlite3
+
+    missing = tmp_path / "none" / "results.sqlite"
+    with pytest.raises(ConfigError, match="no results store"):
+        ResultsStore(missing, readonly=True)
+    assert not missing.parent.exists()
     with ResultsStore(tmp_path / "results.sqlite") as store:
-        for i in range(3):
-            store.add(_key(i), _result(i))
-        path = export(store.rows(), tmp_path / f"results{suffix}")
-    assert path.stat().st_size > 0
-    if suffix == ".parquet":
-        import pyarrow.parquet as pq
+        store.add(_key(0), _result(0))
+    with ResultsStore(tmp_path / "results.sqlite", readonly=True) as store:
+        assert [k for k, _ in store.results()] == [_key(0)]
+        with pytest.raises(sqlite3.OperationalError, match="readonly"):
+            store.add(_key(1), _result(1))
 
-        table = pq.read_table(path)
-        assert table.num_rows == 3 and "sim_epsilon_l1" in table.column_names
-    else:
-        assert path.read_text().count("\n") == 4
 
+def test_a_garbage_store_or_a_bad_row_is_a_config_error(tmp_path):
+    import sqlite3
+
+    garbage = tmp_path / "garbage.sqlite"
+    garbage.write_bytes(b"\x00garbage" * 500)
+    with pytest.raises(ConfigError, match="not a readable manigrasp results store"):
+        ResultsStore(garbage, readonly=True)
+    path = tmp_path / "results.sqlite"
+    with ResultsStore(path) as store:
+        store.add(_key(0), _result(0))
+    db = sqlite3.connect(path)
+    db.execute("UPDATE trials SET status = 'exploded'")
+    db.commit()
+    db.close()
+    with ResultsStore(path, readonly=True) as store, pytest.raises(ConfigError, match="not a valid row"):
+        list(store.results())

@@ -1,22 +1,45 @@
 """Regression gate: is any success rate significantly lower than a baseline's?
 
-Overall and per group (hand x planner x observation x object), one-sided
-pooled two-proportion z-tests. Per-group p-values are Holm-Bonferroni
-corrected across groups, so that a config with many groups does not fail CI
-by chance; the overall test is uncorrected.
+Only groups (hand x planner x observation x object) present on both sides are compared; the ones
+missing on either side are listed. Per group, and over the compared groups pooled, one-sided pooled
+two-proportion z-tests; per-group p-values are Holm-Bonferroni corrected across groups, so that a config
+with many groups does not fail CI by chance; the pooled test is uncorrected.
+
+A gate that cannot fail is no gate: anything it cannot judge raises `ConfigError` (exit 2 at the CLI): an
+alpha outside (0, 1), counts that are not counts (successes > trials, NaN, negative), no trials in common,
+and two sides whose protocol, hand or physics (scene) parameters or object definitions differ.
 """
 
 from __future__ import annotations
 
+import json
+import math
 from dataclasses import dataclass
+from pathlib import Path
 
-from manigrasp.bench.report import Rate, Report
-from manigrasp.bench.stats import ProportionTest, lower_than_baseline
+from manigrasp.bench.report import Group, Rate, Report, load_results, report_from_json, summarize
+from manigrasp.bench.stats import ProportionTest, lower_than_baseline, wilson_interval
+from manigrasp.errors import ConfigError
+
+POOLED_GROUP = "pooled (groups in both)"
+# Config fields that must be equal on both sides for their success rates to be comparable.
+_SAME = ("protocol", "scene")
+# Versions whose difference is worth a note (physics may differ between them).
+_NOTED_VERSIONS = ("manigrasp", "mujoco")
+
+
+@dataclass(frozen=True)
+class Side:
+    """One side of a comparison: its report, the run's metadata (config, versions) and where it came from."""
+
+    report: Report
+    meta: dict
+    source: str
 
 
 @dataclass(frozen=True)
 class Comparison:
-    """One compared rate: the group ("overall" or hand/planner/observation/object), both rates, the test."""
+    """One compared rate: the group (`POOLED_GROUP` or hand/planner/observation/object), both rates, the test."""
 
     group: str
     new: Rate
@@ -26,20 +49,147 @@ class Comparison:
     regression: bool
 
 
+@dataclass(frozen=True)
+class Verdict:
+    """The comparisons, the groups found on one side only, and notes (version differences)."""
+
+    comparisons: list[Comparison]
+    only_new: list[Group]
+    only_base: list[Group]
+    notes: list[str]
+
+    @property
+    def regressions(self) -> list[Comparison]:
+        """The comparisons flagged as significant regressions."""
+        return [c for c in self.comparisons if c.regression]
+
+
+def load_side(path: Path) -> Side:
+    """A run directory (run.json + results.sqlite) or a baseline JSON file (`manigrasp report --json`)."""
+    from manigrasp.bench.rundir import load_meta
+
+    path = Path(path)
+    if path.is_dir():
+        return Side(summarize(load_results(path)), load_meta(path), str(path))
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ConfigError(f"cannot read baseline {path}: {exc}") from exc
+    if not isinstance(data, dict):
+        raise ConfigError(f"baseline {path} is not a report (a JSON object from `manigrasp report --json`)")
+    try:
+        report = report_from_json(data)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ConfigError(f"baseline {path} is not a valid report ({type(exc).__name__}: {exc}); "
+                          "write one with `manigrasp report RUN_DIR --json > FILE`") from exc
+    run = data.get("run")
+    return Side(report, run if isinstance(run, dict) else {}, str(path))
+
+
+def check_counts(report: Report, source: str) -> None:
+    """Raise `ConfigError` unless every group holds whole trials >= 0 and 0 <= successes <= trials."""
+    for group, rate in report.groups.items():
+        t, k = rate.trials, rate.successes
+        if not (_count(t) and _count(k) and k <= t):
+            raise ConfigError(f"{source}: group {'/'.join(group)} has {k!r} successes of {t!r} trials: "
+                              "not counts (need whole numbers with 0 <= successes <= trials)")
+
+
+def _count(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def check_comparable(new: Side, base: Side) -> list[str]:
+    """Raise `ConfigError` naming what differs when the two runs' physics cannot be compared.
+
+    Protocol (name and params) and scene (physics) must be equal; a hand or object present on both sides
+    must be defined the same way. Returns notes on version differences (not refused).
+    """
+    configs = [side.meta.get("config") for side in (new, base)]
+    for side, config in zip((new, base), configs, strict=True):
+        if not isinstance(config, dict):
+            raise ConfigError(f"{side.source} records no config, so it cannot be checked as comparable; "
+                              "write a baseline with `manigrasp report RUN_DIR --json > FILE`")
+    new_config, base_config = configs
+    differ = [f"{key} ({_short(new_config.get(key))} vs baseline {_short(base_config.get(key))})"
+              for key in _SAME if new_config.get(key) != base_config.get(key)]
+    for key in ("hands", "objects"):
+        ours, theirs = _entries(new_config.get(key)), _entries(base_config.get(key))
+        differ += [f"{key[:-1]} {name!r} ({_short(ours[name])} vs baseline {_short(theirs[name])})"
+                   for name in sorted(ours.keys() & theirs.keys()) if ours[name] != theirs[name]]
+    if differ:
+        raise ConfigError(f"{new.source} and {base.source} are not comparable: different " + "; ".join(differ))
+    versions = [side.meta.get("versions") or {} for side in (new, base)]
+    return [f"{name} {versions[0].get(name)} here vs {versions[1].get(name)} in the baseline"
+            for name in _NOTED_VERSIONS if versions[0].get(name) != versions[1].get(name)]
+
+
+def _entries(value: object) -> dict[str, object]:
+    """Config list entries by name: a plain name, or a mapping with a label or name."""
+    out: dict[str, object] = {}
+    for entry in value if isinstance(value, list) else []:
+        name = (entry.get("label") or entry.get("name")) if isinstance(entry, dict) else entry
+        out[str(name)] = entry
+    return out
+
+
+def _short(value: object, limit: int = 120) -> str:
+    text = json.dumps(value, sort_keys=True, default=str)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def compare(new: Report, base: Report, alpha: float = 0.05) -> Verdict:
+    """Compare `new` against `base` over the groups present in both (`ConfigError` if it cannot judge)."""
+    if not (isinstance(alpha, float | int) and math.isfinite(alpha) and 0 < alpha < 1):
+        raise ConfigError(f"alpha must be a number strictly between 0 and 1, got {alpha!r}")
+    check_counts(new, "the new run")
+    check_counts(base, "the baseline")
+    common = [k for k in new.groups if k in base.groups]
+    only_new = [k for k in new.groups if k not in base.groups]
+    only_base = [k for k in base.groups if k not in new.groups]
+    if not new.groups:
+        raise ConfigError("nothing to compare: the new run has no trials")
+    if not common:
+        raise ConfigError("nothing to compare: no hand/planner/observation/object group is in both the run and "
+                          f"the baseline (run: {_names(only_new)}; baseline: {_names(only_base)})")
+    empty = [k for k in common if new.groups[k].trials == 0 or base.groups[k].trials == 0]
+    if empty:
+        raise ConfigError(f"cannot judge groups with zero trials: {_names(empty)}")
+    pooled = [_pool([new.groups[k] for k in common]), _pool([base.groups[k] for k in common])]
+    overall = _test(POOLED_GROUP, *pooled)
+    groups = [_test("/".join(k), new.groups[k], base.groups[k]) for k in common]
+    out = [Comparison(*overall, overall[3].p_value, overall[3].p_value < alpha)]
+    adjusted = _holm([g[3].p_value for g in groups])
+    out += [Comparison(*g, p, p < alpha) for g, p in zip(groups, adjusted, strict=True)]
+    return Verdict(out, only_new, only_base, [])
+
+
+def _names(groups: list[Group]) -> str:
+    return ", ".join("/".join(g) for g in groups) or "none"
+
+
+def _pool(rates: list[Rate]) -> Rate:
+    trials, successes = sum(r.trials for r in rates), sum(r.successes for r in rates)
+    return Rate(trials, successes, successes / trials, *wilson_interval(successes, trials))
+
+
 def _test(name: str, new: Rate, base: Rate) -> tuple[str, Rate, Rate, ProportionTest]:
     return name, new, base, lower_than_baseline(new.successes, new.trials, base.successes, base.trials)
 
 
-def compare(new: Report, base: Report, alpha: float = 0.05) -> list[Comparison]:
-    """Compare `new` against `base`; groups missing from either side are skipped."""
-    overall = _test("overall", new.overall, base.overall)
-    groups = [_test("/".join(k), new.groups[k], base.groups[k]) for k in new.groups if k in base.groups]
-    out = [Comparison(*overall, overall[3].p_value, overall[3].p_value < alpha)]
-    order = sorted(range(len(groups)), key=lambda i: groups[i][3].p_value)
-    adjusted = [1.0] * len(groups)
+def _holm(p_values: list[float]) -> list[float]:
+    """Holm-Bonferroni adjusted p-values (step-down, monotone, capped at 1)."""
+    order = sorted(range(len(p_values)), key=lambda i: p_values[i])
+    adjusted = [1.0] * len(p_values)
     running = 0.0
     for rank, i in enumerate(order):
-        running = max(running, min(1.0, (len(groups) - rank) * groups[i][3].p_value))
+        running = max(running, min(1.0, (len(p_values) - rank) * p_values[i]))
         adjusted[i] = running
-    out += [Comparison(*g, adjusted[i], adjusted[i] < alpha) for i, g in enumerate(groups)]
-    return out
+    return adjusted
+
+
+def compare_sides(new: Side, base: Side, alpha: float = 0.05) -> Verdict:
+    """Check that the sides are comparable, then `compare` them; the verdict carries the version notes."""
+    notes = check_comparable(new, base)
+    verdict = compare(new.report, base.report, alpha)
+    return Verdict(verdict.comparisons, verdict.only_new, verdict.only_base, notes)

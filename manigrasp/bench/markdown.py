@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from manigrasp.bench import plots
-from manigrasp.bench.report import Report, format_rate
+from manigrasp.bench.plots import method_label
+from manigrasp.bench.report import POOLED, Report, format_auc, format_planning_time, format_rate
 from manigrasp.bench.store import TrialKey
 from manigrasp.protocol.result import TrialResult
 
@@ -38,6 +39,29 @@ def _perception(report: Report) -> list[str]:
                     "share with ADD-S < 5 mm & translation < 1 cm"], rows)]
 
 
+def auc_rows(report: Report) -> list[list[str]]:
+    """AUC table rows per hand x planner x observation x metric, then pooled rows (`all`) if several."""
+    rows = [[h, p, o, metric, f"{e.n} ({e.successes})", format_auc(e)]
+            for (h, p, o), per in report.auc.items() for metric, e in per.items()]
+    if len(report.auc) > 1:
+        rows += [["all", "all (pooled)", "all", metric, f"{e.n} ({e.successes})", format_auc(e)]
+                 for metric, e in report.auc_pooled.items()]
+    return rows
+
+
+def lead_lines(report: Report) -> list[str]:
+    """One line per hand x planner x observation: the figures a reader should quote."""
+    return [f"{method_label(m)}: {r.successes}/{r.trials} successes, rate {format_rate(r)}"
+            for m, r in report.by_method.items()]
+
+
+def pooled_line(report: Report) -> str:
+    """The all-trials line, saying what it pools."""
+    r = report.overall
+    return (f"Pooled ({POOLED}, {len(report.by_method)} combination(s), so it mixes planners): "
+            f"{r.successes}/{r.trials}, rate {format_rate(r)}")
+
+
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
                    meta: dict) -> Path:
     """Write ``report.md`` and its PNGs into `run_dir`; returns the markdown path."""
@@ -55,20 +79,28 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         f"Protocol `{config.get('protocol', {}).get('name')}`, seed {meta.get('seed')}, "
         f"manigrasp {meta.get('versions', {}).get('manigrasp')}, mujoco {meta.get('versions', {}).get('mujoco')}, "
         f"commit {meta.get('git_commit') or 'unknown'}, started {meta.get('started')}.",
-        f"**Overall: {report.overall.successes}/{report.overall.trials} successes, "
-        f"rate {format_rate(report.overall)}** (95 % Wilson interval).",
+        "\n".join(f"- **{line}**" for line in lead_lines(report))
+        + "\n\nRates with 95 % Wilson intervals. " + pooled_line(report) + ".",
         "## Per hand and planner",
         _table(["hand", "planner", "observation", "trials", "successes", "rate [95% CI]", "failure modes",
-                "median planning s"],
-               [[h, p, o, r.trials, r.successes, format_rate(r), _modes(r.failure_modes),
-                 f"{r.median_planning_time_s:.3f}"] for (h, p, o), r in report.by_method.items()]),
+                "median planning_time_s (calls)"],
+               [[h, p, o, r.trials, r.successes, format_rate(r), _modes(r.failure_modes), format_planning_time(r)]
+                for (h, p, o), r in report.by_method.items()]),
+        "Planning time: the wall time of one planning call, which plans every candidate of one object "
+        "(what `manigrasp plan` prints as `planning_time_s`); the median is over the calls.",
         "## Per object",
         _table(["hand", "planner", "observation", "object", "trials", "successes", "rate [95% CI]", "failure modes"],
                [[h, p, o, obj, r.trials, r.successes, format_rate(r), _modes(r.failure_modes)]
                 for (h, p, o, obj), r in report.groups.items()]),
         *_perception(report),
-        "## Analytic metrics as predictors of success (ROC AUC; 0.5 = chance)",
-        _table(["metric", "AUC"], [[k, f"{v:.3f}"] for k, v in report.auc.items()]),
+        "## Analytic metrics as predictors of success",
+        "ROC AUC of each metric for telling successes from failures within one hand x planner (0.5 = chance), "
+        "with a 95 % bootstrap interval (resampled within successes and failures, fixed seed). n counts the "
+        "simulated trials with a value of the metric (successes in brackets). A metric with a single value in a "
+        "group cannot rank its trials: its AUC is undefined, not 0.5."
+        + (" Rows `all` pool every trial of every planner: there a metric partly tells planners apart."
+           if len(report.auc) > 1 else ""),
+        _table(["hand", "planner", "observation", "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)),
     ]
     parts += [f"## {title}\n\n![{title}]({path.name})" for title, path in images.items()]
     out = run_dir / "report.md"

@@ -1,14 +1,50 @@
-"""PNG plots of a run (matplotlib, headless Agg backend)."""
+"""PNG plots of a run (matplotlib, headless Agg backend).
+
+Every outcome has one fixed colour in every run (`STATUS_COLOURS`): success is the only green, the six
+`dropped_perturb` directions are shades of one orange family, and each other failure has its own hue.
+"""
 
 from __future__ import annotations
 
+from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
-from manigrasp.bench.report import Rate, Report
+from manigrasp.bench.report import PREDICTORS, Method, Rate, Report, planning_call_times
 from manigrasp.bench.store import TrialKey
 from manigrasp.protocol.result import TrialResult
+
+# One colour per outcome, the same in every run; the order is the legend's and the stacking's.
+DROPPED_DIRECTIONS = ("+x", "-x", "+y", "-y", "+z", "-z")
+STATUS_COLOURS: dict[str, str] = {
+    "success": "#1a9641",
+    "pregrasp_collision": "#7b3294",
+    "no_contact": "#969696",
+    "slipped_lift": "#2c7fb8",
+    # dropped_perturb: one orange family, light to dark by direction; without a direction, the darkest.
+    **{f"dropped_perturb{d}": c for d, c in zip(
+        DROPPED_DIRECTIONS, ("#fdd49e", "#fdbb84", "#fc8d59", "#ef6548", "#d7301f", "#b30000"), strict=True)},
+    "dropped_perturb": "#7f0000",
+    "unstable": "#252525",
+    "planner_error": "#e7298a",
+    "invalid_grasp": "#41b6c4",
+    "timeout": "#08306b",
+    "harness_fault": "#9e9ac8",
+}
+_UNKNOWN_COLOUR = "#ffffff"  # an outcome without a colour shows as a white, outlined segment
+
+
+def status_colour(mode: str) -> str:
+    """The fixed colour of an outcome ("success", a failure status, or "dropped_perturb+x")."""
+    if mode.startswith("dropped_perturb") and mode not in STATUS_COLOURS:
+        return STATUS_COLOURS["dropped_perturb"]
+    return STATUS_COLOURS.get(mode, _UNKNOWN_COLOUR)
+
+
+def _outcome_order(mode: str) -> tuple[int, str]:
+    order = list(STATUS_COLOURS)
+    return (order.index(mode), mode) if mode in order else (len(order), mode)
 
 
 def _pyplot():
@@ -30,7 +66,8 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def _method_label(method: tuple[str, str, str]) -> str:
+def method_label(method: Method) -> str:
+    """"hand / planner" (and " / observation" unless ground truth)."""
     hand, planner, observation = method
     return f"{hand} / {planner}" + ("" if observation == "ground_truth" else f" / {observation}")
 
@@ -41,85 +78,139 @@ def _errorbars(rates: list[Rate]) -> np.ndarray:
 
 
 def success_by_object(report: Report, path: Path) -> Path:
-    """Grouped bars: success rate per object, one bar per method, Wilson 95 % intervals."""
+    """Grouped bars: success rate per object, one bar per method, Wilson 95 % intervals, k/n over each bar."""
     plt = _pyplot()
     objects = sorted({k[3] for k in report.groups})
     methods = list(report.by_method)
     width = 0.8 / max(1, len(methods))
-    fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(objects) + 2), 4.5))
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.2 * len(objects) * max(1, len(methods)) / 2 + 2), 4.8))
     x = np.arange(len(objects))
     for i, method in enumerate(methods):
-        rates = [report.groups.get((*method, obj), Rate(0, 0, np.nan, 0, 0)) for obj in objects]
-        ax.bar(x + (i - (len(methods) - 1) / 2) * width, [r.success_rate for r in rates], width,
-               yerr=_errorbars(rates), capsize=2, label=_method_label(method))
-    ax.set_xticks(x, objects, rotation=45, ha="right")
-    ax.set_ylim(0, 1.05)
+        present = [(j, report.groups[(*method, obj)]) for j, obj in enumerate(objects)
+                   if (*method, obj) in report.groups]
+        xs = x[[j for j, _ in present]] + (i - (len(methods) - 1) / 2) * width
+        rates = [r for _, r in present]
+        ax.bar(xs, [r.success_rate for r in rates], width, yerr=_errorbars(rates), capsize=2,
+               label=method_label(method))
+        for xi, r in zip(xs, rates, strict=True):
+            ax.text(xi, r.ci_high + 0.02, f"{r.successes}/{r.trials}", ha="center", va="bottom", fontsize=7,
+                    rotation=90 if len(methods) > 2 else 0)
+    ax.set_xticks(x, objects, rotation=30, ha="right")
+    ax.set_ylim(0, 1.25)
+    ax.set_yticks(np.linspace(0, 1, 6))
     ax.set_ylabel("success rate (95 % Wilson interval)")
-    ax.legend(fontsize=8)
+    ax.set_title("Success per object (successes/trials over each bar)", fontsize=10)
+    ax.legend(fontsize=8, loc="upper right", ncol=min(3, max(1, len(methods))))
     return _save(fig, path)
 
 
 def success_by_method(report: Report, path: Path) -> Path:
-    """Horizontal bars: overall success rate per hand x planner, with intervals."""
+    """Horizontal bars: success rate per hand x planner, with intervals and k/n."""
     plt = _pyplot()
     methods = list(report.by_method)
     rates = [report.by_method[m] for m in methods]
-    fig, ax = plt.subplots(figsize=(7, 1.0 + 0.5 * len(methods)))
+    fig, ax = plt.subplots(figsize=(7, 1.2 + 0.5 * len(methods)))
     y = np.arange(len(methods))
-    ax.barh(y, [r.success_rate for r in rates], xerr=_errorbars(rates), capsize=3, color="tab:blue")
-    ax.set_yticks(y, [_method_label(m) for m in methods])
-    ax.set_xlim(0, 1.05)
+    ax.barh(y, [r.success_rate for r in rates], xerr=_errorbars(rates), capsize=3,
+            color=STATUS_COLOURS["success"])
+    for yi, r in zip(y, rates, strict=True):
+        ax.text(min(r.ci_high + 0.02, 1.0), yi, f"{r.successes}/{r.trials}", va="center", fontsize=8)
+    ax.set_yticks(y, [method_label(m) for m in methods])
+    ax.invert_yaxis()
+    ax.set_xlim(0, 1.15)
+    ax.set_xticks(np.linspace(0, 1, 6))
     ax.set_xlabel("success rate (95 % Wilson interval)")
     return _save(fig, path)
 
 
 def failure_modes(report: Report, path: Path) -> Path:
-    """Stacked bars: the share of each outcome per hand x planner."""
+    """Stacked bars: the share of each outcome per hand x planner, in the fixed outcome colours."""
     plt = _pyplot()
     methods = list(report.by_method)
-    modes = sorted({m for r in report.by_method.values() for m in r.failure_modes})
-    fig, ax = plt.subplots(figsize=(8, 1.2 + 0.5 * len(methods)))
+    modes = sorted({m for r in report.by_method.values() for m in r.failure_modes}, key=_outcome_order)
+    fig, ax = plt.subplots(figsize=(9, 1.6 + 0.55 * len(methods)))
     y = np.arange(len(methods))
-    left = np.array([report.by_method[m].success_rate for m in methods])
-    ax.barh(y, left, color="tab:green", label="success")
-    cmap = plt.get_cmap("tab20")
-    for i, mode in enumerate(modes):
-        share = np.array([report.by_method[m].failure_modes.get(mode, 0) / max(1, report.by_method[m].trials)
-                          for m in methods])
-        ax.barh(y, share, left=left, color=cmap(i % 20), label=mode)
+    left = np.zeros(len(methods))
+    for mode in ["success", *modes]:
+        counts = np.array([report.by_method[m].successes if mode == "success"
+                           else report.by_method[m].failure_modes.get(mode, 0) for m in methods], float)
+        share = counts / np.maximum(1, [report.by_method[m].trials for m in methods])
+        ax.barh(y, share, left=left, color=status_colour(mode), edgecolor="white", linewidth=0.5, label=mode)
+        for yi, li, si in zip(y, left, share, strict=True):
+            if si >= 0.06:
+                ax.text(li + si / 2, yi, f"{si:.0%}", ha="center", va="center", fontsize=7,
+                        color="white" if mode in ("success", "unstable", "pregrasp_collision") else "black")
         left = left + share
-    ax.set_yticks(y, [_method_label(m) for m in methods])
+    ax.set_yticks(y, [f"{method_label(m)}\n(n = {report.by_method[m].trials})" for m in methods])
+    ax.invert_yaxis()
     ax.set_xlim(0, 1)
     ax.set_xlabel("share of trials")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), title="outcome", title_fontsize=8)
     return _save(fig, path)
 
 
 def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path) -> Path:
-    """Box plot of per-candidate planning time per hand x planner (log scale)."""
+    """One point per planning call (its wall time for every candidate of one object), box per hand x planner."""
     plt = _pyplot()
-    by_method: dict[str, list[float]] = {}
+    groups: dict[tuple, list[TrialResult]] = defaultdict(list)
     for key, result in results:
-        if np.isfinite(result.planning_time_s) and result.planning_time_s > 0:
-            label = _method_label((key.hand, key.planner, key.observation))
-            by_method.setdefault(label, []).append(result.planning_time_s)
-    fig, ax = plt.subplots(figsize=(7, 1.2 + 0.5 * max(1, len(by_method))))
+        groups[(key.hand, key.planner, key.observation, key.object)].append(result)
+    by_method: dict[str, list[float]] = defaultdict(list)
+    for (h, p, o, _), group in sorted(groups.items()):
+        by_method[method_label((h, p, o))] += [t for t in planning_call_times(group) if t > 0]
+    by_method = {k: v for k, v in by_method.items() if v}
+    fig, ax = plt.subplots(figsize=(7, 1.4 + 0.6 * max(1, len(by_method))))
     if by_method:
-        ax.boxplot(list(by_method.values()), orientation="horizontal", tick_labels=list(by_method))
+        labels = [f"{k}\n({len(v)} call{'s' * (len(v) != 1)})" for k, v in by_method.items()]
+        ax.boxplot(list(by_method.values()), orientation="horizontal", tick_labels=labels, widths=0.5)
+        for i, values in enumerate(by_method.values(), start=1):
+            ax.plot(values, np.full(len(values), i), "o", color="black", markersize=3, alpha=0.6)
         ax.set_xscale("log")
-    ax.set_xlabel("planning time per candidate [s]")
+        ax.invert_yaxis()
+        ax.set_xlabel("planning time [s]\nwall time of one planning call (it plans every candidate of one object)")
+    else:
+        ax.axis("off")
+        ax.text(0.5, 0.5, "no planning call was timed in this run", ha="center", va="center")
     return _save(fig, path)
 
 
 def metric_auc(report: Report, path: Path) -> Path:
-    """Bars: ROC AUC of each analytic metric for predicting physical success."""
+    """Grouped bars: each metric's ROC AUC for success per hand x planner, 95 % bootstrap intervals.
+
+    An undefined AUC (a constant metric, one outcome only) is written as such where its bar would be.
+    """
     plt = _pyplot()
-    names = [n for n, v in report.auc.items() if np.isfinite(v)]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    ax.bar(names, [report.auc[n] for n in names], color="tab:purple")
-    ax.axhline(0.5, color="grey", linestyle="--", linewidth=1, label="chance")
-    ax.set_ylim(0, 1)
-    ax.set_ylabel("ROC AUC for success")
-    ax.tick_params(axis="x", rotation=30)
-    ax.legend(fontsize=8)
+    methods = list(report.auc)
+    metrics = list(PREDICTORS)
+    defined = [(m, k) for m in methods for k in metrics if k in report.auc[m] and report.auc[m][k].defined]
+    if not defined:
+        fig, ax = plt.subplots(figsize=(7, 1.6))
+        ax.axis("off")
+        ax.text(0.5, 0.5, "No metric AUC is defined in this run\n(every group has one outcome only, "
+                "or metrics constant)", ha="center", va="center")
+        return _save(fig, path)
+    width = 0.8 / len(methods)
+    fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * len(metrics) * max(1, len(methods)) / 2 + 2), 4.5))
+    x = np.arange(len(metrics))
+    for i, method in enumerate(methods):
+        xs = x + (i - (len(methods) - 1) / 2) * width
+        estimates = [report.auc[method].get(k) for k in metrics]
+        auc = np.array([e.auc if e is not None and e.defined else np.nan for e in estimates])
+        low = np.array([e.low if e is not None and e.defined else np.nan for e in estimates])
+        high = np.array([e.high if e is not None and e.defined else np.nan for e in estimates])
+        bars = ax.bar(xs, np.nan_to_num(auc), width, yerr=np.vstack([auc - low, high - auc]), capsize=2,
+                      label=method_label(method))
+        for xi, e in zip(xs, estimates, strict=True):
+            if e is not None and e.defined:
+                ax.text(xi, e.high + 0.01, f"n={e.n}", ha="center", va="bottom", fontsize=6)
+            elif e is not None:
+                ax.text(xi, 0.02, f"undefined: {e.undefined}", rotation=90, ha="center", va="bottom", fontsize=7,
+                        color=bars.patches[0].get_facecolor())
+    ax.axhline(0.5, color="grey", linestyle="--", linewidth=1, label="chance (0.5)")
+    ax.set_xticks(x, metrics, rotation=20)
+    ax.set_ylim(0, 1.1)
+    ax.set_ylabel("ROC AUC for success (95 % bootstrap interval)")
+    ax.set_title("Each metric's power to predict success, per hand / planner (n: trials with a value)",
+                 fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return _save(fig, path)

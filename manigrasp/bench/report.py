@@ -1,4 +1,4 @@
-"""Summaries of a run: success rates with Wilson intervals, failure modes, timing, metric AUCs.
+"""Summaries of a run: success rates with Wilson intervals, failure modes, timing, metric AUCs per planner.
 
 `summarize` turns the stored trials into a `Report` (plain data, JSON-able);
 `write_markdown` writes ``report.md`` with PNG plots beside it.
@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from manigrasp.bench.stats import roc_auc, wilson_interval
-from manigrasp.bench.store import ResultsStore, TrialKey
+from manigrasp.bench.stats import AucEstimate, auc_with_interval, wilson_interval
+from manigrasp.bench.store import STORE_NAME, ResultsStore, TrialKey
+from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import Status, TrialResult
 
 # Metrics whose power to predict physical success is reported (column, higher-is-better sign).
@@ -29,7 +30,14 @@ PREDICTORS = {
 
 @dataclass(frozen=True)
 class Rate:
-    """Trials, successes, their rate and its Wilson 95 % interval, the failure-mode counts."""
+    """Trials, successes, their rate and its Wilson 95 % interval, failure-mode counts, planning time.
+
+    Attributes:
+        median_planning_time_s: median over the planning calls of this set of trials of one call's wall
+            time [s] (the ``planning_time_s`` that ``manigrasp plan`` prints: one call plans every candidate
+            of an object x hand x planner x observation); NaN when no call was timed.
+        planning_calls: how many planning calls that median is over.
+    """
 
     trials: int
     successes: int
@@ -38,17 +46,23 @@ class Rate:
     ci_high: float
     failure_modes: dict[str, int] = field(default_factory=dict)
     median_planning_time_s: float = math.nan
+    planning_calls: int = 0
 
     @classmethod
-    def of(cls, results: list[TrialResult]) -> Rate:
-        """The rate of a list of trial results."""
+    def of(cls, results: list[TrialResult], plan_times: list[float] | None = None) -> Rate:
+        """The rate of a list of trial results; `plan_times`: one wall time per planning call [s]."""
         n = len(results)
         k = sum(r.success for r in results)
         low, high = wilson_interval(k, n)
         modes = Counter(_mode(r) for r in results if not r.success)
-        times = [r.planning_time_s for r in results if not math.isnan(r.planning_time_s)]
+        times = plan_times if plan_times is not None else planning_call_times(results)
         return cls(n, k, k / n if n else math.nan, low, high, dict(sorted(modes.items())),
-                   float(np.median(times)) if times else math.nan)
+                   float(np.median(times)) if times else math.nan, len(times))
+
+
+def planning_call_times(results: list[TrialResult]) -> list[float]:
+    """One wall time per planning call among the results of one group (trials of one call share it)."""
+    return sorted({r.plan_time_s for r in results if math.isfinite(r.plan_time_s)})
 
 
 def _mode(result: TrialResult) -> str:
@@ -89,76 +103,124 @@ class PoseErrors:
                    float(np.median(trans)), float(np.percentile(trans, 90)), float(np.median(adds)), within)
 
 
+Method = tuple[str, str, str]  # hand, planner (its label), observation
+Group = tuple[str, str, str, str]  # hand, planner, observation, object
+
+# What the all-trials line and the pooled AUCs pool, said wherever they are shown.
+POOLED = "all trials of every hand x planner x observation"
+
+
 @dataclass(frozen=True)
 class Report:
-    """A run's summary: overall, per hand x planner x observation, per group (+ object), AUCs, pose errors."""
+    """A run's summary.
+
+    Attributes:
+        overall: every trial pooled (`POOLED`): mixes planners, so it is never the lead figure.
+        by_method: per hand x planner x observation: the lead figures.
+        groups: per hand x planner x observation x object.
+        auc: per hand x planner x observation, each metric's AUC for success with its interval.
+        auc_pooled: the same over every trial pooled (`POOLED`).
+        pose_errors: estimated-pose errors per hand x planner x observation.
+    """
 
     overall: Rate
-    by_method: dict[tuple[str, str, str], Rate]
-    groups: dict[tuple[str, str, str, str], Rate]
-    auc: dict[str, float]
-    pose_errors: dict[tuple[str, str, str], PoseErrors] = field(default_factory=dict)
+    by_method: dict[Method, Rate]
+    groups: dict[Group, Rate]
+    auc: dict[Method, dict[str, AucEstimate]] = field(default_factory=dict)
+    auc_pooled: dict[str, AucEstimate] = field(default_factory=dict)
+    pose_errors: dict[Method, PoseErrors] = field(default_factory=dict)
 
     def to_json(self) -> dict:
-        """The JSON form printed by ``manigrasp report --json``."""
-        def rate(r: Rate) -> dict:
-            return asdict(r)
-
-        return {
-            "overall": rate(self.overall),
-            "methods": [{"hand": h, "planner": p, "observation": o, **rate(r)}
+        """The JSON form printed by ``manigrasp report --json`` (NaN as null)."""
+        return _finite({
+            "overall": {"pools": POOLED, **asdict(self.overall)},
+            "methods": [{"hand": h, "planner": p, "observation": o, **asdict(r)}
                         for (h, p, o), r in self.by_method.items()],
-            "groups": [{"hand": h, "planner": p, "observation": o, "object": obj, **rate(r)}
+            "groups": [{"hand": h, "planner": p, "observation": o, "object": obj, **asdict(r)}
                        for (h, p, o, obj), r in self.groups.items()],
-            "auc": self.auc,
+            "auc": [{"hand": h, "planner": p, "observation": o, "metric": m, **asdict(e)}
+                    for (h, p, o), per in self.auc.items() for m, e in per.items()],
+            "auc_pooled": [{"pools": POOLED, "metric": m, **asdict(e)} for m, e in self.auc_pooled.items()],
             "pose_errors": [{"hand": h, "planner": p, "observation": o, **asdict(e)}
                             for (h, p, o), e in self.pose_errors.items()],
-        }
+        })
+
+
+def _finite(value: object) -> object:
+    """`value` with every NaN float replaced by None (JSON null), recursively."""
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    return value
+
+
+def _nan(value: object) -> object:
+    return math.nan if value is None else value
 
 
 def report_from_json(data: dict) -> Report:
-    """Inverse of `Report.to_json` (for baselines committed as JSON)."""
-    fields = Rate.__dataclass_fields__
-
+    """Inverse of `Report.to_json` (for baselines committed as JSON); KeyError/TypeError on a malformed one."""
     def rate(d: dict) -> Rate:
-        return Rate(**{k: d[k] for k in fields if k in d})
+        return Rate(**{k: _nan(d[k]) for k in Rate.__dataclass_fields__ if k in d})
 
+    def auc(d: dict) -> AucEstimate:
+        return AucEstimate(**{k: _nan(d[k]) for k in AucEstimate.__dataclass_fields__})
+
+    per_method: dict[Method, dict[str, AucEstimate]] = defaultdict(dict)
+    for a in data.get("auc", []):
+        per_method[(a["hand"], a["planner"], a["observation"])][a["metric"]] = auc(a)
     return Report(
-        pose_errors={(e["hand"], e["planner"], e["observation"]): PoseErrors(
-            **{k: e[k] for k in PoseErrors.__dataclass_fields__}) for e in data.get("pose_errors", [])},
         overall=rate(data["overall"]),
         by_method={(m["hand"], m["planner"], m["observation"]): rate(m) for m in data.get("methods", [])},
         groups={(g["hand"], g["planner"], g["observation"], g["object"]): rate(g) for g in data["groups"]},
-        auc=dict(data.get("auc", {})),
+        auc=dict(per_method),
+        auc_pooled={a["metric"]: auc(a) for a in data.get("auc_pooled", [])},
+        pose_errors={(e["hand"], e["planner"], e["observation"]): PoseErrors(
+            **{k: e[k] for k in PoseErrors.__dataclass_fields__}) for e in data.get("pose_errors", [])},
     )
 
 
 def load_results(run_dir: Path) -> list[tuple[TrialKey, TrialResult]]:
-    """Every stored trial of `run_dir`."""
-    with ResultsStore(Path(run_dir) / "results.sqlite") as store:
+    """Every stored trial of `run_dir`, read without writing (a read-only run directory works).
+
+    Raises `ConfigError` when `run_dir` holds no ``results.sqlite`` (nothing is created).
+    """
+    path = Path(run_dir) / STORE_NAME
+    if not path.is_file():
+        raise ConfigError(f"{run_dir} holds no {STORE_NAME}: no trial has been run there "
+                          "(run `manigrasp bench CONFIG --out RUN_DIR` first)")
+    with ResultsStore(path, readonly=True) as store:
         return list(store.results())
 
 
 def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
     """Aggregate trial results into a `Report`."""
-    by_group: dict[tuple[str, str, str, str], list[TrialResult]] = defaultdict(list)
-    by_method: dict[tuple[str, str, str], list[TrialResult]] = defaultdict(list)
+    by_group: dict[Group, list[TrialResult]] = defaultdict(list)
+    by_method: dict[Method, list[TrialResult]] = defaultdict(list)
     for key, result in results:
         by_group[(key.hand, key.planner, key.observation, key.object)].append(result)
         by_method[(key.hand, key.planner, key.observation)].append(result)
+    plan_times = {k: planning_call_times(v) for k, v in by_group.items()}
+    method_times: dict[Method, list[float]] = defaultdict(list)
+    for (h, p, o, _), times in sorted(plan_times.items()):
+        method_times[(h, p, o)] += times
     every = [r for _, r in results]
     return Report(
-        overall=Rate.of(every),
-        by_method={k: Rate.of(v) for k, v in sorted(by_method.items())},
-        groups={k: Rate.of(v) for k, v in sorted(by_group.items())},
-        auc=metric_aucs(every),
+        overall=Rate.of(every, [t for times in method_times.values() for t in times]),
+        by_method={k: Rate.of(v, method_times[k]) for k, v in sorted(by_method.items())},
+        groups={k: Rate.of(v, plan_times[k]) for k, v in sorted(by_group.items())},
+        auc={k: metric_aucs(v) for k, v in sorted(by_method.items())},
+        auc_pooled=metric_aucs(every),
         pose_errors=pose_errors(by_group),
     )
 
 
-def pose_errors(by_group: dict[tuple[str, str, str, str], list[TrialResult]]) -> dict[tuple[str, str, str], PoseErrors]:
+def pose_errors(by_group: dict[Group, list[TrialResult]]) -> dict[Method, PoseErrors]:
     """Pose-error statistics per hand x planner x observation, over the objects whose pose was estimated."""
-    per_method: dict[tuple[str, str, str], list[tuple[float, float, float]]] = defaultdict(list)
+    per_method: dict[Method, list[tuple[float, float, float]]] = defaultdict(list)
     for (hand, planner, observation, _), results in sorted(by_group.items()):
         first = results[0]
         if not math.isnan(first.pose_rotation_error_deg):
@@ -167,18 +229,24 @@ def pose_errors(by_group: dict[tuple[str, str, str, str], list[TrialResult]]) ->
     return {k: PoseErrors.of(v) for k, v in per_method.items()}
 
 
-def metric_aucs(results: list[TrialResult]) -> dict[str, float]:
-    """ROC AUC of each analytic metric predicting physical success (0.5 = no better than chance).
+# Statuses of trials that never reached the simulator: they have no metrics to rank.
+_NOT_SIMULATED = frozenset(s for s in Status if s.value in ("planner_error", "invalid_grasp", "harness_fault"))
 
-    Only trials that reached the simulator count (planner errors and invalid grasps have no metrics).
+
+def metric_aucs(results: list[TrialResult]) -> dict[str, AucEstimate]:
+    """ROC AUC of each analytic metric predicting physical success, with n and a 95 % interval.
+
+    Only trials that reached the simulator count (planner errors, invalid grasps and harness faults have no
+    metrics); NaN values of a metric are dropped (its n says how many remain). A metric with one value in
+    the set, or a set with one outcome, has an undefined AUC (`AucEstimate.undefined` says why).
     """
-    simulated = [r for r in results if r.status not in (Status.PLANNER_ERROR, Status.INVALID_GRASP)]
+    simulated = [r for r in results if r.status not in _NOT_SIMULATED]
     labels = np.array([r.success for r in simulated], bool)
     out = {}
     for name, (part, attr, sign) in PREDICTORS.items():
         values = np.array([getattr(getattr(r, part) if part else r, attr) for r in simulated], float)
         values = np.where(np.isinf(values), np.sign(values) * 1e9, values)
-        out[name] = roc_auc(sign * values, labels) if len(values) else math.nan
+        out[name] = auc_with_interval(sign * values, labels)
     return out
 
 
@@ -187,3 +255,17 @@ def format_rate(rate: Rate) -> str:
     if rate.trials == 0:
         return "-"
     return f"{rate.success_rate:.2f} [{rate.ci_low:.2f}, {rate.ci_high:.2f}]"
+
+
+def format_auc(estimate: AucEstimate) -> str:
+    """"0.81 [0.72, 0.89]", or "undefined (metric constant)"."""
+    if not estimate.defined:
+        return f"undefined ({estimate.undefined})"
+    return f"{estimate.auc:.2f} [{estimate.low:.2f}, {estimate.high:.2f}]"
+
+
+def format_planning_time(rate: Rate) -> str:
+    """"0.412 (5 calls)", or "-" when no planning call was timed."""
+    if not rate.planning_calls:
+        return "-"
+    return f"{rate.median_planning_time_s:.3f} ({rate.planning_calls} call{'s' * (rate.planning_calls != 1)})"

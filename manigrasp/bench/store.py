@@ -8,13 +8,16 @@ own transaction, so a kill -9 loses at most the trial that was running.
 from __future__ import annotations
 
 import math
+import os
 import sqlite3
 from collections.abc import Iterator
 from dataclasses import dataclass, fields
 from pathlib import Path
 
+from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import Status, TrialResult
 
+STORE_NAME = "results.sqlite"  # the store's file name in a run directory
 KEY_COLUMNS = ("trial_id", "object", "hand", "planner", "observation", "protocol", "grasp_index")
 
 
@@ -44,13 +47,22 @@ def _result_columns() -> list[tuple[str, str]]:
 class ResultsStore:
     """`results.sqlite` of a run directory."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, readonly: bool = False) -> None:
+        """Open (and create, unless `readonly`) the store at `path`.
+
+        Read-only opens an existing file without writing anything, also in a read-only directory;
+        a file that is not a results store raises `ConfigError`.
+        """
         self.path = Path(path)
+        self.readonly = readonly
+        self._columns = _result_columns()
+        if readonly:
+            self._db = _open_readonly(self.path)
+            return
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._db = sqlite3.connect(self.path, timeout=60.0)
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=FULL")
-        self._columns = _result_columns()
         cols = ", ".join(f"{n} {t}" for n, t in self._columns)
         self._db.execute(
             "CREATE TABLE IF NOT EXISTS trials (trial_id TEXT PRIMARY KEY, object TEXT, hand TEXT, planner TEXT, "
@@ -89,22 +101,42 @@ class ResultsStore:
 
     def rows(self) -> Iterator[dict[str, object]]:
         """Every stored trial as a flat dict (key columns + `TrialResult.flat()` columns)."""
-        cursor = self._db.execute("SELECT * FROM trials ORDER BY trial_id")
-        names = [d[0] for d in cursor.description]
-        for row in cursor:
-            yield {n: _py_value(v, n) for n, v in zip(names, row, strict=True)}
+        try:
+            cursor = self._db.execute("SELECT * FROM trials ORDER BY trial_id")
+            names = [d[0] for d in cursor.description]
+            for row in cursor:
+                yield {n: _py_value(v, n) for n, v in zip(names, row, strict=True)}
+        except sqlite3.DatabaseError as exc:
+            raise ConfigError(f"{self.path} is not a readable manigrasp results store ({exc})") from exc
 
     def results(self) -> Iterator[tuple[TrialKey, TrialResult]]:
-        """Every stored trial as (key, result)."""
+        """Every stored trial as (key, result); `ConfigError` on a row that is not a trial."""
         key_fields = [f.name for f in fields(TrialKey)]
         for row in self.rows():
-            key = TrialKey(**{k: row[k] for k in key_fields})  # type: ignore[arg-type]
-            rest = {k: v for k, v in row.items() if k not in KEY_COLUMNS}
-            yield key, TrialResult.from_flat(rest)
+            try:
+                key = TrialKey(**{k: row[k] for k in key_fields})  # type: ignore[arg-type]
+                rest = {k: v for k, v in row.items() if k not in KEY_COLUMNS}
+                yield key, TrialResult.from_flat(rest)
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ConfigError(f"{self.path}: trial {row.get('trial_id')!r} is not a valid row ({exc})") from exc
 
     def count(self) -> int:
         """Number of stored trials."""
         return int(self._db.execute("SELECT COUNT(*) FROM trials").fetchone()[0])
+
+
+def _open_readonly(path: Path) -> sqlite3.Connection:
+    """A read-only connection to an existing store (``immutable`` when its folder cannot be written,
+    where SQLite could not create the WAL index: nothing else can be writing there)."""
+    if not path.is_file():
+        raise ConfigError(f"no results store at {path}")
+    flags = "mode=ro" if os.access(path.parent, os.W_OK) else "immutable=1"
+    try:
+        db = sqlite3.connect(f"{path.resolve().as_uri()}?{flags}", uri=True, timeout=60.0)
+        db.execute("SELECT COUNT(*) FROM trials").fetchone()
+    except sqlite3.DatabaseError as exc:
+        raise ConfigError(f"{path} is not a readable manigrasp results store ({exc})") from exc
+    return db
 
 
 def _sql_value(value: object) -> object:

@@ -1,9 +1,10 @@
-"""`manigrasp report | compare`: summarise a stored run, gate it on a baseline."""
+"""`manigrasp report | compare | export`: summarise a stored run, gate it on a baseline, export its table."""
 
 from __future__ import annotations
 
 import argparse
-import json
+import os
+import sys
 from pathlib import Path
 
 from manigrasp.cli.output import format_table, print_json
@@ -11,63 +12,101 @@ from manigrasp.errors import ConfigError
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
-    """Register `report` and `compare`."""
-    p = subparsers.add_parser("report", help="summarise a run: success rates, failure modes, plots, report.md")
+    """Register `report`, `compare` and `export`."""
+    p = subparsers.add_parser(
+        "report", help="summarise a run: success rates per hand x planner, failure modes, metric AUCs, report.md",
+        description="Print the run's rates per hand x planner and per object (95 %% Wilson intervals), failure "
+                    "modes, planning time and each metric's AUC for success per hand x planner (95 %% bootstrap "
+                    "interval), and write report.md with PNG plots. Reads the run without changing it.")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
-    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--json", action="store_true",
+                   help="print the summary and the run's config and versions as JSON, and write nothing "
+                        "(the format of a baseline: `manigrasp report RUN_DIR --json > baseline.json`)")
+    p.add_argument("--out", type=Path, metavar="DIR", help="write report.md and the plots here (default RUN_DIR)")
     p.set_defaults(func=_report)
 
     p = subparsers.add_parser(
         "compare", help="exit 1 if a success rate is significantly lower than a baseline's",
-        description="One-sided two-proportion z-tests, overall and per group (Holm-corrected across groups).")
+        description="One-sided two-proportion z-tests per hand x planner x observation x object group present in "
+                    "both (Holm-corrected across groups), and over those groups pooled. Groups found on one side "
+                    "only are listed. Exit 0: no significant regression; 1: a regression; 2: cannot judge "
+                    "(different protocol, hand, object or physics parameters, no common trials, a malformed "
+                    "baseline, alpha outside (0, 1)).")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
-    p.add_argument("baseline", type=Path, metavar="BASELINE", help="a baseline run directory or report JSON file")
-    p.add_argument("--alpha", type=float, default=0.05, help="significance level (default 0.05)")
+    p.add_argument("baseline", type=Path, metavar="BASELINE",
+                   help="a baseline run directory or JSON file (`manigrasp report RUN_DIR --json > FILE`)")
+    p.add_argument("--alpha", type=float, default=0.05, help="significance level in (0, 1) (default 0.05)")
     p.set_defaults(func=_compare)
 
-
-def _load_report(path: Path):
-    from manigrasp.bench.report import load_results, report_from_json, summarize
-
-    if path.is_file():
-        return report_from_json(json.loads(path.read_text()))
-    if not (path / "results.sqlite").is_file():
-        raise ConfigError(f"{path} is neither a run directory nor a report JSON file")
-    return summarize(load_results(path))
+    p = subparsers.add_parser(
+        "export", help="export a run's results table (one row per trial) as CSV or Parquet",
+        description="Write RUN_DIR's trials as a table: key columns, a boolean success, the executed grasp's pose "
+                    "in the world (position + wxyz quaternion), jaw width or pre-shape, metrics, timings; units "
+                    "in column names. Parquet needs the parquet extra (pyarrow).")
+    p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
+    p.add_argument("--format", choices=("csv", "parquet"), default="csv", help="file format (default csv)")
+    p.add_argument("--out", type=Path, metavar="FILE", help="output file (default RUN_DIR/results.FORMAT)")
+    p.set_defaults(func=_export)
 
 
 def _report(args: argparse.Namespace) -> int:
-    return print_report(args.run_dir, as_json=args.json)
+    return print_report(args.run_dir, as_json=args.json, out_dir=args.out)
 
 
-def print_report(run_dir: Path, as_json: bool) -> int:
-    """Summarise the run in `run_dir`: write report.md and plots, print the tables (or JSON)."""
-    from manigrasp.bench.markdown import write_markdown
-    from manigrasp.bench.report import format_rate, load_results, summarize
+def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> int:
+    """Summarise the run in `run_dir`: print the tables and write report.md and plots (or print JSON only).
+
+    report.md goes to `out_dir` (default `run_dir`); a read-only run directory is read, and its report
+    not written unless `out_dir` is given.
+    """
+    from manigrasp.bench.report import load_results, summarize
     from manigrasp.bench.rundir import load_meta
 
     meta = load_meta(run_dir)
     results = load_results(run_dir)
     report = summarize(results)
-    markdown = write_markdown(report, results, run_dir, meta)
     if as_json:
-        print_json(report.to_json())
+        run = {k: meta.get(k) for k in ("config", "seed", "versions", "git_commit", "started")}
+        print_json({"run": run, **report.to_json()})
         return 0
+    _print_tables(report)
+    target = Path(out_dir) if out_dir is not None else Path(run_dir)
+    if out_dir is None and not os.access(target, os.W_OK):
+        print(f"manigrasp: note: {run_dir} is read-only: report.md and plots not written (give --out DIR)",
+              file=sys.stderr)
+        return 0
+    from manigrasp.bench.markdown import write_markdown
+
+    target.mkdir(parents=True, exist_ok=True)
+    print(f"report: {write_markdown(report, results, target, meta)}")
+    return 0
+
+
+def _print_tables(report) -> None:
+    from manigrasp.bench.markdown import auc_rows, lead_lines, pooled_line
+    from manigrasp.bench.report import format_planning_time, format_rate
+
     rows = [[h, p, o, obj, r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes)]
             for (h, p, o, obj), r in report.groups.items()]
-    rows += [[h, p, o, "ALL", r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes)]
-             for (h, p, o), r in report.by_method.items()]
     print(format_table(["hand", "planner", "observation", "object", "trials", "successes", "rate [95% CI]",
                         "top failure modes"], rows))
+    print()
+    print(format_table(["hand", "planner", "observation", "trials", "successes", "rate [95% CI]",
+                        "top failure modes", "median planning_time_s (calls)"],
+                       [[h, p, o, r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes),
+                         format_planning_time(r)] for (h, p, o), r in report.by_method.items()]))
     for (h, p, o), e in report.pose_errors.items():
         print(f"pose errors {h}/{p}/{o}: rotation median {e.median_rotation_deg:.1f} deg "
               f"(p90 {e.p90_rotation_deg:.1f}), translation median {e.median_translation_mm:.1f} mm "
               f"(p90 {e.p90_translation_mm:.1f}), {e.share_within_5deg_1cm:.0%} of {e.objects} objects "
               "with ADD-S < 5 mm and translation < 1 cm")
-    print(f"\noverall: {report.overall.successes}/{report.overall.trials} = {format_rate(report.overall)}")
-    print("metric AUC for success: " + ", ".join(f"{k} {v:.2f}" for k, v in report.auc.items()))
-    print(f"report: {markdown}")
-    return 0
+    print("\nEach metric's ROC AUC for success [95% bootstrap CI]; n: simulated trials with a value (successes)")
+    print(format_table(["hand", "planner", "observation", "metric", "n (successes)", "AUC [95% CI]"],
+                       auc_rows(report)))
+    print()
+    for line in lead_lines(report):
+        print(line)
+    print(pooled_line(report))
 
 
 def _top_modes(modes: dict[str, int]) -> str:
@@ -76,14 +115,43 @@ def _top_modes(modes: dict[str, int]) -> str:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from manigrasp.bench.compare import compare
+    from manigrasp.bench.compare import compare_sides, load_side
     from manigrasp.bench.report import format_rate
 
-    rows = compare(_load_report(args.run_dir), _load_report(args.baseline), args.alpha)
+    if not args.baseline.exists():
+        raise ConfigError(f"no baseline {args.baseline}")
+    verdict = compare_sides(load_side(args.run_dir), load_side(args.baseline), args.alpha)
     print(format_table(
         ["group", "new", "baseline", "difference", "p (adjusted)", "verdict"],
-        [[c.group, format_rate(c.new), format_rate(c.base), f"{c.test.difference:+.3f}", f"{c.adjusted_p:.3g}",
-          "REGRESSION" if c.regression else "ok"] for c in rows]))
-    regressions = [c for c in rows if c.regression]
-    print(f"\n{len(regressions)} significant regression(s) at alpha = {args.alpha}")
-    return 1 if regressions else 0
+        [[c.group, f"{c.new.successes}/{c.new.trials} = {format_rate(c.new)}",
+          f"{c.base.successes}/{c.base.trials} = {format_rate(c.base)}", f"{c.test.difference:+.3f}",
+          f"{c.adjusted_p:.3g}", "REGRESSION" if c.regression else "ok"] for c in verdict.comparisons]))
+    for groups, where in ((verdict.only_new, "in the run only (not compared)"),
+                          (verdict.only_base, "in the baseline only (not compared)")):
+        if groups:
+            print(f"\n{len(groups)} group(s) {where}: " + ", ".join("/".join(g) for g in groups))
+    for note in verdict.notes:
+        print(f"note: {note}")
+    compared = len(verdict.comparisons) - 1
+    print(f"\n{len(verdict.regressions)} significant regression(s) at alpha = {args.alpha} "
+          f"over {compared} group(s) in both")
+    return 1 if verdict.regressions else 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from manigrasp.bench.export import export
+    from manigrasp.bench.rundir import load_meta
+    from manigrasp.bench.store import STORE_NAME, ResultsStore
+
+    load_meta(args.run_dir)
+    if not (args.run_dir / STORE_NAME).is_file():
+        raise ConfigError(f"{args.run_dir} holds no {STORE_NAME}: nothing to export")
+    out = args.out or args.run_dir / f"results.{args.format}"
+    if out.suffix != f".{args.format}":
+        raise ConfigError(f"--out {out} does not end in .{args.format}")
+    if not out.parent.is_dir() or not os.access(out.parent, os.W_OK):
+        raise ConfigError(f"cannot write {out}: {out.parent} is not a writable folder (give --out FILE)")
+    with ResultsStore(args.run_dir / STORE_NAME, readonly=True) as store:
+        written = export(store.rows(), out)
+    print(f"exported {written}")
+    return 0

@@ -1,0 +1,150 @@
+"""The regression gate: flags real drops, names what it does not compare, refuses what it cannot judge."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from pathlib import Path
+
+import pytest
+from test_bench_report import _results, make_run
+
+from manigrasp.bench.compare import POOLED_GROUP, compare, load_side
+from manigrasp.bench.report import summarize
+from manigrasp.cli import main
+from manigrasp.errors import ConfigError
+
+BASELINE = Path(__file__).resolve().parents[1] / "benchmarks" / "baselines" / "quick.json"
+
+
+def test_compare_flags_a_drop_and_passes_equal_rates():
+    base = summarize(_results({("025_mug", "antipodal"): 18, ("048_hammer", "antipodal"): 17}, n=40))
+    same = summarize(_results({("025_mug", "antipodal"): 18, ("048_hammer", "antipodal"): 16}, n=40))
+    worse = summarize(_results({("025_mug", "antipodal"): 5, ("048_hammer", "antipodal"): 17}, n=40))
+    assert not compare(same, base).regressions
+    flagged = {c.group for c in compare(worse, base).regressions}
+    assert flagged == {POOLED_GROUP, "parallel_jaw/antipodal/ground_truth/025_mug"}
+
+
+def test_only_groups_in_both_are_compared_and_the_others_are_named():
+    """A one-object run against a two-object baseline: the pooled line covers the mug only, the hammer is listed.
+    Before, 'overall' pooled the baseline's hammer too, and the missing object went unnamed."""
+    base = summarize(_results({("025_mug", "antipodal"): 18, ("048_hammer", "antipodal"): 2}))
+    new = summarize(_results({("025_mug", "antipodal"): 18, ("011_banana", "antipodal"): 20}))
+    verdict = compare(new, base)
+    pooled = verdict.comparisons[0]
+    assert pooled.group == POOLED_GROUP and (pooled.new.trials, pooled.base.trials) == (20, 20)
+    assert pooled.new.successes == pooled.base.successes == 18
+    assert verdict.only_base == [("parallel_jaw", "antipodal", "ground_truth", "048_hammer")]
+    assert verdict.only_new == [("parallel_jaw", "antipodal", "ground_truth", "011_banana")]
+    assert [c.group for c in verdict.comparisons[1:]] == ["parallel_jaw/antipodal/ground_truth/025_mug"]
+
+
+def test_a_run_with_zero_trials_or_no_common_group_cannot_pass():
+    base = summarize(_results({("025_mug", "antipodal"): 18}))
+    with pytest.raises(ConfigError, match="no trials"):
+        compare(summarize([]), base)
+    with pytest.raises(ConfigError, match="no hand/planner/observation/object group is in both.*048_hammer"):
+        compare(summarize(_results({("048_hammer", "antipodal"): 18})), base)
+
+
+@pytest.mark.parametrize("alpha", [-1.0, 0.0, 1.0, 1.5, math.nan, math.inf])
+def test_alpha_outside_zero_one_is_refused(alpha):
+    report = summarize(_results({("025_mug", "antipodal"): 18}))
+    with pytest.raises(ConfigError, match="alpha must be"):
+        compare(report, report, alpha)
+
+
+@pytest.fixture
+def run_and_payload(tmp_path, capsys):
+    run = make_run(tmp_path / "run", _results({("025_mug", "antipodal"): 18, ("048_hammer", "antipodal"): 10}))
+    assert main(["report", str(run), "--json"]) == 0
+    return run, json.loads(capsys.readouterr().out)
+
+
+def _gate(tmp_path, run, payload, *extra) -> int:
+    path = tmp_path / "baseline.json"
+    path.write_text(payload if isinstance(payload, str) else json.dumps(payload))
+    return main(["compare", str(run), str(path), *extra])
+
+
+def test_compare_cli_passes_itself_flags_a_drop_and_lists_missing_groups(tmp_path, capsys, run_and_payload):
+    run, payload = run_and_payload
+    assert _gate(tmp_path, run, payload) == 0
+    worse = copy.deepcopy(payload)
+    worse["groups"] = [dict(g, successes=g["trials"]) for g in payload["groups"]]
+    assert _gate(tmp_path, run, worse) == 1
+    assert "REGRESSION" in capsys.readouterr().out
+    more = copy.deepcopy(payload)
+    more["groups"].append(dict(payload["groups"][0], object="011_banana"))
+    assert _gate(tmp_path, run, more) == 0
+    out = capsys.readouterr().out
+    assert "1 group(s) in the baseline only (not compared): parallel_jaw/antipodal/ground_truth/011_banana" in out
+
+
+@pytest.mark.parametrize("broken, message", [
+    (lambda p: p["groups"][0].update(successes=25), "25 successes of 20 trials"),
+    (lambda p: p["groups"][0].update(trials=None), "18 successes of nan trials"),
+    (lambda p: p["groups"][0].update(trials=-3, successes=-5), "not counts"),
+    (lambda p: p["groups"][0].update(trials=20.5), "not counts"),
+    (lambda p: p.pop("groups"), "not a valid report"),
+    (lambda p: p["groups"][0].pop("hand"), "not a valid report"),
+    (lambda p: p.pop("run"), "records no config"),
+    (lambda p: p["run"]["config"]["protocol"].update(name="lift"), "different protocol"),
+    (lambda p: p["run"]["config"]["protocol"]["params"].update(perturb_force_factor=2.0), "different protocol"),
+    (lambda p: p["run"]["config"]["scene"].update(timestep=0.001), "different scene"),
+    (lambda p: p["run"]["config"].update(hands=[{"name": "parallel_jaw", "params": {"max_width": 0.1}}]),
+     "different hand 'parallel_jaw'"),
+])
+def test_compare_cli_refuses_a_baseline_it_cannot_judge(tmp_path, capsys, run_and_payload, broken, message):
+    run, payload = run_and_payload
+    broken(payload)
+    assert _gate(tmp_path, run, payload) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+def test_compare_cli_refuses_nan_trials_written_as_json_nan(tmp_path, capsys, run_and_payload):
+    run, payload = run_and_payload
+    text = json.dumps(payload).replace('"trials": 20', '"trials": NaN', 1)
+    assert _gate(tmp_path, run, text) == 2
+    assert "not counts" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("garbage", ["{not json", "[1, 2]", "\udcff", ""])
+def test_compare_cli_on_a_malformed_baseline_is_exit_2_not_a_traceback(tmp_path, capsys, run_and_payload, garbage):
+    run, _ = run_and_payload
+    path = tmp_path / "baseline.json"
+    path.write_bytes(garbage.encode("utf-8", "surrogateescape"))
+    assert main(["compare", str(run), str(path)]) == 2
+    assert "baseline" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("alpha", ["-1", "nan", "0"])
+def test_compare_cli_alpha_is_checked(tmp_path, capsys, run_and_payload, alpha):
+    run, payload = run_and_payload
+    assert _gate(tmp_path, run, payload, "--alpha", alpha) == 2
+    assert "alpha must be a number strictly between 0 and 1" in capsys.readouterr().err
+
+
+def test_compare_cli_on_an_empty_run_is_exit_2(tmp_path, capsys, run_and_payload):
+    _, payload = run_and_payload
+    empty = make_run(tmp_path / "empty", [])
+    assert _gate(tmp_path, empty, payload) == 2
+    assert "the new run has no trials" in capsys.readouterr().err
+
+
+def test_version_differences_are_noted_not_refused(tmp_path, capsys, run_and_payload):
+    run, payload = run_and_payload
+    payload["run"]["versions"]["mujoco"] = "3.3.0"
+    assert _gate(tmp_path, run, payload) == 0
+    assert "note: mujoco 4.0.0 here vs 3.3.0 in the baseline" in capsys.readouterr().out
+
+
+def test_the_committed_baseline_is_valid_records_its_config_and_passes_against_itself():
+    side = load_side(BASELINE)
+    config = side.meta["config"]
+    assert config["name"] == "quick" and {"protocol", "scene", "hands", "objects"} <= set(config)
+    assert side.meta["versions"]["mujoco"] and len(side.report.groups) == 10
+    assert main(["compare", str(BASELINE), str(BASELINE)]) == 0

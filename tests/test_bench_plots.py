@@ -1,0 +1,131 @@
+"""The report's plots: fixed outcome colours, intervals and counts shown, no empty axes."""
+
+from __future__ import annotations
+
+import colorsys
+from dataclasses import replace
+
+import matplotlib.colors as mcolors
+import numpy as np
+import pytest
+from matplotlib.container import BarContainer, ErrorbarContainer
+
+from manigrasp.bench import plots
+from manigrasp.bench.report import summarize
+from manigrasp.bench.store import TrialKey
+from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The figures the plot functions draw, kept open instead of saved."""
+    kept = []
+    monkeypatch.setattr(plots, "_save", lambda fig, path: kept.append(fig) or path)
+    yield kept
+    import matplotlib.pyplot as plt
+
+    for fig in kept:
+        plt.close(fig)
+
+
+def _hue(colour: str) -> float:
+    r, g, b = mcolors.to_rgb(colour)
+    return 360 * colorsys.rgb_to_hsv(r, g, b)[0]
+
+
+def _trials(planner: str, outcomes: dict[str, int], objects=("025_mug",)) -> list[tuple[TrialKey, TrialResult]]:
+    out = []
+    for obj in objects:
+        i = 0
+        for mode, count in outcomes.items():
+            dropped = mode.startswith("dropped_perturb")
+            status = Status.DROPPED_PERTURB if dropped else Status(mode)
+            detail = mode[len("dropped_perturb"):] if dropped else ""  # the direction, "+x"
+            for _ in range(count):
+                r = TrialResult(status, detail=detail, planned=GraspMetrics(2, 1.0, 0.01 * i, 0.3), score=1.0,
+                                plan_time_s=0.5 + 0.1 * objects.index(obj))
+                out.append((TrialKey(obj, "parallel_jaw", planner, "ground_truth", "standard", i), r))
+                i += 1
+    return out
+
+
+def test_every_status_has_its_own_fixed_colour_and_success_is_the_only_green():
+    for status in Status:
+        assert status.value in plots.STATUS_COLOURS, f"no colour for {status.value}"
+    failures = {m: c for m, c in plots.STATUS_COLOURS.items() if m != "success"}
+    success = plots.STATUS_COLOURS["success"]
+    assert success not in failures.values()
+    for mode, colour in failures.items():  # no failure in the greens (hue 75..165 degrees) unless grey
+        r, g, b = mcolors.to_rgb(colour)
+        saturated = colorsys.rgb_to_hsv(r, g, b)[1] > 0.15
+        assert not (saturated and 75 <= _hue(colour) <= 165), f"{mode} is drawn in a green"
+    assert len(set(plots.STATUS_COLOURS.values())) == len(plots.STATUS_COLOURS)
+
+
+def test_the_six_perturbation_directions_are_one_hue_family_apart_from_other_failures():
+    dropped = [plots.status_colour(f"dropped_perturb{d}") for d in plots.DROPPED_DIRECTIONS]
+    hues = [_hue(c) for c in dropped]
+    assert max(hues) - min(hues) < 40 and len(set(dropped)) == 6
+    others = [c for m, c in plots.STATUS_COLOURS.items() if not m.startswith("dropped_perturb")]
+    family = (min(hues), max(hues))
+    for colour in others:
+        r, g, b = mcolors.to_rgb(colour)
+        if colorsys.rgb_to_hsv(r, g, b)[1] > 0.15:
+            assert not family[0] - 15 <= _hue(colour) <= family[1] + 15, colour
+    assert plots.status_colour("dropped_perturb (odd)") == plots.STATUS_COLOURS["dropped_perturb"]
+
+
+def _segment_colours(fig) -> dict[str, tuple]:
+    ax = fig.axes[0]
+    return {c.get_label(): c.patches[0].get_facecolor() for c in ax.containers if isinstance(c, BarContainer)}
+
+
+def test_failure_modes_colours_are_the_same_in_every_run(figures, tmp_path):
+    """The old plot coloured by position in the sorted list: 'dropped_perturb-z' was green in one run."""
+    one = summarize(_trials("random", {"success": 11, "dropped_perturb-z": 4, "no_contact": 40}))
+    two = summarize(_trials("antipodal", {"success": 80, "dropped_perturb+x": 3, "dropped_perturb-z": 2,
+                                          "slipped_lift": 9, "pregrasp_collision": 6}))
+    plots.failure_modes(one, tmp_path / "a.png")
+    plots.failure_modes(two, tmp_path / "b.png")
+    first, second = (_segment_colours(f) for f in figures)
+    assert first["dropped_perturb-z"] == second["dropped_perturb-z"]
+    assert first["success"] == second["success"] == mcolors.to_rgba(plots.STATUS_COLOURS["success"])
+    assert first["dropped_perturb-z"] != first["success"] != first["no_contact"]
+    # The success segment is 11 % wide, not 11 % plus the perturbation failures.
+    bars = next(c for c in figures[0].axes[0].containers if c.get_label() == "success")
+    assert bars.patches[0].get_width() == pytest.approx(11 / 55)
+
+
+def test_success_by_object_shows_n_per_bar(figures, tmp_path):
+    report = summarize(_trials("antipodal", {"success": 18, "no_contact": 2}, objects=("025_mug", "048_hammer"))
+                       + _trials("random", {"success": 3, "no_contact": 17}, objects=("025_mug",)))
+    plots.success_by_object(report, tmp_path / "s.png")
+    texts = [t.get_text() for t in figures[0].axes[0].texts]
+    assert sorted(texts) == ["18/20", "18/20", "3/20"]  # random has no bar (and no label) for the hammer
+
+
+def test_metric_auc_has_intervals_per_planner(figures, tmp_path):
+    results = _trials("antipodal", {"success": 10, "slipped_lift": 10}) + _trials("random", {"success": 5,
+                                                                                             "no_contact": 15})
+    plots.metric_auc(summarize(results), tmp_path / "m.png")
+    ax = figures[0].axes[0]
+    assert len([c for c in ax.containers if isinstance(c, ErrorbarContainer)]) == 2
+    assert {"parallel_jaw / antipodal", "parallel_jaw / random"} <= {t.get_text() for t in ax.get_legend().texts}
+    assert any("undefined: metric constant" in t.get_text() for t in ax.texts)  # force closure is 1 everywhere
+
+
+def test_metric_auc_without_any_defined_auc_draws_a_message_not_empty_axes(figures, tmp_path):
+    plots.metric_auc(summarize(_trials("antipodal", {"success": 5})), tmp_path / "m.png")
+    (ax,) = figures[0].axes
+    assert not ax.axison and not ax.patches
+    assert "No metric AUC is defined" in ax.texts[0].get_text()
+
+
+def test_planning_time_plots_one_point_per_planning_call(figures, tmp_path):
+    results = _trials("antipodal", {"success": 20}, objects=("025_mug", "048_hammer", "011_banana"))
+    results = [(k, replace(r, planning_time_s=r.plan_time_s / 20)) for k, r in results]
+    plots.planning_times(results, tmp_path / "p.png")
+    ax = figures[0].axes[0]
+    points = np.concatenate([line.get_xdata() for line in ax.lines if line.get_marker() == "o"])
+    assert sorted(points) == pytest.approx([0.5, 0.6, 0.7])  # 3 calls, not 60 trials
+    assert "3 calls" in ax.get_yticklabels()[0].get_text()
