@@ -225,6 +225,11 @@ def test_a_pose_just_off_a_rotation_is_invalid_grasp_not_an_exception(tmp_path):
     assert check_grasp(Grasp(pose)) is None
     result = PROTOCOLS.load("lift").run(scene, pose, np.random.default_rng(0), object_pose=rest)
     assert result.status is Status.INVALID_GRASP and "rotation" in result.detail
+    from types import SimpleNamespace
+
+    odd = SimpleNamespace(pose=np.diag([1.0, -1.0, -1.0, 1.0]), preshape="abc")
+    result = PROTOCOLS.load("lift").run(scene, odd, np.random.default_rng(0), object_pose=rest)
+    assert result.status is Status.INVALID_GRASP and "cannot be read" in result.detail
 
 
 def test_config_code_of_the_wrong_kind_is_refused_before_it_is_called(tmp_path, monkeypatch):

@@ -212,7 +212,8 @@ def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None, 
     try:
         import ray
     except ImportError as exc:
-        raise ConfigError("the ray executor needs the optional extra: pip install 'manigrasp[ray]'") from exc
+        raise ConfigError("the ray executor needs the optional `ray` extra: in the manigrasp clone run "
+                          "`make setup EXTRAS=dev,ray` (or `pip install -e '.[ray]'`)") from exc
     if not ray.is_initialized():
         ray.init(address=address, num_cpus=None if address else jobs, include_dashboard=False,
                  log_to_driver=False, ignore_reinit_error=True)

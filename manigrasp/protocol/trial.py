@@ -36,7 +36,11 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     first phase), then the phases and samples, and `on_end` with the result.
     """
     start = time.perf_counter()
-    grasp = as_grasp(grasp)
+    try:
+        grasp = as_grasp(grasp)
+    except (TypeError, ValueError) as exc:  # a grasp whose fields are not numbers: the trial's input fault
+        return TrialResult(Status.INVALID_GRASP, detail=f"grasp cannot be read: {exc}"[:500],
+                           wall_time_s=time.perf_counter() - start, seed=seed)
     if observer is not None:
         dropped = scene.object_rest_pose() if object_pose is None else np.asarray(object_pose, float)
         observer.on_start(scene, grasp, dropped)
