@@ -181,14 +181,11 @@ def _sugar_box_grasps(tmp_path: Path) -> Path:
 
 
 def test_native_grasps_on_a_box_succeed_or_fail_as_placed(tmp_path):
-    from manigrasp.bench.config import parse_config
-    from manigrasp.bench.runner import run_benchmark
     from manigrasp.bench.store import ResultsStore
+    from manigrasp.cli import main
 
-    path = _sugar_box_grasps(tmp_path)
-    config = parse_config({"objects": ["004_sugar_box"], "planners": [{"name": "file", "params": {"path": str(path)}}],
-                           "grasps_per_object": 3, "protocol": "lift"})
-    run_benchmark(config, tmp_path / "run", progress=False)
+    path = _sugar_box_grasps(tmp_path)  # the file names its object and hand: `evaluate` needs no more
+    assert main(["evaluate", str(path), "--out", str(tmp_path / "run"), "--protocol", "lift", "--quiet"]) == 0
     with ResultsStore(tmp_path / "run" / "results.sqlite") as store:
         results = [r for _, r in sorted(store.results(), key=lambda kr: kr[0].grasp_index)]
     assert [r.status for r in results] == [Status.SUCCESS, Status.NO_CONTACT, Status.INVALID_GRASP]
