@@ -13,8 +13,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "replay", help="re-simulate one trial of a run (or a `label` dataset) and report its status",
         description="Rebuild TRIAL_ID's scene from RUN_DIR/run.json, settle the object, execute the stored grasp "
                     "(TCP pose, width, pre-shape) with the trial's seed under the run's protocol, and compare the "
-                    "status with the stored one. Exit 0 if they agree, 1 if not. Trial ids are printed by "
-                    "`manigrasp report` and stored in results.sqlite (object/hand/planner/observation/protocol/NNNN).")
+                    "status with the stored one. Exit 0 if they agree, 1 if not. A trial id is "
+                    "object/hand/planner/observation/protocol/NNNN (NNNN: the grasp's rank), as in results.sqlite's "
+                    "trial_id column and a `label` dataset's trial_id labels.")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
     p.add_argument("trial_id", metavar="TRIAL_ID")
     p.add_argument("--record", type=Path, metavar="FILE.rrd", help="write a rerun recording of the replay")
