@@ -205,3 +205,19 @@ def test_a_grasp_set_for_another_hand_is_invalid_unless_transferred(tmp_path):
     assert len(refused) == 3 and all("made for hand 'parallel_jaw'" in c.invalid for c in refused)
     moved = plan(FilePlanner(str(path), transfer=True), observation, panda, 3, np.random.default_rng(0)).candidates
     assert [bool(c.invalid) for c in moved] == [False, False, True]
+
+
+def test_acronym_write_then_read_keeps_poses_and_labels(tmp_path):
+    from manigrasp.graspsets import GraspSet, ObjectRef
+
+    poses = np.stack([TOP_DOWN, _rot_z(30.0)])
+    grasps = GraspSet(poses, np.array([0.03, np.nan]), np.zeros(2), np.array([2.0, 1.0]), frame="mesh",
+                      object=ObjectRef(mesh="m.obj", scale=0.5, mass=0.3),
+                      labels={"status": np.array(["success", "dropped_perturb: 15° about +x"]),
+                              "grip_force_n": np.array([20.0, np.nan])})
+    back = read(acronym.write(grasps, tmp_path / "set.h5"))
+    np.testing.assert_allclose(back.poses, poses, atol=1e-12)
+    np.testing.assert_array_equal(back.widths, grasps.widths)
+    np.testing.assert_array_equal(back.scores, grasps.scores)
+    assert list(back.labels["manigrasp/status"]) == list(grasps.labels["status"])
+    assert back.object == ObjectRef(name="m", mesh="m.obj", scale=0.5, mass=0.3)

@@ -122,10 +122,16 @@ def _qualities(handle: Any, n: int, path: Path) -> dict[str, np.ndarray]:
             if value.shape[:1] != (n,):
                 raise GraspFileError(f"{path}: 'grasps/qualities/{name}' must have one value per grasp ({n}), "
                                      f"got shape {value.shape}")
-            out[name] = value.astype(str) if value.dtype.kind in "SO" else value
+            out[name] = _text(value) if value.dtype.kind in "SO" else value
 
     handle["grasps/qualities"].visititems(visit)
     return out
+
+
+def _text(value: np.ndarray) -> np.ndarray:
+    """Strings stored as bytes (fixed or variable length) as a str array."""
+    return np.array([v.decode("utf-8") if isinstance(v, bytes) else str(v) for v in value.ravel()]).reshape(
+        value.shape)
 
 
 def write(grasps: GraspSet, path: str | Path) -> Path:
@@ -143,7 +149,11 @@ def write(grasps: GraspSet, path: str | Path) -> Path:
         for key, value in grasps.labels.items():
             value = np.asarray(value)
             name = key if "/" in key else f"manigrasp/{key}"
-            handle[f"grasps/qualities/{name}"] = value.astype("S") if value.dtype.kind == "U" else value
+            if value.dtype.kind == "U":  # UTF-8 variable-length strings (a detail may hold any character)
+                handle.create_dataset(f"grasps/qualities/{name}", data=value.astype(object),
+                                      dtype=h5py.string_dtype())
+            else:
+                handle[f"grasps/qualities/{name}"] = value
         handle["object/file"] = str(grasps.object.mesh)
         handle["object/scale"] = float(grasps.object.scale)
         if grasps.object.mass is not None:
