@@ -111,12 +111,11 @@ def check_comparable(new: Side, base: Side) -> list[str]:
             raise ConfigError(f"{side.source} records no config, so it cannot be checked as comparable; "
                               "write a baseline with `manigrasp report RUN_DIR --json > FILE`")
     new_config, base_config = configs
-    differ = [f"{key} ({_short(new_config.get(key))} vs baseline {_short(base_config.get(key))})"
-              for key in _SAME if new_config.get(key) != base_config.get(key)]
+    differ = [d for key in _SAME for d in _differences(new_config.get(key), base_config.get(key), key)]
     for key in ("hands", "objects"):
         ours, theirs = _entries(new_config.get(key)), _entries(base_config.get(key))
-        differ += [f"{key[:-1]} {name!r} ({_short(ours[name])} vs baseline {_short(theirs[name])})"
-                   for name in sorted(ours.keys() & theirs.keys()) if ours[name] != theirs[name]]
+        for name in sorted(ours.keys() & theirs.keys()):
+            differ += _differences(ours[name], theirs[name], f"{key[:-1]} {name!r}")
     if differ:
         raise ConfigError(f"{new.source} and {base.source} are not comparable: different " + "; ".join(differ))
     versions = [side.meta.get("versions") or {} for side in (new, base)]
@@ -133,7 +132,22 @@ def _entries(value: object) -> dict[str, object]:
     return out
 
 
-def _short(value: object, limit: int = 120) -> str:
+def _differences(new: object, base: object, where: str) -> list[str]:
+    """Each leaf where `new` and `base` differ: "scene.timestep (0.001 vs baseline 0.002)"."""
+    if new == base:
+        return []
+    if isinstance(new, dict) and isinstance(base, dict):
+        return [d for key in sorted(new.keys() | base.keys(), key=str)
+                for d in _differences(new.get(key, _ABSENT), base.get(key, _ABSENT), f"{where}.{key}")]
+    return [f"{where} ({_short(new)} vs baseline {_short(base)})"]
+
+
+_ABSENT = object()  # a key on one side only
+
+
+def _short(value: object, limit: int = 80) -> str:
+    if value is _ABSENT:
+        return "absent"
     text = json.dumps(value, sort_keys=True, default=str)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
