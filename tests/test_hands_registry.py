@@ -18,6 +18,7 @@ KINDS = {
     "parallel_jaw": "parallel", "panda": "parallel", "robotiq_2f85": "parallel",
     "inspire_right": "dexterous", "inspire_left": "dexterous",
     "fourier_right": "dexterous", "fourier_left": "dexterous",
+    "allegro_right": "dexterous", "allegro_left": "dexterous",
 }
 PARALLEL = [name for name, kind in KINDS.items() if kind == "parallel"]
 LIST_KEYS = {"name", "kind", "actuated_dof", "tcp_site", "approach_axis", "closing_axis", "finger_bodies",
@@ -42,7 +43,7 @@ def test_hand_loads_validates_and_declares_names(name: str) -> None:
     assert hand.mass == pytest.approx(model.body_subtreemass[0], rel=1e-6)
     assert hand.open_ctrl.shape == hand.closed_ctrl.shape == (hand.n_actuators,)
     if hand.kind == "dexterous":
-        assert hand.n_actuators >= 3 and len(hand.finger_bodies) == 5
+        assert hand.n_actuators >= 3 and len(hand.finger_bodies) == (4 if name.startswith("allegro") else 5)
 
 
 def test_build_spec_is_fresh_each_call() -> None:

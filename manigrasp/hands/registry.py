@@ -20,6 +20,8 @@ _BUILTIN: dict[str, str] = {
     "inspire_left": "manigrasp.hands.robosuite_hands:make_inspire_left",
     "fourier_right": "manigrasp.hands.robosuite_hands:make_fourier_right",
     "fourier_left": "manigrasp.hands.robosuite_hands:make_fourier_left",
+    "allegro_right": "manigrasp.hands.allegro:make_allegro_right",  # the 'allegro' extra (example-robot-data)
+    "allegro_left": "manigrasp.hands.allegro:make_allegro_left",
 }
 
 
