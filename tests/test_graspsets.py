@@ -221,3 +221,18 @@ def test_acronym_write_then_read_keeps_poses_and_labels(tmp_path):
     np.testing.assert_array_equal(back.scores, grasps.scores)
     assert list(back.labels["manigrasp/status"]) == list(grasps.labels["status"])
     assert back.object == ObjectRef(name="m", mesh="m.obj", scale=0.5, mass=0.3)
+
+
+def test_a_directory_gives_the_one_file_of_the_object_and_hand(tmp_path):
+    from manigrasp.errors import PlannerError
+    from manigrasp.planners.file import grasp_file_for
+
+    for name in ("mug__parallel_jaw__antipodal.json", "mug__parallel_jaw__antipodal.h5", "box__panda.npz"):
+        (tmp_path / name).write_text("")
+    assert grasp_file_for(tmp_path, "mug", "parallel_jaw").name == "mug__parallel_jaw__antipodal.json"
+    assert grasp_file_for(tmp_path, "box", "panda").name == "box__panda.npz"
+    (tmp_path / "mug__parallel_jaw__random.json").write_text("")
+    with pytest.raises(PlannerError, match="2 grasp files .* match 'mug__parallel_jaw'"):
+        grasp_file_for(tmp_path, "mug", "parallel_jaw")
+    with pytest.raises(PlannerError, match="no grasp file for object 'can'"):
+        grasp_file_for(tmp_path, "can", "panda")

@@ -10,7 +10,8 @@ marked `invalid`: its trial is recorded as `invalid_grasp`, never dropped. The `
 score are returned (equal scores keep file order).
 
 `path` may be a directory: the file named ``<object>__<hand>*`` (or ``<object>.*``) with a grasp-file
-suffix is used, so one config can evaluate a whole dataset written by `manigrasp label`.
+suffix is used (the native one when a native and an ACRONYM file share a name), so one config can
+evaluate a whole dataset written by `manigrasp label`.
 """
 
 from __future__ import annotations
@@ -52,7 +53,11 @@ def grasp_file_for(path: str | Path, object_name: str | None, hand_name: str) ->
         return path
     if object_name is None:
         raise PlannerError(f"file planner: {path} is a directory, and the observation names no object")
-    files = sorted(p for p in path.iterdir() if p.suffix.lower() in SUFFIXES)
+    by_stem: dict[str, Path] = {}  # one file per stem: native before ACRONYM (`label` writes both)
+    for candidate in sorted(path.iterdir(), key=lambda p: (p.stem, _preference(p))):
+        if candidate.suffix.lower() in SUFFIXES:
+            by_stem.setdefault(candidate.stem, candidate)
+    files = sorted(by_stem.values())
     for stem in (f"{object_name}__{hand_name}", object_name):
         found = [p for p in files if p.stem == stem or p.stem.startswith(stem + "__")]
         if len(found) == 1:
@@ -62,6 +67,11 @@ def grasp_file_for(path: str | Path, object_name: str | None, hand_name: str) ->
                                f"{', '.join(p.name for p in found)}; give one as path")
     raise PlannerError(f"file planner: no grasp file for object {object_name!r} and hand {hand_name!r} in {path} "
                        f"(expected {object_name}__{hand_name}.json or similar)")
+
+
+def _preference(path: Path) -> int:
+    suffix = path.suffix.lower()
+    return SUFFIXES.index(suffix) if suffix in SUFFIXES else len(SUFFIXES)
 
 
 @dataclass(frozen=True)
