@@ -24,7 +24,9 @@ def test_compare_flags_a_drop_and_passes_equal_rates():
     worse = summarize(_results({("025_mug", "antipodal"): 5, ("048_hammer", "antipodal"): 17}, n=40))
     assert not compare(same, base).regressions
     flagged = {c.group for c in compare(worse, base).regressions}
-    assert flagged == {POOLED_GROUP, "parallel_jaw/antipodal/ground_truth/025_mug"}
+    # 22/80 vs 35/80 for the planner: z = -2.15, p = 0.016; the mug alone 5/40 vs 18/40.
+    assert flagged == {POOLED_GROUP, "parallel_jaw/antipodal/ground_truth (objects in both)",
+                       "parallel_jaw/antipodal/ground_truth/025_mug"}
 
 
 def test_only_groups_in_both_are_compared_and_the_others_are_named():
@@ -38,7 +40,9 @@ def test_only_groups_in_both_are_compared_and_the_others_are_named():
     assert pooled.new.successes == pooled.base.successes == 18
     assert verdict.only_base == [("parallel_jaw", "antipodal", "ground_truth", "048_hammer")]
     assert verdict.only_new == [("parallel_jaw", "antipodal", "ground_truth", "011_banana")]
-    assert [c.group for c in verdict.comparisons[1:]] == ["parallel_jaw/antipodal/ground_truth/025_mug"]
+    assert [c.group for c in verdict.comparisons[1:]] == ["parallel_jaw/antipodal/ground_truth (objects in both)",
+                                                          "parallel_jaw/antipodal/ground_truth/025_mug"]
+    assert verdict.comparisons[1].new.trials == 20 and verdict.groups_compared == 1
 
 
 def test_a_run_with_zero_trials_or_no_common_group_cannot_pass():

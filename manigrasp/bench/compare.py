@@ -1,9 +1,10 @@
 """Regression gate: is any success rate significantly lower than a baseline's?
 
 Only groups (hand x planner x observation x object) present on both sides are compared; the ones
-missing on either side are listed. Per group, and over the compared groups pooled, one-sided pooled
-two-proportion z-tests; per-group p-values are Holm-Bonferroni corrected across groups, so that a config
-with many groups does not fail CI by chance; the pooled test is uncorrected.
+missing on either side are listed. One-sided pooled two-proportion z-tests per group, per hand x planner x
+observation over its groups in both, and over all groups in both pooled. Per-group p-values are
+Holm-Bonferroni corrected across groups, per-method ones across methods, so that a config with many groups
+does not fail CI by chance; the all-groups test is uncorrected.
 
 A gate that cannot fail is no gate: anything it cannot judge raises `ConfigError` (exit 2 at the CLI): an
 alpha outside (0, 1), counts that are not counts (successes > trials, NaN, negative), no trials in common,
@@ -39,7 +40,12 @@ class Side:
 
 @dataclass(frozen=True)
 class Comparison:
-    """One compared rate: the group (`POOLED_GROUP` or hand/planner/observation/object), both rates, the test."""
+    """One compared rate: its name, both rates, the test, the corrected p-value, the verdict.
+
+    Attributes:
+        group: `POOLED_GROUP`, "hand/planner/observation (objects in both)" or "hand/planner/observation/object".
+        kind: "pooled", "method" or "group".
+    """
 
     group: str
     new: Rate
@@ -47,6 +53,7 @@ class Comparison:
     test: ProportionTest
     adjusted_p: float
     regression: bool
+    kind: str = "group"
 
 
 @dataclass(frozen=True)
@@ -62,6 +69,11 @@ class Verdict:
     def regressions(self) -> list[Comparison]:
         """The comparisons flagged as significant regressions."""
         return [c for c in self.comparisons if c.regression]
+
+    @property
+    def groups_compared(self) -> int:
+        """How many hand x planner x observation x object groups were compared."""
+        return sum(c.kind == "group" for c in self.comparisons)
 
 
 def load_side(path: Path) -> Side:
@@ -169,12 +181,16 @@ def compare(new: Report, base: Report, alpha: float = 0.05) -> Verdict:
     empty = [k for k in common if new.groups[k].trials == 0 or base.groups[k].trials == 0]
     if empty:
         raise ConfigError(f"cannot judge groups with zero trials: {_names(empty)}")
-    pooled = [_pool([new.groups[k] for k in common]), _pool([base.groups[k] for k in common])]
-    overall = _test(POOLED_GROUP, *pooled)
+    overall = _test(POOLED_GROUP, _pool([new.groups[k] for k in common]), _pool([base.groups[k] for k in common]))
+    out = [Comparison(*overall, overall[3].p_value, overall[3].p_value < alpha, "pooled")]
+    methods = sorted({k[:3] for k in common})
+    tests = [_test("/".join(m) + " (objects in both)", _pool([new.groups[k] for k in common if k[:3] == m]),
+                   _pool([base.groups[k] for k in common if k[:3] == m])) for m in methods]
+    out += [Comparison(*t, p, p < alpha, "method") for t, p in zip(tests, _holm([t[3].p_value for t in tests]),
+                                                                    strict=True)]
     groups = [_test("/".join(k), new.groups[k], base.groups[k]) for k in common]
-    out = [Comparison(*overall, overall[3].p_value, overall[3].p_value < alpha)]
-    adjusted = _holm([g[3].p_value for g in groups])
-    out += [Comparison(*g, p, p < alpha) for g, p in zip(groups, adjusted, strict=True)]
+    out += [Comparison(*g, p, p < alpha, "group") for g, p in zip(groups, _holm([g[3].p_value for g in groups]),
+                                                                   strict=True)]
     return Verdict(out, only_new, only_base, [])
 
 

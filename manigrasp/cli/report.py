@@ -28,7 +28,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "compare", help="exit 1 if a success rate is significantly lower than a baseline's",
         description="One-sided two-proportion z-tests per hand x planner x observation x object group present in "
-                    "both (Holm-corrected across groups), and over those groups pooled. Groups found on one side "
+                    "both (Holm-corrected across groups), per hand x planner x observation over its groups in both "
+                    "(Holm-corrected across them), and over all groups in both pooled. Groups found on one side "
                     "only are listed. Exit 0: no significant regression; 1: a regression; 2: cannot judge "
                     "(different protocol, hand, object or physics parameters, no common trials, a malformed "
                     "baseline, alpha outside (0, 1)).")
@@ -132,9 +133,8 @@ def _compare(args: argparse.Namespace) -> int:
             print(f"\n{len(groups)} group(s) {where}: " + ", ".join("/".join(g) for g in groups))
     for note in verdict.notes:
         print(f"note: {note}")
-    compared = len(verdict.comparisons) - 1
     print(f"\n{len(verdict.regressions)} significant regression(s) at alpha = {args.alpha} "
-          f"over {compared} group(s) in both")
+          f"over {verdict.groups_compared} group(s) in both")
     return 1 if verdict.regressions else 0
 
 
