@@ -121,3 +121,15 @@ def test_export_command_errors_are_one_line(tmp_path, capsys):
     assert main(["export", str(run), "--out", str(tmp_path / "x.parquet")]) == 2
     assert main(["export", str(run), "--out", str(tmp_path / "missing" / "x.csv")]) == 2
     assert "not a writable folder" in capsys.readouterr().err
+
+
+def test_the_parquet_extra_is_declared_pinned_as_locked_and_installed_by_ci():
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    extras = tomllib.loads((root / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    locked = [line for line in (root / "constraints.txt").read_text().splitlines() if line.startswith("pyarrow==")]
+    assert extras["parquet"] == locked
+    ci = next(line for line in (root / ".ci" / "run").read_text().splitlines() if line.startswith("EXTRAS="))
+    assert "parquet" in ci.split("=", 1)[1].split(",")

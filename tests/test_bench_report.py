@@ -249,3 +249,10 @@ def test_report_leads_with_one_line_per_planner_and_labels_the_pooled_line(tmp_p
     assert "- **parallel_jaw / random: 2/20 successes" in head
     assert "Overall" not in text and "**Pooled" not in head
     assert f"Pooled ({POOLED}, 2 combination(s), so it mixes planners): 18/40" in head
+
+
+def test_report_out_writes_the_report_elsewhere(tmp_path, capsys):
+    run = make_run(tmp_path / "run", _results({("025_mug", "antipodal"): 18}))
+    assert main(["report", str(run), "--out", str(tmp_path / "elsewhere")]) == 0
+    assert f"report: {tmp_path / 'elsewhere' / 'report.md'}" in capsys.readouterr().out
+    assert (tmp_path / "elsewhere" / "metric_auc.png").is_file() and _files(run) == ["results.sqlite", "run.json"]
