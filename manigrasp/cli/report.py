@@ -15,9 +15,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     """Register `report`, `compare` and `export`."""
     p = subparsers.add_parser(
         "report", help="summarise a run: success rates per hand x planner, failure modes, metric AUCs, report.md",
-        description="Print the run's rates per hand x planner and per object (95 %% Wilson intervals), failure "
-                    "modes, planning time and each metric's AUC for success per hand x planner (95 %% bootstrap "
-                    "interval), and write report.md with PNG plots. Reads the run without changing it.")
+        description="Print the run's rates per hand x planner and per object (95 % Wilson intervals), failure "
+                    "modes, planning time and each metric's AUC for success per hand x planner (95 % bootstrap "
+                    "interval), and write report.md with PNG plots into RUN_DIR (or --out). The stored results are "
+                    "only read: a read-only RUN_DIR works (its report.md is then skipped unless --out).")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
     p.add_argument("--json", action="store_true",
                    help="print the summary and the run's config and versions as JSON, and write nothing "
