@@ -10,8 +10,9 @@ share of the time spent outside physics.
     the time of the exporter (native JSON + ACRONYM HDF5) alone. The machine may be shared, so the CPU
     time of this process and its workers is given too: grasps per CPU-second is the per-core figure
     that does not depend on other load.
-(b) The same work in this process under cProfile (`--profile-grasps` per object: plan each group, run
-    its trials), to split the time: inside MuJoCo's C functions (every `mujoco._functions` /
+(b) The same work in this process (`--profile-grasps` per object: plan each group, run its trials), once
+    timed plainly (CPU time per plan and per trial), then under cProfile with a CPU-time clock, to split
+    the time: inside MuJoCo's C functions (every `mujoco._functions` /
     `mujoco._structs` call: mj_step, mj_forward, contact queries...) versus everything else (Python
     control loop and checks, planning, analytic metrics, settling, result building). The largest
     non-physics functions (own time) are listed. cProfile's own overhead inflates the Python share a
@@ -124,17 +125,29 @@ def profile(config, grasps: int) -> None:
     work = [replace(g, n_grasps=grasps) for g in groups(config)]
     for group in work:  # compile the scenes outside the profile
         scene_for(group)
-    planning, trials = cProfile.Profile(), cProfile.Profile()
+    plain_plan = plain_trials = 0.0  # first without the profiler: CPU time per plan and per trial
+    for group in work:
+        start = time.process_time()
+        plan = plan_group(group)
+        plain_plan += time.process_time() - start
+        start = time.process_time()
+        for index in range(group.n_grasps):
+            run_trial(group, index, plan)
+        plain_trials += time.process_time() - start
+    # CPU-time profilers: on a shared machine a wall-clock profile counts the time spent waiting for a core.
+    planning, trials = cProfile.Profile(time.process_time), cProfile.Profile(time.process_time)
     n = 0
     for group in work:
         plan = planning.runcall(plan_group, group)
         for index in range(group.n_grasps):
             trials.runcall(run_trial, group, index, plan)
             n += 1
+    print(f"(b) without the profiler, CPU time: {plain_plan / len(work):.2f} s per plan (settle, observe, plan, "
+          f"planned metrics), {plain_trials / n:.3f} s per trial")
     (p_total, p_physics, _), (t_total, t_physics, rest) = _split(planning), _split(trials)
     total, physics = p_total + t_total, p_physics + t_physics
-    print(f"(b) profiled {n} trials of {len(work)} groups: {total:.1f} s; inside MuJoCo's C calls {physics:.1f} s "
-          f"= {physics / total:.0%}, outside physics {1 - physics / total:.0%}")
+    print(f"    profiled (CPU time, cProfile's overhead included) {n} trials of {len(work)} groups: {total:.1f} s; "
+          f"inside MuJoCo's C calls {physics:.1f} s = {physics / total:.0%}, outside physics {1 - physics / total:.0%}")
     print(f"    planning (settle, observe, plan, planned metrics): {p_total:.1f} s, {p_physics / p_total:.0%} physics")
     print(f"    trials (protocol runs): {t_total:.1f} s = {t_total / n:.2f} s each, {t_physics / t_total:.0%} physics;"
           " largest non-physics functions in the trials (own time):")
