@@ -1,0 +1,224 @@
+"""The adversarial reproducers of issue 14, run through the real command line: OK/BAD per attempt.
+
+Each attempt runs `python -m manigrasp bench ...` in a fresh temporary folder and checks what an
+adversarial user must get: bad input is one line on stderr, exit code 2 and no run directory; a
+planner or trial that fails, hangs or kills its worker is a recorded status and the run completes;
+a run directory refuses a different experiment, a second process and a lost run.json.
+
+    .venv/bin/python benchmarks/adversarial.py   # 35 attempts, ~7 min on a busy 2-core machine; exit 1 if any BAD
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import psutil
+import trimesh
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "tests"), os.environ.get("PYTHONPATH", "")]),
+           OMP_NUM_THREADS="1")
+SMALL = ["objects=004_sugar_box", "planners=random", "grasps_per_object=1", "protocol=lift"]
+results: list[tuple[str, bool, str]] = []
+
+
+def bench(work: Path, *args: str, out: str = "run", timeout: float = 300) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, "-m", "manigrasp", "bench", *args, "--out", str(work / out), "--quiet"]
+    return subprocess.run(cmd, cwd=work, env=ENV, capture_output=True, text=True, timeout=timeout)
+
+
+def statuses(work: Path, out: str = "run") -> dict[str, set[str]]:
+    with sqlite3.connect(work / out / "results.sqlite") as db:
+        rows = db.execute("SELECT planner, status FROM trials").fetchall()
+    found: dict[str, set[str]] = {}
+    for planner, status in rows:
+        found.setdefault(planner, set()).add(status)
+    return found
+
+
+def attempt(name: str) -> Callable:
+    def register(check: Callable[[Path], str | None]) -> Callable:
+        with tempfile.TemporaryDirectory() as tmp:
+            try:
+                problem = check(Path(tmp))
+            except Exception as exc:  # an attempt that cannot even be checked is BAD
+                problem = f"{type(exc).__name__}: {exc}"
+        results.append((name, problem is None, problem or ""))
+        print(f"{'OK ' if problem is None else 'BAD'} {name}{'' if problem is None else ': ' + problem}", flush=True)
+        return check
+
+    return register
+
+
+def refused(work: Path, args: list[str], phrase: str, files: dict[str, bytes] | None = None) -> str | None:
+    """None if `bench` exits 2 with one line containing `phrase` and creates no run directory."""
+    for name, data in (files or {}).items():
+        (work / name).write_bytes(data)
+    proc = bench(work, *args)
+    err = proc.stderr.strip()
+    if proc.returncode != 2:
+        return f"exit {proc.returncode}: {err[-300:]}"
+    if "\n" in err or phrase not in err:
+        return f"message {err[-300:]!r} lacks {phrase!r}"
+    if (work / "run").exists():
+        return "a run directory was created"
+    return None
+
+
+CONFIG_CASES = [
+    ("grasps_per_object=2.5", "expected an integer"), ("grasps_per_object=abc", "expected an integer"),
+    ("grasps_per_object=true", "expected an integer"), ("grasps_per_object=1000000000", "must be in 1..10000"),
+    ("seed=abc", "expected an integer"), ("seed=1e30", "expected an integer"), ("seed=-1", "seed must be"),
+    ("name=[1,2]", "expected a string"), ("objects=[5]", "expected a mapping"),
+    ("hands=[{a: 1}]", "expected a string"), ("planners=[{name: random, params: [1,2]}]", "expected a mapping"),
+    ("scene=5", "expected a mapping"), ("objects=[{name: mug, mass: -1}]", "mass must be > 0"),
+    ("objects=[{name: mug, mass: 0}]", "mass must be > 0"), ("objects=[{name: mug, mass: heavy}]", "expected a number"),
+    ("objects=[{name: mug, density: -5}]", "density must be > 0"), ("objects=[mug, mug]", "listed twice"),
+    ("objects=[mug, 025_mug]", "both named"), ("hands=[panda, panda]", "listed twice"),
+    ("planners=[random, random]", "listed twice"), ("grasps_per_objct=3", "did you mean 'grasps_per_object'"),
+    ("hands=os:getcwd", "not called"),
+]
+for _override, _phrase in CONFIG_CASES:
+    attempt(f"config {_override}")(lambda w, o=_override, p=_phrase: refused(w, ["quick", o], p))
+
+attempt("config of binary garbage")(lambda w: refused(w, ["bad.yaml"], "not a text", {"bad.yaml": bytes(range(256))}))
+attempt("config nested 5000 deep")(lambda w: refused(w, ["deep.yaml"], "nested too deeply",
+                                                     {"deep.yaml": b"objects: " + b"[" * 5000 + b"]" * 5000}))
+
+
+@attempt("--out is a file")
+def _out_is_file(work: Path) -> str | None:
+    (work / "file").write_text("x")
+    proc = bench(work, "quick", *SMALL, out="file")
+    ok = proc.returncode == 2 and "is a file" in proc.stderr
+    return None if ok else f"exit {proc.returncode}: {proc.stderr[-300:]}"
+
+
+@attempt("planner os:system is not called")
+def _os_system(work: Path) -> str | None:
+    (work / "c.yaml").write_text("objects: [mug]\nplanners: [{name: 'os:system', params: {command: 'touch PWNED'}}]\n")
+    problem = refused(work, ["c.yaml"], "not called")
+    return problem or ("the command ran" if (work / "PWNED").exists() else None)
+
+
+@attempt("overrides after --out, single values for list fields")
+def _intermixed(work: Path) -> str | None:
+    proc = bench(work, "quick", *SMALL, "hands=parallel_jaw")
+    return None if proc.returncode == 0 and statuses(work) else f"exit {proc.returncode}: {proc.stderr[-300:]}"
+
+
+@attempt("one planner twice with different params")
+def _variants(work: Path) -> str | None:
+    (work / "c.yaml").write_text("objects: [004_sugar_box]\nprotocol: lift\ngrasps_per_object: 2\nplanners:\n"
+                                 "  - {name: 'faulty_planners:TopDown', params: {lift: 0.0}}\n"
+                                 "  - {name: 'faulty_planners:TopDown', params: {lift: 0.04}}\n")
+    proc = bench(work, "c.yaml")
+    found = statuses(work) if proc.returncode == 0 else {}
+    with sqlite3.connect(work / "run" / "results.sqlite") as db:
+        count = db.execute("SELECT COUNT(*) FROM trials").fetchone()[0]
+    if set(found) != {"TopDown[lift=0.0]", "TopDown[lift=0.04]"} or count != 4:
+        return f"labels {sorted(found)}, {count} rows"
+    return None
+
+
+FAULTY = ["Exits", "Segfaults", "CallsSysExit", "WideWidth", "NoPreshape", "FactoryRaises"]
+
+
+@attempt("crashing and malformed planners (--jobs 2), then resume")
+def _crashes(work: Path) -> str | None:
+    planners = "[" + ", ".join(f"'faulty_planners:{n}'" for n in FAULTY) + ", random]"
+    args = ["quick", "objects=004_sugar_box", "grasps_per_object=1", "protocol=lift", f"planners={planners}",
+            "--jobs", "2"]
+    first = bench(work, *args)
+    found = statuses(work) if first.returncode == 0 else {}
+    wrong = {n: found.get(n) for n in FAULTY if found.get(n) != {"planner_error"}}
+    if first.returncode != 0 or wrong:
+        return f"exit {first.returncode}, statuses {wrong}: {first.stderr[-300:]}"
+    again = bench(work, *args)
+    return None if again.returncode == 0 and "0 trials run" in again.stderr else f"resume: {again.stderr[-300:]}"
+
+
+for _jobs in ("1", "2"):
+    @attempt(f"planner that sleeps forever, trial_timeout_s=3, --jobs {_jobs}")
+    def _sleeps(work: Path, jobs: str = _jobs) -> str | None:
+        start = time.monotonic()
+        proc = bench(work, "quick", "objects=004_sugar_box", "grasps_per_object=2", "protocol=lift",
+                     "planners=[faulty_planners:Sleeps, random]", "trial_timeout_s=3", "--jobs", jobs, timeout=120)
+        found = statuses(work) if proc.returncode == 0 else {}
+        if found.get("Sleeps") != {"timeout"}:
+            return f"exit {proc.returncode}, statuses {found}: {proc.stderr[-300:]}"
+        return None if time.monotonic() - start < 90 else "took over 90 s"
+
+
+@attempt("protocol that sleeps forever, trial_timeout_s=1")
+def _protocol_sleeps(work: Path) -> str | None:
+    proc = bench(work, "quick", *SMALL[:3], "protocol=faulty_planners:sleeping_protocol", "trial_timeout_s=1")
+    found = statuses(work) if proc.returncode == 0 else {}
+    return None if found.get("random") == {"timeout"} else f"exit {proc.returncode}, {found}: {proc.stderr[-300:]}"
+
+
+@attempt("protocol that raises is harness_fault, not unstable")
+def _protocol_raises(work: Path) -> str | None:
+    proc = bench(work, "quick", *SMALL[:3], "protocol=faulty_planners:raising_protocol")
+    found = statuses(work) if proc.returncode == 0 else {}
+    return None if found.get("random") == {"harness_fault"} else f"exit {proc.returncode}, {found}"
+
+
+@attempt("re-run with other overrides names the keys; lost or garbage run.json refused; edited mesh refused")
+def _identity(work: Path) -> str | None:
+    trimesh.creation.box((0.05, 0.05, 0.05)).export(work / "block.stl")
+    (work / "c.yaml").write_text("objects: [{mesh: block.stl, name: block_adversarial}]\nplanners: [random]\n"
+                                 "grasps_per_object: 1\nprotocol: lift\n")
+    if (proc := bench(work, "c.yaml")).returncode != 0:
+        return f"first run: {proc.stderr[-300:]}"
+    checks = []
+    proc = bench(work, "c.yaml", "seed=7", "protocol=standard")
+    checks.append(proc.returncode == 2 and "seed: 0 -> 7" in proc.stderr and "protocol.name" in proc.stderr)
+    trimesh.creation.box((0.05, 0.05, 0.06)).export(work / "block.stl")
+    proc = bench(work, "c.yaml")
+    checks.append(proc.returncode == 2 and "changed since this run started" in proc.stderr)
+    (work / "run" / "run.json").write_bytes(b"\x00garbage")
+    checks.append(bench(work, "c.yaml").returncode == 2)
+    (work / "run" / "run.json").unlink()
+    proc = bench(work, "c.yaml", "seed=7")
+    checks.append(proc.returncode == 2 and "no run.json" in proc.stderr)
+    return None if all(checks) else f"checks {checks}"
+
+
+@attempt("second process on the same --out; workers end with SIGTERM of the main process")
+def _lock_and_orphans(work: Path) -> str | None:
+    cmd = [sys.executable, "-m", "manigrasp", "bench", "quick", "objects=004_sugar_box", "grasps_per_object=1",
+           "planners=faulty_planners:Sleeps", "trial_timeout_s=600", "--jobs", "2", "--out", str(work / "run"),
+           "--quiet"]
+    first = subprocess.Popen(cmd, cwd=work, env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and not psutil.Process(first.pid).children():
+            time.sleep(0.2)
+        time.sleep(3.0)
+        workers = psutil.Process(first.pid).children(recursive=True)
+        second = bench(work, "quick", "objects=004_sugar_box", "grasps_per_object=1",
+                       "planners=faulty_planners:Sleeps", "trial_timeout_s=600")
+        if second.returncode != 2 or f"in use by pid {first.pid}" not in second.stderr:
+            return f"second process: exit {second.returncode}: {second.stderr[-300:]}"
+        first.send_signal(signal.SIGTERM)
+        first.wait(30)
+        time.sleep(3.0)
+        alive = [p.pid for p in workers if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+        return None if workers and not alive else f"workers {[p.pid for p in workers]}, alive after SIGTERM: {alive}"
+    finally:
+        if first.poll() is None:
+            first.kill()
+
+
+bad = [name for name, ok, _ in results if not ok]
+print(f"\n{len(results) - len(bad)} OK, {len(bad)} BAD of {len(results)} attempts")
+sys.exit(1 if bad else 0)
