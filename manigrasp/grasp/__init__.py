@@ -8,6 +8,7 @@ grasps and return (B,) arrays. Wrenches are (force [N], torque / torque_scale
 
 from manigrasp.grasp.closure import (
     closure_margin,
+    closure_margin_batch,
     force_closure,
     force_closure_batch,
     min_friction_for_closure,
@@ -40,6 +41,7 @@ __all__ = [
     "RobustEpsilon",
     "RobustEpsilonBatch",
     "closure_margin",
+    "closure_margin_batch",
     "ferrari_canny",
     "ferrari_canny_batch",
     "force_closure",

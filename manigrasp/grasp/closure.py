@@ -10,6 +10,12 @@ full rank of G is necessary, not sufficient.
 a ball of radius s / sqrt(6), and a ball of radius r in W holds those twelve
 points with s = r, so s > 0 exactly when the origin is interior, and
 s / sqrt(6) <= eps_L1 <= s. Degenerate (flat) wrench sets give s = 0.
+
+The LP takes its points from W u {0}: that hull equals W when the origin
+is in W, and has the origin as a vertex (so s = 0) when it is not, so the
+margin is unchanged while the LP is always feasible (lambda on the origin,
+s = 0), which lets many grasps share one LP and spares HiGHS the
+infeasible degenerate problems on which its simplex can stop undecided.
 """
 
 from __future__ import annotations
@@ -27,22 +33,64 @@ from manigrasp.grasp.quality import ferrari_canny_batch
 
 MARGIN_TOLERANCE = 1e-6
 """LP margin [scaled N] below which a grasp is not in closure (HiGHS feasibility is ~1e-7)."""
+LP_METHODS = ("highs", "highs-ipm")
+"""HiGHS solvers tried in turn, should the default one stop without an answer on degenerate input."""
+LP_BATCH = 20
+"""Grasps per block-diagonal LP in `closure_margin_batch`."""
 EPSILON_TOLERANCE = 1e-9
 """Epsilon [scaled N] below which the facet test says a grasp is not in closure."""
 
 
-def _cross_polytope_lp(w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """LP data (c, A_eq, b_eq, bounds) of `closure_margin` for primitives w (P, 6)."""
-    p = len(w)
+def _cross_polytope_lp(w: np.ndarray) -> tuple[np.ndarray, sparse.csr_matrix, np.ndarray, np.ndarray]:
+    """LP data (c, A_eq, b_eq, bounds) of `closure_margin_batch` for primitives w (B, P, 6).
+
+    The origin is added to each grasp's primitives (module docstring). Variables of grasp g: lambda
+    (12 blocks of P + 1, one per direction +-e_j) then s_g; block k of grasp g has the rows
+    sum_i lambda_i w_i - s_g d_k = 0 and sum_i lambda_i = 1. Maximising sum_g s_g maximises each
+    s_g, since the grasps share no variable.
+    """
+    w = np.concatenate([w, np.zeros((w.shape[0], 1, 6))], axis=1)
+    b, p = w.shape[:2]
+    stride = 12 * p + 1
     directions = np.concatenate([np.eye(6), -np.eye(6)])
-    block = sparse.vstack([sparse.csr_matrix(w.T), sparse.csr_matrix(np.ones((1, p)))])
-    a_lambda = sparse.block_diag([block] * len(directions))
-    s_column = np.concatenate([np.append(-d, 0.0) for d in directions])[:, None]
-    a_eq = sparse.hstack([a_lambda, sparse.csr_matrix(s_column)]).tocsr()
-    b_eq = np.tile(np.append(np.zeros(6), 1.0), len(directions))
-    c = np.zeros(a_eq.shape[1])
-    c[-1] = -1.0
+    block = np.concatenate([np.swapaxes(w, 1, 2), np.ones((b, 1, p))], axis=1)  # (B, 7, P)
+    g, k, i, j = np.meshgrid(np.arange(b), np.arange(12), np.arange(7), np.arange(p), indexing="ij")
+    gs, ks, is_ = np.meshgrid(np.arange(b), np.arange(12), np.arange(6), indexing="ij")
+    rows = np.concatenate([(84 * g + 7 * k + i).ravel(), (84 * gs + 7 * ks + is_).ravel()])
+    cols = np.concatenate([(stride * g + p * k + j).ravel(), (stride * gs + 12 * p).ravel()])
+    data = np.concatenate([np.broadcast_to(block[:, None], (b, 12, 7, p)).ravel(),
+                           np.broadcast_to(-directions, (b, 12, 6)).ravel()])
+    a_eq = sparse.csr_matrix((data, (rows, cols)), shape=(84 * b, stride * b))
+    b_eq = np.tile(np.append(np.zeros(6), 1.0), 12 * b)
+    c = np.zeros(stride * b)
+    c[stride - 1 :: stride] = -1.0
     return c, a_eq, b_eq, np.array([0.0, np.inf])
+
+
+def _solve_margins(w: np.ndarray) -> np.ndarray:
+    """(B,) LP margins of primitives w (B, P, 6), one HiGHS call."""
+    c, a_eq, b_eq, bounds = _cross_polytope_lp(w)
+    for method in LP_METHODS:
+        result = linprog(c, A_eq=a_eq, b_eq=b_eq, bounds=bounds, method=method)
+        if result.status == 0:
+            # HiGHS may return -0.0 or -1e-17 for "no margin": clip, and + 0.0 turns -0.0 into +0.0.
+            return np.maximum(result.x[c < 0], 0.0) + 0.0
+    raise GraspError(f"force-closure LP failed: {result.message}")
+
+
+def closure_margin_batch(
+    contacts: ContactSet,
+    center: np.ndarray,
+    torque_scale: np.ndarray | float,
+    m: int = DEFAULT_EDGES,
+) -> np.ndarray:
+    """(B,) LP margins s >= 0 of many grasps (module docstring) [scaled N]; +0.0 when not in closure.
+
+    Grasps are solved `LP_BATCH` at a time as one block-diagonal LP.
+    """
+    w = primitive_wrenches(contacts, center, torque_scale, m)
+    w = w.reshape(w.shape[0], -1, 6)
+    return np.concatenate([_solve_margins(w[i : i + LP_BATCH]) for i in range(0, len(w), LP_BATCH)])
 
 
 def closure_margin(
@@ -51,15 +99,8 @@ def closure_margin(
     torque_scale: float,
     m: int = DEFAULT_EDGES,
 ) -> float:
-    """LP margin s >= 0 of one grasp (module docstring) [scaled N]; 0 when not in closure."""
-    w = primitive_wrenches(_single(contacts), center, torque_scale, m).reshape(-1, 6)
-    c, a_eq, b_eq, bounds = _cross_polytope_lp(w)
-    result = linprog(c, A_eq=a_eq, b_eq=b_eq, bounds=bounds, method="highs")
-    if result.status == 2:  # infeasible: the origin is not even in the hull
-        return 0.0
-    if result.status != 0:
-        raise GraspError(f"force-closure LP failed: {result.message}")
-    return float(result.x[-1])
+    """LP margin s >= 0 of one grasp (module docstring) [scaled N]; +0.0 when not in closure."""
+    return float(closure_margin_batch(_single(contacts), center, torque_scale, m)[0])
 
 
 def force_closure(
@@ -80,8 +121,26 @@ def force_closure_batch(
     m: int = DEFAULT_EDGES,
     tol: float = EPSILON_TOLERANCE,
 ) -> np.ndarray:
-    """(B,) force closure of many grasps by exact facet enumeration (L1 epsilon > tol)."""
-    return ferrari_canny_batch(contacts, center, torque_scale, "L1", m) > tol
+    """(B,) force closure of many grasps: L1 epsilon > tol (facets enumerated, or Qhull).
+
+    A grasp whose epsilon could not be computed (NaN: Qhull failed even on
+    joggled input) is decided by the LP of `force_closure` instead.
+    """
+    eps = ferrari_canny_batch(contacts, center, torque_scale, "L1", m)
+    closed = eps > tol
+    centers = np.broadcast_to(np.asarray(center, float), (contacts.batch_size, 3))
+    scales = np.broadcast_to(np.asarray(torque_scale, float), (contacts.batch_size,))
+    for b in np.flatnonzero(np.isnan(eps)):
+        closed[b] = closure_margin(_grasp(contacts, b), centers[b], float(scales[b]), m) > MARGIN_TOLERANCE
+    return closed
+
+
+def _grasp(contacts: ContactSet, b: int) -> ContactSet:
+    """Grasp b of `contacts` as a one-grasp set."""
+    keep = slice(b, b + 1)
+    tangents = None if contacts.tangents is None else contacts.tangents[keep]
+    return ContactSet(contacts.positions[keep], contacts.normals[keep], contacts.mu[keep], contacts.kind,
+                      contacts.gamma[keep], tangents)
 
 
 def _with_mu(contacts: ContactSet, mu: np.ndarray) -> ContactSet:

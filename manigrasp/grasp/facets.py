@@ -98,7 +98,8 @@ def _contact_faces(w: np.ndarray, sets: dict[int, list[tuple[tuple[int, ...], bo
         vectors = []
         for face, affine in faces:
             pts = rows[:, list(face)]
-            vectors.append(wedge_rows(pts[:, 1:] - pts[:, :1] if affine else pts))
+            steps = pts[:, 1:] - pts[:, :1]  # explicit differences: a small face keeps its relative precision
+            vectors.append(wedge_rows(steps if affine else np.concatenate([pts[:, :1], steps], axis=1)))
         out[weight] = np.stack(vectors, axis=1)
     return out
 
@@ -145,12 +146,19 @@ def _support_pair(u: np.ndarray, w: np.ndarray, n: int, norm: str) -> tuple[np.n
     return np.maximum(hi, 0.0).sum(axis=1), np.maximum(lo, 0.0).sum(axis=1)
 
 
-def _min_value(u: np.ndarray, w: np.ndarray, n: int, norm: str, floor: np.ndarray) -> np.ndarray:
-    """min over candidates of min(h(u), h(-u)) / |u| per grasp, ignoring |u| <= floor (B,)."""
+def _min_value(u: np.ndarray, w: np.ndarray, n: int, norm: str) -> np.ndarray:
+    """min over candidates of min(h(u), h(-u)) / |u| per grasp, ignoring u = 0 (B,).
+
+    There is no floor on |u| below which a candidate is dropped: any non-zero
+    u, however small or inaccurate, gives an upper bound h(u) / |u| >= eps
+    (up to rounding of order 1e-16 |w|), so keeping it can never lower the
+    result, while dropping a small but exact facet normal (tiny mu, a torque
+    scale far from the lever arms) would over-estimate it.
+    """
     if u.shape[1] == 0:  # e.g. a single contact: no 6-point hyperplane to pick
         return np.full(u.shape[0], np.inf)
     length = np.sqrt(np.einsum("bci,bci->bc", u, u))
-    valid = length > floor[:, None]
+    valid = (length > 0.0) & np.isfinite(length)
     hi, lo = _support_pair(u, w, n, norm)
     values = np.where(valid, np.minimum(hi, lo) / np.where(valid, length, 1.0), np.inf)
     return values.min(axis=1, initial=np.inf)
@@ -166,9 +174,8 @@ def _epsilon_chunk(w: np.ndarray, kind: ContactType, m: int, norm: str) -> np.nd
     # Candidate u_i = (-1)^i top[d-1-i] (i < 6): fold the signs and reversal into w.
     signed = (flat * (-1.0) ** np.arange(6))[..., ::-1]
     scale = np.max(np.linalg.norm(flat, axis=-1), axis=-1) + 1.0
-    floor = 1e-14 * scale ** (d - 1)
-    value = _min_value(top[..., d - 6 :], signed, n, norm, floor)
-    best = _min_value(_best_fit(flat, norm), flat, n, norm, np.zeros(b))
+    value = _min_value(top[..., d - 6 :], signed, n, norm)
+    best = _min_value(_best_fit(flat, norm), flat, n, norm)
     eps = np.minimum(value, best)
     return np.where(eps > ROUNDING * scale, eps, 0.0)
 

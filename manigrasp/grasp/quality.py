@@ -9,7 +9,9 @@ The grasp wrench space (GWS) is built from the primitive wrenches of
 
 Epsilon is the radius of the largest origin-centred ball inside the GWS, in
 scaled wrench units [N per N of normal force]; 0 when the origin is not
-strictly inside (no force closure). Both are exact for the linearised cone.
+strictly inside (no force closure), NaN when it could not be computed (a
+Qhull failure that joggling did not cure): "not computed" is never reported
+as "no closure". Both are exact for the linearised cone.
 L1 GWS is contained in Linf GWS, so eps_L1 <= eps_Linf.
 
 Two methods, chosen by ``method``:
@@ -18,13 +20,16 @@ Two methods, chosen by ``method``:
   path for many grasps with few contacts.
 - ``"qhull"``: one Qhull hull per grasp (L1: the primitives; Linf: all
   (P+1)^n sums of one element of {0} u primitives_i per contact), then the
-  smallest facet offset. About 2 ms per 3-contact L1 grasp.
+  smallest facet offset. About 2 ms per 3-contact L1 grasp. Robust to flat
+  pads (many coplanar contacts), duplicated contacts and flat wrench sets
+  (see `hull_epsilon`).
 - ``"auto"``: enumerate when it needs at most `MAX_CANDIDATES` candidates per
   grasp, else qhull.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -32,7 +37,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from manigrasp.contact import DEFAULT_EDGES, Contact, ContactSet, as_contact_set, primitive_wrenches
 from manigrasp.grasp.errors import GraspError
-from manigrasp.grasp.facets import candidate_count, epsilon_enumerated
+from manigrasp.grasp.facets import ROUNDING, candidate_count, epsilon_enumerated
 
 NORMS = ("L1", "Linf")
 METHODS = ("auto", "enumerate", "qhull")
@@ -40,6 +45,12 @@ MAX_CANDIDATES = 10_000
 """Above this many candidate normals per grasp, "auto" uses Qhull."""
 MAX_MINKOWSKI_POINTS = 200_000
 """Largest Linf Minkowski point set handed to Qhull."""
+QHULL_OPTIONS = ("Qx", "QJ")
+"""Qhull options tried in turn by `hull_epsilon`: scipy's default for 6-D (exact merging), then joggled
+input. Never "Qbb": it rescales the last coordinate, so the facet equations (and, in scipy, the caller's
+array) would no longer be those of the input points."""
+FLAT_WIDTH = 1e-10
+"""A point set thinner than this x its extent, across its thinnest direction, is flat (epsilon 0)."""
 
 
 def _check_choice(value: str, choices: tuple[str, ...], what: str) -> None:
@@ -48,20 +59,44 @@ def _check_choice(value: str, choices: tuple[str, ...], what: str) -> None:
         raise GraspError(f"unknown {what} {value!r}; valid: {', '.join(choices)}")
 
 
-def hull_epsilon(points: np.ndarray) -> float:
-    """Distance from the origin to the nearest facet of conv(points (N, 6)); 0 if not inside.
+def _is_flat(points: np.ndarray) -> bool:
+    """Whether points (N, d) lie within FLAT_WIDTH x their extent of a hyperplane (no d-D interior)."""
+    centred = points - points.mean(axis=0)
+    _, s, vt = np.linalg.svd(centred, full_matrices=False)
+    if len(s) < points.shape[1] or s[0] == 0.0:
+        return True
+    width = np.ptp(centred @ vt[-1])
+    return bool(width <= FLAT_WIDTH * np.max(np.linalg.norm(centred, axis=1)))
 
-    Fewer than 7 points, or a flat set (Qhull raises QhullError when it
-    cannot build a 6-D initial simplex), span no 6-D volume: the origin
-    cannot be strictly inside, so epsilon is 0.
+
+def hull_epsilon(points: np.ndarray) -> float:
+    """Distance from the origin to the nearest facet of conv(points (N, 6)); 0 if not inside, NaN if not computed.
+
+    Duplicated points are merged first. A flat set (fewer than 7 distinct
+    points, or all within `FLAT_WIDTH` of a hyperplane) spans no 6-D volume:
+    the origin cannot be strictly inside, so epsilon is 0. Otherwise Qhull
+    builds the hull with each of `QHULL_OPTIONS` in turn: many coplanar
+    contacts (flat pads) put dozens of primitives on one facet, which can
+    stop the default merging with a precision error ("wide merge" of a
+    duplicate ridge); joggling the input ("QJ", perturbations ~1e-11 of the
+    extent) then gives simplicial facets whose offsets are exact to that
+    size. If every option fails, or the input is not finite, the result is
+    NaN ("not computed"), never 0 ("no closure").
     """
-    if len(points) <= points.shape[1]:
+    points = np.asarray(points, dtype=float)
+    if not np.isfinite(points).all():
+        return math.nan
+    points = np.unique(points, axis=0)
+    if len(points) <= points.shape[1] or _is_flat(points):
         return 0.0
-    try:
-        hull = ConvexHull(points)
-    except QhullError:
-        return 0.0
-    return max(0.0, float(np.min(-hull.equations[:, -1])))
+    for options in QHULL_OPTIONS:
+        try:
+            hull = ConvexHull(points, qhull_options=options)
+        except QhullError:
+            continue
+        eps = float(np.min(-hull.equations[:, -1]))
+        return eps if eps > ROUNDING * np.max(np.linalg.norm(points, axis=1)) else 0.0
+    return math.nan
 
 
 def minkowski_points(w: np.ndarray) -> np.ndarray:
@@ -103,7 +138,8 @@ def ferrari_canny_batch(
         method: "auto", "enumerate" or "qhull" (see module docstring).
 
     Returns:
-        (B,) epsilon [N per N of normal force], 0 where not in force closure.
+        (B,) epsilon [N per N of normal force], 0 where not in force closure,
+        NaN where it could not be computed (see `hull_epsilon`), never 0 for that.
     """
     _check_choice(norm, NORMS, "norm")
     _check_choice(method, METHODS, "method")
