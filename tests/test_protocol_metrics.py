@@ -46,3 +46,29 @@ def test_batched_planned_metrics_equal_the_single_ones(scene):
         assert abs(got.min_friction - want.min_friction) <= 0.011 or got.min_friction == want.min_friction
     assert sum(m.force_closure for m in batch[:12]) >= 3  # the sample has grasps in closure: the test can fail
     assert all(math.isnan(m.epsilon_l1) for m in batch[12:])
+
+
+def test_simulated_flat_pad_contacts_are_stored_in_closure_and_a_failed_hull_as_nan(monkeypatch):
+    """The issue's drill grasp (two flat pads, eight soft contacts, as `simulated_metrics` reads them):
+    force closure 1 with epsilon > 0, consistent with the LP; when the hull cannot be built at all
+    (Qhull restricted to non-joggled options), both are NaN ("not computed"), never 0 ("no closure")."""
+    from test_grasp_degenerate import DRILL_CENTER, DRILL_SCALE, drill_contacts
+
+    from manigrasp.grasp import closure_margin
+    from manigrasp.grasp.closure import EPSILON_TOLERANCE
+    from manigrasp.protocol.metrics import contact_metrics
+
+    contacts = drill_contacts()
+    got = contact_metrics(contacts, DRILL_CENTER, DRILL_SCALE, min_friction=False)
+    assert got.n_contacts == 8
+    assert got.force_closure == 1.0
+    margin = closure_margin(contacts, DRILL_CENTER, DRILL_SCALE)
+    assert margin / np.sqrt(6) <= got.epsilon_l1 <= margin
+    one_pad = contact_metrics(contacts[:4], DRILL_CENTER, DRILL_SCALE, min_friction=False)
+    assert (one_pad.force_closure, one_pad.epsilon_l1) == (0.0, 0.0)  # computed: one pad cannot hold
+    for m in (got, one_pad):
+        assert m.force_closure == float(m.epsilon_l1 > EPSILON_TOLERANCE)
+    monkeypatch.setattr("manigrasp.grasp.quality.QHULL_OPTIONS", ("Qx",))
+    failed = contact_metrics(contacts, DRILL_CENTER, DRILL_SCALE, min_friction=False)
+    assert failed.n_contacts == 8
+    assert math.isnan(failed.force_closure) and math.isnan(failed.epsilon_l1)

@@ -4,8 +4,9 @@ Both are computed with the same contact model as the scene's hand geoms
 (MuJoCo condim 1: frictionless, 3: hard finger, 4/6: soft finger), the same
 friction, about the object's centre of mass, with torques divided by the
 object's radius of gyration sqrt(trace(I) / 2m) [m] unless a `torque_scale`
-is given. NaN means "not computed" (no planned contacts, or the metric is
-undefined for these contacts), never a score.
+is given. NaN means "not computed" (no planned contacts, the metric is
+undefined for these contacts, or the hull could not be built), never a
+score; no contact at all is a computed "no closure" (0).
 """
 
 from __future__ import annotations
@@ -55,14 +56,26 @@ def contact_metrics(contacts: Sequence[Contact], center: np.ndarray, torque_scal
         return GraspMetrics(n_contacts=0, force_closure=0.0, epsilon_l1=0.0, min_friction=math.inf)
     try:
         epsilon = ferrari_canny(contacts, center, torque_scale, norm="L1", m=edges)
-        closure = epsilon > EPSILON_TOLERANCE  # the batched test's definition (equivalent to the LP's)
         mu_min = min_friction_for_closure(contacts, center, torque_scale, tol=friction_tol, m=edges) \
             if min_friction and contacts[0].kind is not ContactType.FRICTIONLESS else math.nan
     except (GraspError, ContactError, ValueError) as exc:  # degenerate input: not computed, recorded as NaN
         del exc
         return GraspMetrics(n_contacts=n)
-    return GraspMetrics(n_contacts=n, force_closure=float(closure), epsilon_l1=float(epsilon) if closure else 0.0,
-                        min_friction=float(mu_min))
+    closure, epsilon = closure_and_epsilon(epsilon)
+    return GraspMetrics(n_contacts=n, force_closure=closure, epsilon_l1=epsilon, min_friction=float(mu_min))
+
+
+def closure_and_epsilon(epsilon: float) -> tuple[float, float]:
+    """(force closure 1.0 / 0.0, epsilon or 0) from an L1 epsilon; (NaN, NaN) when it was not computed.
+
+    Closure is "epsilon > `EPSILON_TOLERANCE`" (the batched test's definition, equivalent to the LP's), so
+    the stored closure and epsilon always agree; a NaN epsilon (Qhull could not build the hull) stays "not
+    computed" rather than becoming "no closure".
+    """
+    if math.isnan(epsilon):
+        return math.nan, math.nan
+    closed = epsilon > EPSILON_TOLERANCE
+    return float(closed), float(epsilon) if closed else 0.0
 
 
 def _contact_type(condim: int) -> ContactType:
@@ -145,6 +158,9 @@ def _batch(scene: Scene, grasps: list[tuple[np.ndarray, np.ndarray]], center: np
                   if kind is not ContactType.FRICTIONLESS else np.full(len(grasps), math.nan))
     except (GraspError, ContactError, ValueError):  # degenerate input: not computed, recorded as NaN
         return [GraspMetrics(n_contacts=points.shape[1]) for _ in grasps]
-    closure = epsilon > EPSILON_TOLERANCE
-    return [GraspMetrics(n_contacts=points.shape[1], force_closure=float(c), epsilon_l1=float(e) if c else 0.0,
-                         min_friction=float(m)) for c, e, m in zip(closure, epsilon, mu_min, strict=True)]
+    out = []
+    for e, m in zip(epsilon, mu_min, strict=True):
+        closure, eps = closure_and_epsilon(float(e))
+        out.append(GraspMetrics(n_contacts=points.shape[1], force_closure=closure, epsilon_l1=eps,
+                                min_friction=float(m)))
+    return out
