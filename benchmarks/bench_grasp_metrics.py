@@ -1,10 +1,12 @@
-"""Microseconds per grasp for force closure and L1 epsilon (hard fingers, 8-edge cones).
+"""Microseconds per grasp for force closure and L1 epsilon (8-edge cones).
 
 Run: .venv/bin/python benchmarks/bench_grasp_metrics.py [--batch 10000]
 
-Grasps are random contacts on a 5 cm sphere with inward normals and mu = 0.5
-(seeded). Reports wall-clock and process CPU time per grasp: on a shared
-machine the CPU time is the steadier figure. BLAS is pinned to one thread
+Grasps are random hard-finger contacts on a 5 cm sphere with inward normals
+and mu = 0.5 (seeded), then parallel-jaw grasps of two flat pads with four
+soft contacts each, as the simulation reports them (the case where Qhull
+needs joggling). Reports wall-clock and process CPU time per grasp: on a
+shared machine the CPU time is the steadier figure. BLAS is pinned to one thread
 (unless OPENBLAS_NUM_THREADS is already set) so that small matrix products do
 not fight over the two cores.
 """
@@ -34,6 +36,21 @@ def grasps(rng: np.random.Generator, b: int, n: int) -> ContactSet:
     p = rng.normal(size=(b, n, 3))
     p /= np.linalg.norm(p, axis=-1, keepdims=True)
     return ContactSet(RADIUS * p, -p, 0.5)
+
+
+def flat_pads(rng: np.random.Generator, b: int, per_pad: int = 4) -> ContactSet:
+    """B parallel-jaw grasps: two opposite flat pads of `per_pad` soft contacts each, as the simulation
+    reports them (one pad's normals equal up to ~1e-13, pads tilted by ~1e-4 rad), about the origin."""
+    n = np.array([-1.0, 1e-4, 0.0]) / np.hypot(1.0, 1e-4)  # pad 1's inward normal; pad 2's is -n
+    u = np.cross(n, [0.0, 0.0, 1.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    side = np.repeat([1.0, -1.0], per_pad)[:, None]
+    yz = rng.uniform(-0.02, 0.02, (b, 2 * per_pad, 2))
+    positions = -side * n * RADIUS / 2 + yz[..., :1] * u + yz[..., 1:] * v
+    normals = side * n + rng.normal(0.0, 1e-13, (b, 2 * per_pad, 3))
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    return ContactSet(positions, normals, 0.5, "soft_finger", 0.005)
 
 
 def per_grasp(call: Callable[[], object], count: int) -> tuple[float, float]:
@@ -78,6 +95,15 @@ def main() -> None:
             per_grasp(lambda: [ferrari_canny(g, center, RADIUS) for g in one], len(one)))  # noqa: B023
         row("force closure, single calls (HiGHS LP)", len(one),
             per_grasp(lambda: [force_closure(g, center, RADIUS) for g in one], len(one)))  # noqa: B023
+    pads = flat_pads(rng, 50)
+    eps = ferrari_canny_batch(pads, center, RADIUS)
+    print(f"-- two flat pads of 4 soft contacts (80 primitives) -> qhull; "
+          f"{np.mean(eps > 0):.0%} in closure, mean eps {eps.mean():.4f}")
+    row("L1 epsilon, batched (qhull)", 50, per_grasp(lambda: ferrari_canny_batch(pads, center, RADIUS), 50))
+    one = [ContactSet(pads.positions[b : b + 1], pads.normals[b : b + 1], 0.5, "soft_finger", 0.005)
+           for b in range(50)]
+    row("force closure, single calls (HiGHS LP)", 50,
+        per_grasp(lambda: [force_closure(g, center, RADIUS) for g in one], 50))
 
 
 if __name__ == "__main__":
