@@ -255,7 +255,7 @@ def test_user_planner_from_module_attribute(monkeypatch, box_obs, jaw):
 
 def test_registry_errors_are_clear():
     assert {"antipodal", "power", "random"} <= set(planners.names())
-    with pytest.raises(UnknownNameError, match=r"did you mean 'antipodal'.*available: antipodal, power, random"):
+    with pytest.raises(UnknownNameError, match=r"did you mean 'antipodal'.*available: antipodal, file, power, random"):
         planners.load("antipodl")
     with pytest.raises(UnknownNameError, match="cannot import module"):
         planners.load("no_such_module_xyz:Planner")
