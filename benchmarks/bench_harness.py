@@ -150,7 +150,7 @@ def main() -> None:
         plan_timer = Timer((runner, "plan_group"))
         one_stamps: list[float] = []
         with physics_timer, metric_timer, plan_timer:
-            one = run_benchmark(config, Path(tmp) / "one", jobs=1, progress=False,
+            one = run_benchmark(config, Path(tmp) / "one", jobs=1, progress=False, in_process=True,
                                 on_result=lambda key, result: one_stamps.append(time.perf_counter()))
         rss_self = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         rows = _rows(Path(tmp) / "one")

@@ -134,6 +134,16 @@ def test_one_planner_twice_with_different_params_gives_two_sets_of_trials(tmp_pa
     assert heights["TopDown[lift=0.04]"] - heights["TopDown[lift=0.0]"] == pytest.approx(0.04, abs=1e-9)
 
 
+def test_worker_processes_and_in_process_give_the_same_rows(tmp_path):
+    config = parse_config(dict(ONE, planners=["antipodal"], grasps_per_object=2))
+    run_benchmark(config, tmp_path / "pool", progress=False)
+    run_benchmark(config, tmp_path / "here", progress=False, in_process=True)
+    timing = {"wall_time_s", "planning_time_s", "plan_time_s"}
+    pool, here = ([{k: v for k, v in r.items() if k not in timing} for r in _rows(tmp_path / d)]
+                  for d in ("pool", "here"))
+    assert pool == here and len(pool) == 2
+
+
 def test_a_rerun_with_other_values_names_the_keys(tmp_path):
     run_benchmark(parse_config(ONE), tmp_path / "run", progress=False)
     meta = json.loads((tmp_path / "run" / "run.json").read_text())

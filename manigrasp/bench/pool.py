@@ -47,7 +47,12 @@ class Outcome:
 
 
 def _serve(conn: Connection, parent: int) -> None:  # pragma: no cover - runs in the worker process
-    """A worker's loop: receive a task, run it, send back its outcome; end with the parent."""
+    """A worker's loop: receive a task, run it, send back its outcome; end with the parent.
+
+    Ctrl-C is the main process's to handle (it ends the workers): a worker ignores SIGINT, so an
+    interrupted run never files a trial as failed.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent(parent)
     from manigrasp.bench import worker
 

@@ -106,15 +106,21 @@ def run_benchmark(
     progress: bool = True,
     on_result: Callable[[TrialKey, TrialResult], None] | None = None,
     record: str = "none",
+    in_process: bool = False,
 ) -> RunSummary:
     """Run (or resume) the benchmark of `config` into `run_dir`.
 
     `record` is a recording policy ("none", "failures", "successes", "all" or N: the first N trials of
     each group): those trials are written to ``run_dir/recordings/<trial>.rrd``. Recording never
     changes a result.
+
+    `in_process` (local executor, one job) plans and runs trials in this process, for profiling: no hard
+    time budgets, and a planner that hangs or crashes the process takes the run with it.
     """
     if executor not in EXECUTORS:
         raise ConfigError(f"unknown executor {executor!r}; available: {', '.join(EXECUTORS)}")
+    if in_process and (executor != "local" or jobs != 1):
+        raise ConfigError("in_process runs the local executor with one job")
     if executor == "local" and jobs > max_jobs():
         print(f"manigrasp: --jobs {jobs} capped at the {max_jobs()} cores of this machine", file=sys.stderr)
         jobs = max_jobs()
@@ -134,7 +140,7 @@ def run_benchmark(
         bar = _progress_bar(total, already, progress)
         ran = successes = 0
         try:
-            tasks = _iter_ray if executor == "ray" else _iter_local
+            tasks = _iter_ray if executor == "ray" else _iter_inline if in_process else _iter_local
             for key, result in tasks(pending, todo, jobs, address, settings):
                 if store.add(key, result):
                     ran += 1
@@ -192,6 +198,14 @@ def _iter_local(pending: list[Group], todo: dict, jobs: int, address: str | None
                 yield outcome.value
             else:
                 yield group.key(index[0]), _failed_trial(group, index[0], outcome)
+
+
+def _iter_inline(pending: list[Group], todo: dict, jobs: int, address: str | None, settings
+                 ) -> Iterator[tuple[TrialKey, TrialResult]]:
+    for group in pending:
+        plan = plan_group(group)
+        for index in todo[id(group)]:
+            yield run_trial(group, index, plan, settings)
 
 
 def _failed_plan(group: Group, outcome: Outcome) -> Plan:
