@@ -32,7 +32,7 @@ STATUS_COLOURS: dict[str, str] = {
     "timeout": "#08306b",
     "harness_fault": "#9e9ac8",
 }
-_UNKNOWN_COLOUR = "#ffffff"  # an outcome without a colour shows as a white, outlined segment
+_UNKNOWN_COLOUR = "#ffffff"  # an outcome without a colour (none today: a test checks) shows white, outlined
 
 
 def status_colour(mode: str) -> str:
@@ -135,7 +135,9 @@ def failure_modes(report: Report, path: Path) -> Path:
         counts = np.array([report.by_method[m].successes if mode == "success"
                            else report.by_method[m].failure_modes.get(mode, 0) for m in methods], float)
         share = counts / np.maximum(1, [report.by_method[m].trials for m in methods])
-        ax.barh(y, share, left=left, color=status_colour(mode), edgecolor="white", linewidth=0.5, label=mode)
+        colour = status_colour(mode)
+        ax.barh(y, share, left=left, color=colour, edgecolor="black" if colour == _UNKNOWN_COLOUR else "white",
+                linewidth=0.5, label=mode)
         for yi, li, si in zip(y, left, share, strict=True):
             if si >= 0.06:
                 ax.text(li + si / 2, yi, f"{si:.0%}", ha="center", va="center", fontsize=7,
