@@ -128,6 +128,13 @@ def test_compare_cli_on_a_malformed_baseline_is_exit_2_not_a_traceback(tmp_path,
     assert "baseline" in capsys.readouterr().err
 
 
+def test_compare_cli_on_missing_paths_is_exit_2(tmp_path, capsys, run_and_payload):
+    run, _ = run_and_payload
+    assert main(["compare", str(run), str(tmp_path / "nope.json")]) == 2
+    assert main(["compare", str(tmp_path / "nope"), str(run)]) == 2
+    assert capsys.readouterr().err.count("does not exist") == 2
+
+
 @pytest.mark.parametrize("alpha", ["-1", "nan", "0"])
 def test_compare_cli_alpha_is_checked(tmp_path, capsys, run_and_payload, alpha):
     run, payload = run_and_payload

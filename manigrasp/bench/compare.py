@@ -81,6 +81,8 @@ def load_side(path: Path) -> Side:
     from manigrasp.bench.rundir import load_meta
 
     path = Path(path)
+    if not path.exists():
+        raise ConfigError(f"{path} does not exist (expected a run directory or a baseline JSON file)")
     if path.is_dir():
         return Side(summarize(load_results(path)), load_meta(path), str(path))
     try:
