@@ -83,7 +83,7 @@ def success_by_object(report: Report, path: Path) -> Path:
     objects = sorted({k[3] for k in report.groups})
     methods = list(report.by_method)
     width = 0.8 / max(1, len(methods))
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.2 * len(objects) * max(1, len(methods)) / 2 + 2), 4.8))
+    fig, ax = plt.subplots(figsize=(max(6.0, min(32.0, 0.4 * len(objects) * max(1, len(methods)) + 4)), 4.8))
     x = np.arange(len(objects))
     for i, method in enumerate(methods):
         present = [(j, report.groups[(*method, obj)]) for j, obj in enumerate(objects)
@@ -192,7 +192,7 @@ def metric_auc(report: Report, path: Path) -> Path:
                 "or metrics constant)", ha="center", va="center")
         return _save(fig, path)
     width = 0.8 / len(methods)
-    fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * len(metrics) * max(1, len(methods)) / 2 + 2), 4.5))
+    fig, ax = plt.subplots(figsize=(max(7.0, min(14.0, 0.35 * len(metrics) * len(methods) + 3)), 4.5))
     x = np.arange(len(metrics))
     for i, method in enumerate(methods):
         xs = x + (i - (len(methods) - 1) / 2) * width
@@ -204,13 +204,14 @@ def metric_auc(report: Report, path: Path) -> Path:
                       label=method_label(method))
         for xi, e in zip(xs, estimates, strict=True):
             if e is not None and e.defined:
-                ax.text(xi, e.high + 0.01, f"n={e.n}", ha="center", va="bottom", fontsize=6)
+                ax.text(xi, e.high + 0.01, f"n={e.n}", ha="center", va="bottom", fontsize=6,
+                        rotation=90 if len(methods) > 3 else 0)
             elif e is not None:
                 ax.text(xi, 0.02, f"undefined: {e.undefined}", rotation=90, ha="center", va="bottom", fontsize=7,
                         color=bars.patches[0].get_facecolor())
     ax.axhline(0.5, color="grey", linestyle="--", linewidth=1, label="chance (0.5)")
     ax.set_xticks(x, metrics, rotation=20)
-    ax.set_ylim(0, 1.1)
+    ax.set_ylim(0, 1.15)
     ax.set_ylabel("ROC AUC for success (95 % bootstrap interval)")
     ax.set_title("Each metric's power to predict success, per hand / planner (n: trials with a value)",
                  fontsize=10)
