@@ -53,6 +53,21 @@ def test_record_failures_of_a_finished_run(run_dir, tmp_path):
     from manigrasp.record.policy import trial_file_name
 
     failures = {t for t, s in stored_trials(run_dir).items() if s.result.status is not Status.SUCCESS}
-    replays = record_trials(run_dir, "failures", directory=tmp_path / "rec")
-    assert {r.trial_id for r in replays} == failures and all(r.same_status for r in replays)
+    done = record_trials(run_dir, "failures", directory=tmp_path / "rec")
+    assert {r.trial_id for r in done.replays} == failures and all(r.same_status for r in done.replays)
+    assert done.skipped == ()
     assert sorted(p.name for p in (tmp_path / "rec").iterdir()) == sorted(trial_file_name(t) for t in failures)
+    again = record_trials(run_dir, "failures", directory=tmp_path / "rec")  # nothing re-simulated twice
+    assert again.replays == () and {t for t, _ in again.skipped} == failures
+
+
+def test_a_trial_that_executed_no_grasp_is_not_replayed_and_says_why(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(Path(__file__).parent))
+    config = {"objects": ["004_sugar_box"], "planners": ["faulty_planners:Raises"], "grasps_per_object": 1,
+              "protocol": "lift"}
+    run_benchmark(parse_config(config), tmp_path / "run", progress=False)
+    (trial_id,) = stored_trials(tmp_path / "run")
+    with pytest.raises(ReplayError, match="executed no grasp"):
+        replay_trial(tmp_path / "run", trial_id)
+    done = record_trials(tmp_path / "run", "all")
+    assert done.replays == () and done.skipped == ((trial_id, "no grasp was executed (planner_error)"),)

@@ -129,19 +129,35 @@ def replay_trial(run_dir: Path, trial_id: str, record: Path | None = None, base:
     return _replay(trial_id, trial, record)
 
 
+@dataclass(frozen=True)
+class Recorded:
+    """What `record_trials` did.
+
+    Attributes:
+        replays: the trials re-simulated and recorded (each `Replay.recording` is its file).
+        skipped: (trial id, why) of the chosen trials not recorded: no grasp was executed (a planner
+            error), or a recording of it already exists.
+    """
+
+    replays: tuple[Replay, ...]
+    skipped: tuple[tuple[str, str], ...]
+
+
 def record_trials(run_dir: Path, which: str | Iterable[str] = "failures", base: Path | None = None,
-                  directory: Path | None = None) -> list[Replay]:
-    """Record trials of a finished run after the fact, re-simulating each one (issue 14: ``bench --record`` on a
-    finished run records nothing, since no trial runs again).
+                  directory: Path | None = None, overwrite: bool = False) -> Recorded:
+    """Record trials of a finished run after the fact, re-simulating each one from its stored grasp and seed
+    (issue 14: ``bench --record`` on a finished run records nothing, since no trial runs again).
 
     Args:
         run_dir: the run directory.
         which: a recording policy (as ``--record``: "failures", "successes", "all" or a count N, the first
             N trials of each group), or an iterable of trial ids.
+        base: the directory the run's config gave relative mesh paths against (default: the working directory).
         directory: where the files go (default ``run_dir/recordings``), named as the run names them
             (`manigrasp.record.policy.trial_file_name`), so `manigrasp view RUN_DIR` finds them.
+        overwrite: re-record trials whose file already exists (default: skip them).
 
-    Trials that executed no grasp (planner errors) are skipped. Returns the replays, in trial-id order.
+    Trials are taken in trial-id order.
     """
     from manigrasp.record.policy import RecordPolicy, trial_file_name
 
@@ -155,12 +171,17 @@ def record_trials(run_dir: Path, which: str | Iterable[str] = "failures", base: 
         if missing:
             raise ReplayError(f"no trial {missing[0]!r} in {run_dir}")
     folder = Path(directory) if directory is not None else Path(run_dir) / "recordings"
-    out = []
+    replays, skipped = [], []
     for trial_id in sorted(chosen):
-        if _executed_nothing(trials[trial_id].result):
-            continue
-        out.append(_replay(trial_id, trials[trial_id], folder / trial_file_name(trial_id)))
-    return out
+        target = folder / trial_file_name(trial_id)
+        result = trials[trial_id].result
+        if _executed_nothing(result):
+            skipped.append((trial_id, f"no grasp was executed ({result.status.value})"))
+        elif target.exists() and not overwrite:
+            skipped.append((trial_id, f"already recorded in {target}"))
+        else:
+            replays.append(_replay(trial_id, trials[trial_id], target))
+    return Recorded(tuple(replays), tuple(skipped))
 
 
 def _executed_nothing(result: TrialResult) -> bool:
