@@ -236,3 +236,14 @@ def test_a_directory_gives_the_one_file_of_the_object_and_hand(tmp_path):
         grasp_file_for(tmp_path, "mug", "parallel_jaw")
     with pytest.raises(PlannerError, match="no grasp file for object 'can'"):
         grasp_file_for(tmp_path, "can", "panda")
+
+
+def test_acronym_mesh_paths_resolve_from_the_dataset_root(tmp_path):
+    from manigrasp.graspsets import mesh_path
+
+    (tmp_path / "meshes" / "Mug").mkdir(parents=True)
+    (tmp_path / "meshes" / "Mug" / "m.obj").write_text("")
+    (tmp_path / "grasps").mkdir()
+    path = _h5(tmp_path / "grasps" / "Mug_m_0.01.h5", grasps__transforms=np.tile(np.eye(4), (1, 1, 1)),
+               object__file="meshes/Mug/m.obj", object__scale=0.01)
+    assert mesh_path(read(path)) == tmp_path / "meshes" / "Mug" / "m.obj"

@@ -15,8 +15,10 @@ grasp files:
     toward object), y = closing. NPZ: arrays poses (n,4,4) or positions + quaternions, widths,
     preshapes, scores. Full layout: manigrasp/graspsets/native.py.
   ACRONYM (.h5, .hdf5): grasps/transforms (n,4,4) Panda gripper poses in the frame of object/file
-    scaled by object/scale; manigrasp's TCP = transform @ [Rz(-90 deg), 0.1034 m along z] for every
-    parallel jaw (manigrasp/graspsets/acronym.py). Needs h5py (pip install 'manigrasp[datasets]').
+    scaled by object/scale (a relative object/file is looked for beside the .h5 file, then in its
+    parent and grandparent folders: ACRONYM's meshes/ beside grasps/). manigrasp's TCP =
+    transform @ [Rz(-90 deg), 0.1034 m along z] for every parallel jaw (manigrasp/graspsets/acronym.py).
+    Needs h5py (pip install 'manigrasp[datasets]').
   Grasps are placed on the object's settled pose. One that cannot be placed (another hand, NaN, not a
   rotation, a width the hand cannot open to) is recorded as invalid_grasp, never dropped. A file with
   missing keys, wrong shapes or NaN scores is refused with a one-line error."""
@@ -74,7 +76,9 @@ def _object_entry(args: argparse.Namespace, grasps) -> dict:
         entry = {"mesh": str(given.resolve()), "name": ref.name or given.stem} if given.is_file() \
             else {"name": args.object}
     elif ref.mesh:
-        mesh = Path(ref.mesh) if Path(ref.mesh).is_absolute() else Path(grasps.source).parent / ref.mesh
+        from manigrasp.graspsets import mesh_path
+
+        mesh = mesh_path(grasps)
         entry = {"mesh": str(mesh.resolve()), "name": ref.name or mesh.stem}
     elif ref.name:
         entry = {"name": ref.name}

@@ -29,6 +29,20 @@ def read(path: str | Path) -> GraspSet:
                          f"known: {', '.join(SUFFIXES)}")
 
 
+def mesh_path(grasps: GraspSet) -> Path | None:
+    """The object's mesh file the set names, resolved: an absolute path as is; a relative one against the grasp
+    file's folder, then its parent and grandparent (ACRONYM's ``object/file`` is relative to the dataset root,
+    ``meshes/...`` beside ``grasps/``). None if the set names no mesh; the first guess if none exists."""
+    if grasps.object.mesh is None:
+        return None
+    mesh = Path(grasps.object.mesh)
+    if mesh.is_absolute():
+        return mesh
+    folder = Path(grasps.source).resolve().parent
+    guesses = [folder / mesh, folder.parent / mesh, folder.parent.parent / mesh]
+    return next((g for g in guesses if g.is_file()), guesses[0])
+
+
 def write(grasps: GraspSet, path: str | Path) -> Path:
     """Write `grasps` by `path`'s suffix (native .json / .npz, or ACRONYM .h5)."""
     suffix = Path(path).suffix.lower()
@@ -37,5 +51,5 @@ def write(grasps: GraspSet, path: str | Path) -> Path:
     return native.write(grasps, path)
 
 
-__all__ = ["SUFFIXES", "GraspFileError", "GraspSet", "ObjectRef", "acronym", "native", "placement_defect", "read",
-           "write"]
+__all__ = ["SUFFIXES", "GraspFileError", "GraspSet", "ObjectRef", "acronym", "mesh_path", "native", "placement_defect",
+           "read", "write"]

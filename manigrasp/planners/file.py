@@ -25,7 +25,7 @@ from typing import ClassVar
 import numpy as np
 
 from manigrasp.errors import PlannerError
-from manigrasp.graspsets import SUFFIXES, GraspSet, placement_defect, read
+from manigrasp.graspsets import SUFFIXES, GraspSet, mesh_path, placement_defect, read
 from manigrasp.graspsets.model import translation
 from manigrasp.hands.base import Hand
 from manigrasp.planners.base import GraspCandidate, Observation
@@ -129,11 +129,9 @@ def mesh_to_object(grasps: GraspSet, asset: object | None) -> np.ndarray:
         return np.eye(4)
     if asset is None:
         raise PlannerError(f"file planner: {grasps.source} is in its mesh's frame; placing it needs the built object")
-    mesh = grasps.object.mesh
-    if mesh is not None:
-        mesh_path = Path(mesh) if Path(mesh).is_absolute() else Path(grasps.source).parent / mesh
-        if mesh_path.resolve() == Path(asset.visual_path).resolve():
-            return np.eye(4)
+    mesh = mesh_path(grasps)
+    if mesh is not None and mesh.resolve() == Path(asset.visual_path).resolve():
+        return np.eye(4)
     metadata = getattr(asset, "metadata", {}) or {}
     if "com_offset_m" not in metadata:
         raise PlannerError(f"file planner: object {asset.name!r} does not record its centre-of-mass offset "
