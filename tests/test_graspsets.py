@@ -247,3 +247,24 @@ def test_acronym_mesh_paths_resolve_from_the_dataset_root(tmp_path):
     path = _h5(tmp_path / "grasps" / "Mug_m_0.01.h5", grasps__transforms=np.tile(np.eye(4), (1, 1, 1)),
                object__file="meshes/Mug/m.obj", object__scale=0.01)
     assert mesh_path(read(path)) == tmp_path / "meshes" / "Mug" / "m.obj"
+
+
+def test_evaluate_an_acronym_file_end_to_end(tmp_path, shifted_box):
+    from manigrasp.bench.store import ResultsStore
+    from manigrasp.cli import main
+
+    _, mesh, com = shifted_box
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / mesh.name).write_bytes(mesh.read_bytes())
+    down = np.eye(4)  # the gripper above the box pointing down: its pads 2 cm below the top, closing across 4 cm
+    down[:3, :3] = np.diag([1.0, -1.0, -1.0])
+    down[:3, 3] = com + [0, 0, 0.1034 + 0.02]
+    away = down.copy()
+    away[0, 3] += 0.2
+    (tmp_path / "grasps").mkdir()
+    path = _h5(tmp_path / "grasps" / "box.h5", grasps__transforms=np.stack([down, away]),
+               object__file=f"meshes/{mesh.name}", object__scale=1.0, object__mass=0.2)
+    assert main(["evaluate", str(path), "--out", str(tmp_path / "run"), "--protocol", "lift", "--quiet"]) == 0
+    with ResultsStore(tmp_path / "run" / "results.sqlite") as store:
+        statuses = [r.status for _, r in sorted(store.results(), key=lambda kr: kr[0].grasp_index)]
+    assert statuses == [Status.SUCCESS, Status.NO_CONTACT]
