@@ -1,4 +1,4 @@
-"""Grasp planners: a `Planner` protocol, a registry and our planners (antipodal, power, random).
+"""Grasp planners: a `Planner` protocol, a registry and our planners (antipodal, power, random, file).
 
     >>> from manigrasp import planners
     >>> obs = planners.Observation.from_asset(asset)
