@@ -1,4 +1,6 @@
-"""The antipodal planner on point clouds: one noisy, partial view of a shipped mesh, normals by PCA.
+"""The antipodal planner's completion path on bare point clouds (``completion="point_symmetry"``): one noisy,
+partial view of a shipped mesh, normals by PCA. (The default ``"free_space"`` path needs the depth views:
+tests/test_planners_partial.py.)
 
 Clouds are made here, independently of `manigrasp.perception`: area-uniform
 samples (~2 mm apart) of the true mesh that face a camera 0.55 m away at
@@ -25,6 +27,11 @@ from tests.test_planners import BOX, assert_collision_free
 SPACING = 0.002  # [m]
 NOISE = 0.001  # [m]
 TABLE_MARGIN = 0.004  # [m]
+
+
+def SYMMETRY():  # noqa: N802 (reads as a constant)
+    """The antipodal planner completing the cloud by point symmetry."""
+    return planners.load("antipodal", completion="point_symmetry")
 
 
 def camera_at(azimuth_deg: float, distance: float = 0.55, elevation_deg: float = 45.0,
@@ -76,7 +83,7 @@ def test_the_synthetic_view_is_partial_and_noisy(box_truth):
 @pytest.mark.parametrize("azimuth", [30.0, 120.0, 250.0])
 def test_box_cloud_widths_are_the_box_dimensions_contacts_on_opposite_faces(box_truth, jaw, azimuth):
     obs = cloud_observation(box_truth, azimuth, 1)
-    result = planners.plan(planners.load("antipodal"), obs, jaw, 20, np.random.default_rng(0))
+    result = planners.plan(SYMMETRY(), obs, jaw, 20, np.random.default_rng(0))
     assert len(result.candidates) >= 10
     half = np.array(BOX) / 2
     for c in result.candidates:
@@ -125,7 +132,7 @@ def test_cloud_grasps_are_collision_free_and_lift_the_true_object(jaw, name, azi
     rest = settle_object(scene)
     truth = planners.Observation.from_asset(asset, rest)
     obs = cloud_observation(truth, azimuth, 4)
-    top = planners.plan(planners.load("antipodal"), obs, jaw, 5, np.random.default_rng(0)).candidates
+    top = planners.plan(SYMMETRY(), obs, jaw, 5, np.random.default_rng(0)).candidates
     assert len(top) == 5
     assert_collision_free(truth, jaw, top)
     lift = PROTOCOLS.load("lift")

@@ -72,26 +72,29 @@ from manigrasp.hands.base import Hand
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.cloud import cloud_pairs, collision_hull, complete, hull_volume
 from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
+from manigrasp.planners.free_space import DEFAULT_TAU
 from manigrasp.planners.geometry import SmoothNormals, sample_surface
 from manigrasp.planners.hold import hold_margin, loads, required_grip
 from manigrasp.planners.jaw_poses import PoseGrid, ranked_poses
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, Suppressor
 from manigrasp.planners.pairs import Pairs, cone_rays, find_pairs, thin_pairs
+from manigrasp.planners.partial import SpaceProbe, free_space_target, select_clear
 from manigrasp.planners.select import pack_free, select_free
 
-COMPLETIONS = ("point_symmetry", "none")
+COMPLETIONS = ("free_space", "point_symmetry", "none")
 
 
 class _Target(NamedTuple):
     """What the shared stages need from either path: pairs, centre of mass (3,) [m], torque scale [m],
-    mass [kg] and the collision probe."""
+    mass [kg], the collision probe, and a confidence (m,) multiplying each pair's score (None: 1)."""
 
     pairs: Pairs
     center: np.ndarray
     scale: float
     mass: float
     probe: HandProbe
+    confidence: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -124,10 +127,20 @@ class AntipodalPlanner:
         perturbation: the protocol's perturbation force in units of the object's weight [-] (the hold margin).
         hold_ref: hold margin that counts as full marks in the score (a safety factor) [-].
         density: of an object without a built asset (mesh or point cloud), for its mass [kg/m^3].
-        completion: how a point cloud's unseen side is filled in: "point_symmetry" or "none" (`cloud`).
+        completion: how a point cloud's unseen side is handled: "free_space" (visible and single-sided pairs,
+            the hand tested against the space the depth views saw through: `partial`; needs a
+            `free_space.ViewedObservation`), "point_symmetry" (reflection through an estimated centre) or
+            "none" (visible pairs only, collision against the cloud's hull) (`cloud`).
         cloud_radius: smallest distance from a ray at which a cloud point still lies on it [m]
             (1.5 x the cloud's point spacing if larger).
         cloud_margin: the collision hull of a point cloud is pushed out this far [m].
+        hidden_weight: score factor of a single-sided pair (its far contact unseen) [-] (`partial`).
+        hidden_uncertainty: largest distance the object may extend beyond a single-sided pair's far contact [m].
+        free_space_tau: half-width of the measured surface band of the free-space test [m].
+        region_margin: the object's region is the cloud's bounding box grown by this much [m].
+        hidden_margin: unknown (occluded) space blocks the hand only within this distance [m] of the seen
+            points' footprint (the object's hidden part lies under its seen surfaces); None: all of it
+            inside the region (strict).
         pair_cell: pairs are thinned to the most antipodal one per cell of this size [m] and ~10 degrees
             of line direction before scoring (`thin_pairs`).
     """
@@ -161,9 +174,14 @@ class AntipodalPlanner:
     perturbation: float = 1.0
     hold_ref: float = 3.0
     density: float = 500.0
-    completion: str = "point_symmetry"
+    completion: str = "free_space"
     cloud_radius: float = 0.003
     cloud_margin: float = 0.003
+    hidden_weight: float = 0.8
+    hidden_uncertainty: float = 0.025
+    free_space_tau: float = DEFAULT_TAU
+    region_margin: float = 0.03
+    hidden_margin: float | None = 0.005
 
     def __post_init__(self) -> None:
         for key in ("n_samples", "rays_per_sample", "n_approaches", "max_checks", "dense_approaches", "dense_checks"):
@@ -186,26 +204,34 @@ class AntipodalPlanner:
             raise ConfigError(f"antipodal: unknown completion {self.completion!r}; valid: {', '.join(COMPLETIONS)}")
         if self.cloud_radius <= 0 or self.cloud_margin < 0:
             raise ConfigError("antipodal: cloud_radius must be > 0 and cloud_margin >= 0")
+        if not (0 < self.hidden_weight <= 1 and self.hidden_uncertainty >= 0 and self.free_space_tau > 0
+                and self.region_margin >= 0 and (self.hidden_margin is None or self.hidden_margin >= 0)):
+            raise ConfigError("antipodal: hidden_weight must be in (0, 1], hidden_uncertainty, region_margin and "
+                              "hidden_margin >= 0, free_space_tau > 0")
 
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
         """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first.
 
-        Plans on the mesh when the observation has one, else on its point cloud (`cloud`).
+        Plans on the mesh when the observation has one, else on its point cloud: by default visible and
+        single-sided pairs against the depth views' free space (`partial`), or a completed cloud (`cloud`).
         """
         if hand.kind != "parallel":
             raise PlannerError(f"antipodal plans two-jaw grasps; hand {hand.name!r} is {hand.kind} "
                                "(use the 'power' planner)")
         target = self._mesh_target if observation.mesh is not None else self._cloud_target
-        pairs, center, scale, mass, probe = target(observation, hand, rng)
+        pairs, center, scale, mass, probe, confidence = target(observation, hand, rng)
         eps = grasp_metrics(*self._contacts(pairs), center, scale,
                             ContactModel(self.contact.mu, self.contact.gamma, min_friction=False)).epsilon_l1
         score = self.score(pairs, eps, self.hold(pairs, center, mass, hand))
+        if confidence is not None:
+            score = score * confidence
         extents = probe.finger_extents()
         ranked = ranked_poses(pairs, score, self.grid, extents, hand.max_width, self.max_approach_z,
                               observation.table_height, rng)
         nms = Suppressor(self.nms_distance, self.nms_angle, symmetric=True, capacity=max(n, 1))
-        chosen = ranked.order[select_free(probe, nms, ranked.poses[ranked.order], n, self.pregrasp_offset,
-                                          self.max_checks)]
+        select = select_clear if isinstance(probe, SpaceProbe) else select_free
+        chosen = ranked.order[select(probe, nms, ranked.poses[ranked.order], n, self.pregrasp_offset,
+                                     self.max_checks)]
         if len(chosen) < min(n, self.dense_below) and len(pairs):
             dense = ranked_poses(pairs, score, self.dense_grid, extents, hand.max_width, self.max_approach_z,
                                  observation.table_height, rng, keep_unclear=False)
@@ -227,7 +253,10 @@ class AntipodalPlanner:
                        HandProbe(hand, observation, self.clearance))
 
     def _cloud_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
-        """Pairs on the completed point cloud (`cloud`); its centre and hull; collision against the hull."""
+        """Pairs on the completed point cloud (`cloud`); its centre and hull; collision against the hull.
+        With ``completion="free_space"``: visible and single-sided pairs, the views' free space (`partial`)."""
+        if self.completion == "free_space":
+            return _Target(*free_space_target(self, observation, hand, rng))
         done = complete(observation.points, observation.normals, observation.table_height, self.completion)
         radius = max(self.cloud_radius, 1.5 * done.spacing)
         widths = (self.min_width, hand.max_width - self.width_margin)
