@@ -1,8 +1,12 @@
 """Benchmark configuration: which objects, hands, planners, protocol and how many grasps.
 
 A config is a YAML file (see configs/) validated into a frozen `BenchConfig`.
-Unknown keys are errors naming the nearest valid key; ``key=value``
-overrides (dotted for nested keys) are applied before validation.
+Unknown keys are errors naming the nearest valid key; every value is checked
+for its type and range (`manigrasp.config.from_mapping`, then each class's
+`__post_init__`); a duplicate object, hand or planner entry is refused; a list
+field takes a single value as a one-element list. ``key=value`` overrides
+(dotted for nested keys) are applied before validation. Every error is one
+`ConfigError` line, raised before anything is written.
 """
 
 from __future__ import annotations
