@@ -8,8 +8,10 @@
 - `HybridController`: selection-matrix hybrid position/force control (PI with anti-windup).
 - `GuardedApproach`: approach that stops pushing at a contact-force threshold.
 - `GripController`: close on position until contact, then regulate the grip force.
+- `FingerHold`: after closing, stiffen a hand's finger servos around the grasp they reached.
 """
 
+from manigrasp.control.hold import FingerHold
 from manigrasp.control.hybrid import ForceGains, ForcePI, GripController, GuardedApproach, HybridController
 from manigrasp.control.impedance import AdaptiveStiffness, ImpedanceController, ImpedanceGains, default_gains
 from manigrasp.control.native import BaseKinematics, NativeImpedance, euler_xyz
@@ -17,6 +19,7 @@ from manigrasp.control.native import BaseKinematics, NativeImpedance, euler_xyz
 __all__ = [
     "AdaptiveStiffness",
     "BaseKinematics",
+    "FingerHold",
     "ForceGains",
     "ForcePI",
     "GripController",

@@ -10,14 +10,32 @@ run samples at its control rate. Poses are (4, 4) world matrices [m].
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
-from manigrasp.control import GripController
+from manigrasp.control import FingerHold, GripController
 from manigrasp.protocol.execution import Abort, Trajectory, TrialRun
 from manigrasp.protocol.metrics import simulated_metrics
 from manigrasp.protocol.result import Status
 from manigrasp.sim import grip_force, read_hand_contacts
+
+# One `FingerHold` per scene (its model's gains are edited while a dexterous grasp is held).
+_HOLDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def finger_hold(run: TrialRun) -> FingerHold:
+    """The scene's `FingerHold` (made on first use, from the model's own gains)."""
+    scene = run.scene
+    if scene not in _HOLDS:
+        _HOLDS[scene] = FingerHold(scene.model, scene.hand_actuators)
+    return _HOLDS[scene]
+
+
+def release_hold(run: TrialRun) -> None:
+    """Give the hand its closing gains back if a previous close stiffened them (dexterous hands only)."""
+    if run.scene in _HOLDS:
+        _HOLDS[run.scene].release()
 
 
 def pregrasp_pose(pose: np.ndarray, offset: float) -> np.ndarray:
@@ -30,6 +48,7 @@ def pregrasp_pose(pose: np.ndarray, offset: float) -> np.ndarray:
 def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, preshape: float) -> np.ndarray:
     """Reset with the open hand at the pre-grasp pose of `pose`; any hand contact: `pregrasp_collision`."""
     start = pregrasp_pose(pose, run.params.pregrasp_offset)
+    release_hold(run)
     run.reset(start, object_pose, preshape)
     touching = read_hand_contacts(run.scene, "any")
     if len(touching):
@@ -71,7 +90,10 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
 
     The grip loop (`GripController`) runs at the control rate while closing; afterwards
     the finger command stays where it left it (unless `regulate_grip_after_close`), so
-    the finger servos hold the grip with no Python in the loop. The object's pose in the
+    the finger servos hold the grip with no Python in the loop; a dexterous hand's servos are
+    then stiffened around the configuration and forces they reached (`FingerHold`: each finger
+    keeps its force but stops following the object, which otherwise rolls out of the palm
+    along the curling fingers); the next pre-grasp or close gives the gains back. The object's pose in the
     hand is the reference of all later motion, and (with `metrics`) the grip force and
     simulated-contact metrics are recorded. `detail` goes to the observer's phase call.
     """
@@ -80,6 +102,7 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     grip = GripController(min(target, hand.max_grip_force), hand.max_grip_force, close_speed=p.close_speed,
                           contact_force=p.contact_force)
     grip.reset(preshape)
+    release_hold(run)
     run.grip = grip
     run.phase("close", detail)
     chunk, elapsed, touched_at = run.chunk, 0, None
@@ -98,6 +121,8 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     contacts = read_hand_contacts(run.scene)
     if grip.mode == "position" or len(contacts.fingers_touching) == 0:
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
+    if hand.kind == "dexterous" and run.grip is None:
+        finger_hold(run).engage(run.scene.data)
     if metrics:
         run.grip_force_n = grip_force(contacts)
         run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,

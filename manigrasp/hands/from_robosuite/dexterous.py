@@ -6,10 +6,15 @@ is one tendon-driven degree of freedom, as in the real hands (one motor per
 finger, one for the thumb's bend, one for its rotation):
 
 - a fixed tendon per finger, length L = sum(c_i q_i) with c_i proportional to
-  each joint's range, so in free motion (damping-dominated, equal joint
-  damping) the joints flex in proportion and reach their limits together;
-  blocked by an object, the distal joints keep wrapping (an adaptive,
-  underactuated finger);
+  each joint's range, and the finger's joints coupled in that proportion
+  (q_i = c_i q_lead, a stiff joint equality: the real hands' fingers are
+  one-motor linkages), so they flex together and reach their limits together.
+  Adaptive fingers (uncoupled, `FiveFingerModel.coupled` False) cannot hold
+  a grasp stiffly (a tendon of fixed length leaves the finger free to move):
+  a can grasped by hand crept 12 mm (Inspire) and 36 mm (Fourier, dropped) in
+  the hand under the standard protocol's lift and perturbations, and slipped
+  out in the lift with the stiffened hold; coupled, 20 and 12 mm without the
+  hold and about 1 mm with it (`manigrasp.control.FingerHold`);
 - one force-limited position servo per tendon, plus one for thumb rotation;
   the bending servos are soft (`KP`), so a blocked finger's force grows
   gradually with the command and the grip force can be regulated through the
@@ -83,6 +88,7 @@ class FiveFingerModel:
     rotation_kp: float = ROTATION_KP  # servo stiffness of the thumb's rotation [N m/rad]
     armature: float = ARMATURE  # reflected drive inertia of every hinge joint [kg m^2]
     link_mass: float | None = None  # if set, the mass of every collision geom [kg]
+    coupled: bool = True  # each finger's joints move in proportion (a linkage), not adaptively
 
     def finger_tendon(self, finger: str) -> tuple[str, ...]:
         return tuple(pattern.format(f=finger) for pattern in self.finger_joints)
@@ -155,6 +161,10 @@ def _base_spec(model: FiveFingerModel) -> mujoco.MjSpec:
     opposed = float(spec.joint(model.thumb_rotation).range[1])
     build.set_joint_default(spec, model.thumb_rotation, opposed)
     for name, joints in tendons(spec, model).items():
+        if model.coupled:
+            lead, *followers = joints
+            for joint in followers:
+                build.couple_joints(spec, joint, lead, joints[joint])
         force = _force_limit(model, name)
         closed = _closed_length(spec, joints)
         high = closed if name == "thumb_rotation" else closed + force / model.kp
@@ -258,7 +268,9 @@ def make_from(model: FiveFingerModel) -> Hand:
         max_grip_force=grip, mass=build.total_mass(mj), source="robosuite",
         notes=load_gripper_spec(model.xml)[1] + _mass_note(model) + (
             "12/11 per-joint servos replaced by 6 tendon servos: thumb rotation, thumb bend, index, middle, ring, "
-            "pinky (coefficients proportional to joint ranges; adaptive when a phalanx is blocked)",
+            "pinky (coefficients proportional to joint ranges)"
+            + ("; each finger's joints coupled in that proportion (a linkage)" if model.coupled
+               else "; adaptive when a phalanx is blocked"),
             "thumb rotation re-referenced so qpos0 is the open pre-shape (thumb opposed, fingers straight)",
             f"armature {model.armature:g} kg m^2 on every finger joint (none in robosuite): with 1e-5 kg m^2 links "
             "the tendon forces pushed joints up to 1.2 rad through their (soft) stops",
