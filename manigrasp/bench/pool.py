@@ -17,7 +17,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from multiprocessing import get_context
 from multiprocessing.connection import Connection, wait
 
@@ -38,12 +38,14 @@ class Task:
 @dataclass(frozen=True)
 class Outcome:
     """How a task ended: "done" (`value` is its return value), "error" (it raised: `detail`),
-    "timeout" (it overran its budget and its worker was killed) or "died" (its worker died)."""
+    "timeout" (it overran its budget and its worker was killed) or "died" (its worker died);
+    `started`: whether its budgeted part had begun (`timed_start`)."""
 
     task: Task
     kind: str
     value: object = None
     detail: str = ""
+    started: bool = False
 
 
 def _serve(conn: Connection, parent: int) -> None:  # pragma: no cover - runs in the worker process
@@ -103,9 +105,10 @@ class _Worker:
         child.close()
         self.task: Task | None = None
         self.deadline = 0.0
+        self.started = False
 
     def give(self, task: Task, setup_s: float) -> None:
-        self.task, self.deadline = task, time.monotonic() + setup_s + task.budget_s
+        self.task, self.deadline, self.started = task, time.monotonic() + setup_s + task.budget_s, False
         self.conn.send((task.fn, task.args))
 
     def kill(self) -> None:
@@ -166,7 +169,7 @@ class Pool:
             except (EOFError, OSError):
                 return self._replace(w, Outcome(task, "died", detail=_death(w)))
             if kind == "start":
-                w.deadline = time.monotonic() + task.budget_s
+                w.deadline, w.started = time.monotonic() + task.budget_s, True
                 return None
             w.task = None
             return Outcome(task, "done", value) if kind == "done" else Outcome(task, "error", detail=str(value))
@@ -178,6 +181,7 @@ class Pool:
         return None
 
     def _replace(self, w: _Worker, outcome: Outcome) -> Outcome:
+        outcome = replace(outcome, started=w.started)
         w.kill()
         w.task = None
         self._workers.remove(w)

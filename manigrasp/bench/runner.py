@@ -182,7 +182,8 @@ def _iter_local(pending: list[Group], todo: dict, jobs: int, address: str | None
 
     A group whose planner call overruns `trial_timeout_s` is `timeout` for all its trials; a trial that
     overruns its budget by `TRIAL_GRACE_S` is `timeout`; a worker that dies while planning makes its group
-    `planner_error`, while running a trial that trial `harness_fault`; the run goes on.
+    `planner_error` (`harness_fault` if it died before the planner was called), while running a trial that
+    trial `harness_fault`; the run goes on.
     """
     with Pool(jobs) as pool:
         for group in pending:
@@ -211,8 +212,10 @@ def _iter_inline(pending: list[Group], todo: dict, jobs: int, address: str | Non
 def _failed_plan(group: Group, outcome: Outcome) -> Plan:
     if outcome.kind == "timeout":
         return Plan.failed(group, Status.TIMEOUT, f"planning {outcome.detail}", group.timeout_s)
-    if outcome.kind == "died":
-        return Plan.failed(group, Status.PLANNER_ERROR, f"while planning, {outcome.detail}")
+    if outcome.kind == "died":  # in the planner's call: the planner's; before it (scene, settling): the harness's
+        status = Status.PLANNER_ERROR if outcome.started else Status.HARNESS_FAULT
+        return Plan.failed(group, status, f"while {'planning' if outcome.started else 'preparing to plan'}, "
+                                          f"{outcome.detail}")
     return Plan.failed(group, Status.HARNESS_FAULT, f"planning failed: {outcome.detail}")
 
 
