@@ -170,6 +170,18 @@ def test_results_without_a_readable_run_json_are_not_adopted(tmp_path, damage):
     assert len(_rows(tmp_path / "run")) == 1
 
 
+@pytest.mark.parametrize("damage", ["garbage", "truncated"])
+def test_a_damaged_results_store_is_a_one_line_error(tmp_path, damage):
+    run_benchmark(parse_config(ONE), tmp_path / "run", progress=False)
+    store = tmp_path / "run" / "results.sqlite"
+    data = store.read_bytes()
+    for extra in tmp_path.glob("run/results.sqlite-*"):
+        extra.unlink()
+    store.write_bytes(b"garbage " * 512 if damage == "garbage" else data[:1000])
+    with pytest.raises(ConfigError, match="not a readable results store"):
+        run_benchmark(parse_config(ONE), tmp_path / "run", progress=False)
+
+
 def test_an_edited_mesh_file_is_refused_on_resume(tmp_path):
     mesh = tmp_path / "block.stl"
     trimesh.creation.box((0.05, 0.05, 0.05)).export(mesh)

@@ -13,6 +13,7 @@ run uses it.
 from __future__ import annotations
 
 import os
+import sqlite3
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -25,7 +26,7 @@ from manigrasp.bench.pool import Outcome, Pool, Task
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.bench.trials import Group, groups
 from manigrasp.bench.worker import Plan, plan_group, run_trial
-from manigrasp.errors import ConfigError
+from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.record.policy import RecordSettings
 
@@ -131,8 +132,7 @@ def run_benchmark(
         rundir.prepare(run_dir, config, base)
         settings = RecordSettings.for_run(run_dir, record)
         _prebuild_objects(all_groups, jobs)
-        store = ResultsStore(run_dir / "results.sqlite")
-        done = store.done_ids()
+        store, done = _open_store(run_dir)
         todo = {id(g): [i for i in range(g.n_grasps) if g.key(i).trial_id not in done] for g in all_groups}
         pending = [g for g in all_groups if todo[id(g)]]
         total = sum(g.n_grasps for g in all_groups)
@@ -142,7 +142,7 @@ def run_benchmark(
         try:
             tasks = _iter_ray if executor == "ray" else _iter_inline if in_process else _iter_local
             for key, result in tasks(pending, todo, jobs, address, settings):
-                if store.add(key, result):
+                if _add(store, key, result):
                     ran += 1
                     successes += result.success
                 if on_result is not None:
@@ -153,6 +153,25 @@ def run_benchmark(
             bar.close()
             store.close()
     return RunSummary(run_dir, total, already, ran, successes, time.perf_counter() - start)
+
+
+def _open_store(run_dir: Path) -> tuple[ResultsStore, set[str]]:
+    """The run's store and the ids it holds; `ConfigError` for a file that is not a readable store."""
+    try:
+        store = ResultsStore(run_dir / "results.sqlite")
+        return store, store.done_ids()
+    except sqlite3.DatabaseError as exc:
+        raise ConfigError(f"{run_dir / 'results.sqlite'} is not a readable results store ({exc}); "
+                          "use another --out") from None
+
+
+def _add(store: ResultsStore, key: TrialKey, result: TrialResult) -> bool:
+    """Store one trial; a store that cannot be written (a full disk) ends the run with one line."""
+    try:
+        return store.add(key, result)
+    except sqlite3.OperationalError as exc:
+        raise ManigraspError(f"cannot store trial {key.trial_id} in {store.path}: {exc}; the trials stored so "
+                             "far are kept, and re-running the same command resumes from there") from None
 
 
 def _prebuild_objects(all_groups: list[Group], jobs: int) -> None:
