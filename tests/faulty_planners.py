@@ -141,3 +141,8 @@ def sleeping_protocol(**params):
                 time.sleep(1.0)
 
     return Sleeping()
+
+
+def raising_hand():
+    """A hand factory that raises."""
+    raise RuntimeError("no hand today")

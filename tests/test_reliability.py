@@ -263,6 +263,9 @@ def test_config_code_of_the_wrong_kind_is_refused_before_it_is_called(tmp_path, 
         run_benchmark(parse_config(dict(ONE, hands=["os:getcwd"])), tmp_path / "run", progress=False)
     with pytest.raises(ConfigError, match="not called"):
         run_benchmark(parse_config(dict(ONE, protocol="os:getcwd")), tmp_path / "run", progress=False)
+    with pytest.raises(ConfigError, match="building it raised RuntimeError: no hand today"):
+        run_benchmark(parse_config(dict(ONE, hands=["faulty_planners:raising_hand"])), tmp_path / "run",
+                      progress=False)
     assert not (tmp_path / "PWNED").exists() and not (tmp_path / "run").exists()
 
 

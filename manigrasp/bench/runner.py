@@ -58,7 +58,7 @@ def validate(config: BenchConfig, base: Path | None = None) -> list[Group]:
     found = groups(config, base)
     for hand in config.hands:
         _check_kind(hand, "hand")
-        hands.load(hand)
+        _built(f"hand {hand!r}", hands.load, hand)
     for planner in config.planners:
         try:
             planners.load(planner.name, **dict(planner.params))
@@ -66,8 +66,18 @@ def validate(config: BenchConfig, base: Path | None = None) -> list[Group]:
             if "building it raised" not in str(exc):  # a planner whose constructor raises is its trials' status
                 raise
     _check_kind(config.protocol.name, "protocol")
-    PROTOCOLS.load(config.protocol.name, **dict(config.protocol.params))
+    _built(f"protocol {config.protocol.name!r}", PROTOCOLS.load, config.protocol.name, **dict(config.protocol.params))
     return found
+
+
+def _built(what: str, load: Callable, *args: object, **params: object) -> object:
+    """`load(*args, **params)`; a user factory's own exception becomes a one-line `ConfigError`."""
+    try:
+        return load(*args, **params)
+    except ManigraspError:
+        raise
+    except Exception as exc:
+        raise ConfigError(f"{what}: building it raised {type(exc).__name__}: {exc}") from exc
 
 
 def _check_kind(name: str, kind: str) -> None:
