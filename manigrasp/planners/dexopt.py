@@ -1,0 +1,205 @@
+"""`dexopt` (in progress): the energy of optimisation-based dexterous grasp synthesis and its analytic gradient.
+
+The energy follows DexGraspNet (Wang et al., 2023), with the differentiable force-closure estimate of Liu et al.
+(2021), over a hand configuration whose contact points x_i (n, 3) [m] are points fixed on the hand's links
+(e.g. fingertip pads) and whose surface samples p_j (m, 3) cover its collision geometry:
+
+    E = w_fc E_fc + w_dis E_dis + w_pen E_pen + w_table E_table + w_joint E_joint
+
+- force closure: E_fc = |G n|^2 = |sum_i n_i|^2 + |sum_i x_i x n_i|^2, with n_i = -grad d(x_i) the inward
+  surface normal at x_i (d: the object's signed distance, negative inside) and G = [I ...; [x_i]x ...] the
+  grasp matrix: zero when unit forces along the normals balance in force and torque (Liu et al.'s estimate,
+  squared here so that it is smooth);
+- contact distance: E_dis = sum_i d(x_i)^2 (the contact points on the surface);
+- penetration: E_pen = sum_j max(0, -d(p_j)) (hand samples inside the object, by depth);
+- table: E_table = sum_j max(0, z_table - p_j,z) (hand samples below the table top);
+- joint limits: E_joint = sum_k max(0, q_k - hi_k) + max(0, lo_k - q_k).
+
+Weights (`EnergyWeights`) default to DexGraspNet's relative scale (distance and penetration 100 x force closure).
+Every term returns its value and its gradient with respect to the points (or joints) in closed form, including
+the normals' dependence on the points through the signed distance's Hessian; `chain_to_dofs` takes a points'
+gradient to the hand's generalised coordinates with MuJoCo's Jacobians (`mj_jac`), so a descent step is
+``mj_integratePos(model, qpos, -step * g, 1)`` on a hand mounted on a free joint.
+
+Status: the energy terms, the shapes (sphere, box) and the chain rule are implemented and tested; the planner
+itself (restarts, the descent loop, the squeeze direction, registration as a planner) is not written yet.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from manigrasp.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class EnergyWeights:
+    """Weights of the energy's terms [-] (see the module docstring)."""
+
+    force_closure: float = 1.0
+    distance: float = 100.0
+    penetration: float = 100.0
+    table: float = 100.0
+    joints: float = 10.0
+
+    def __post_init__(self) -> None:
+        for name in ("force_closure", "distance", "penetration", "table", "joints"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise ConfigError(f"EnergyWeights.{name} must be finite and >= 0, got {value}")
+
+
+class Shape(Protocol):
+    """A solid with an exact signed distance (negative inside), its gradient and Hessian."""
+
+    def sdf(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(n,) distances [m], (n, 3) gradients and (n, 3, 3) Hessians at `points` (n, 3)."""
+        ...
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """Sphere of `radius` [m] about `centre` (3,)."""
+
+    centre: tuple[float, float, float]
+    radius: float
+
+    def sdf(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        rel = np.atleast_2d(points) - np.asarray(self.centre, float)
+        norm = np.linalg.norm(rel, axis=1)
+        safe = np.maximum(norm, 1e-12)
+        unit = rel / safe[:, None]
+        hess = (np.eye(3)[None] - unit[:, :, None] * unit[:, None, :]) / safe[:, None, None]
+        return norm - self.radius, unit, hess
+
+
+@dataclass(frozen=True)
+class Box:
+    """Box of half extents `half` (3,) [m] centred at `centre`, rotated by `rotation` (3, 3) (box -> world)."""
+
+    centre: tuple[float, float, float]
+    half: tuple[float, float, float]
+    rotation: np.ndarray | None = None
+
+    def sdf(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        rot = np.eye(3) if self.rotation is None else np.asarray(self.rotation, float)
+        local = (np.atleast_2d(points) - np.asarray(self.centre, float)) @ rot
+        sign = np.where(local < 0, -1.0, 1.0)
+        q = np.abs(local) - np.asarray(self.half, float)
+        outside = np.maximum(q, 0.0)
+        out_norm = np.linalg.norm(outside, axis=1)
+        n = len(local)
+        dist = np.empty(n)
+        grad = np.zeros((n, 3))
+        hess = np.zeros((n, 3, 3))
+        out = out_norm > 0
+        # Outside: distance to the nearest face, edge or corner: |max(q, 0)|; its Hessian lives on the axes
+        # that are outside (an edge's distance curves about the edge, a face's is flat).
+        if out.any():
+            u = outside[out] / out_norm[out, None]
+            dist[out] = out_norm[out]
+            grad[out] = sign[out] * u
+            mask = (q[out] > 0).astype(float)
+            proj = mask[:, :, None] * np.eye(3)[None] * mask[:, None, :] - u[:, :, None] * u[:, None, :]
+            hess[out] = sign[out][:, :, None] * proj * sign[out][:, None, :] / out_norm[out, None, None]
+        inside = ~out
+        if inside.any():  # inside (or on the surface): minus the distance to the nearest face; flat
+            axis = np.argmax(q[inside], axis=1)
+            dist[inside] = q[inside][np.arange(inside.sum()), axis]
+            g = np.zeros((inside.sum(), 3))
+            g[np.arange(inside.sum()), axis] = sign[inside][np.arange(inside.sum()), axis]
+            grad[inside] = g
+        return dist, grad @ rot.T, np.einsum("ij,njk,lk->nil", rot, hess, rot)
+
+
+def force_closure(points: np.ndarray, shape: Shape) -> tuple[float, np.ndarray]:
+    """E_fc = |sum n_i|^2 + |sum x_i x n_i|^2 with n_i = -grad d(x_i); returns (E, dE/dx (n, 3))."""
+    x = np.atleast_2d(np.asarray(points, float))
+    _, grad, hess = shape.sdf(x)
+    normal, d_normal = -grad, -hess  # dn_i/dx_i = -Hessian
+    force = normal.sum(axis=0)
+    torque = np.cross(x, normal).sum(axis=0)
+    energy = float(force @ force + torque @ torque)
+    # d(x cross n)/dx = -[n]x + [x]x dn/dx; the gradient is 2 (dn/dx^T f + d(x cross n)/dx^T t).
+    d_cross = -_skew(normal) + np.einsum("nij,njk->nik", _skew(x), d_normal)
+    gradient = 2.0 * (np.einsum("nji,j->ni", d_normal, force) + np.einsum("nji,j->ni", d_cross, torque))
+    return energy, gradient
+
+
+def contact_distance(points: np.ndarray, shape: Shape) -> tuple[float, np.ndarray]:
+    """E_dis = sum d(x_i)^2; returns (E, dE/dx (n, 3))."""
+    dist, grad, _ = shape.sdf(np.atleast_2d(np.asarray(points, float)))
+    return float(dist @ dist), 2.0 * dist[:, None] * grad
+
+
+def penetration(samples: np.ndarray, shape: Shape) -> tuple[float, np.ndarray]:
+    """E_pen = sum max(0, -d(p_j)): total depth [m] of the hand samples inside the object; (E, dE/dp (m, 3))."""
+    dist, grad, _ = shape.sdf(np.atleast_2d(np.asarray(samples, float)))
+    inside = dist < 0
+    return float(-dist[inside].sum()), np.where(inside[:, None], -grad, 0.0)
+
+
+def table_penetration(samples: np.ndarray, table_z: float = 0.0) -> tuple[float, np.ndarray]:
+    """E_table = sum max(0, table_z - p_j,z) [m]; returns (E, dE/dp (m, 3))."""
+    p = np.atleast_2d(np.asarray(samples, float))
+    below = p[:, 2] < table_z
+    gradient = np.zeros_like(p)
+    gradient[below, 2] = -1.0
+    return float((table_z - p[below, 2]).sum()), gradient
+
+
+def joint_limits(q: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[float, np.ndarray]:
+    """E_joint = sum max(0, q - hi) + max(0, lo - q) [rad]; returns (E, dE/dq)."""
+    q, low, high = (np.asarray(v, float) for v in (q, low, high))
+    over, under = np.maximum(q - high, 0.0), np.maximum(low - q, 0.0)
+    return float(over.sum() + under.sum()), (q > high).astype(float) - (q < low).astype(float)
+
+
+def energy(contacts: np.ndarray, samples: np.ndarray, q: np.ndarray, low: np.ndarray, high: np.ndarray,
+           shape: Shape, weights: EnergyWeights = EnergyWeights(), table_z: float | None = 0.0,
+           ) -> tuple[float, dict[str, float], np.ndarray, np.ndarray, np.ndarray]:
+    """The weighted energy, its terms, and its gradients w.r.t. `contacts`, `samples` and `q`."""
+    e_fc, g_fc = force_closure(contacts, shape)
+    e_dis, g_dis = contact_distance(contacts, shape)
+    e_pen, g_pen = penetration(samples, shape)
+    e_tab, g_tab = table_penetration(samples, table_z) if table_z is not None else (0.0, np.zeros_like(samples))
+    e_jnt, g_jnt = joint_limits(q, low, high)
+    w = weights
+    terms = {"force_closure": e_fc, "distance": e_dis, "penetration": e_pen, "table": e_tab, "joints": e_jnt}
+    total = (w.force_closure * e_fc + w.distance * e_dis + w.penetration * e_pen + w.table * e_tab
+             + w.joints * e_jnt)
+    return (float(total), terms, w.force_closure * g_fc + w.distance * g_dis,
+            w.penetration * g_pen + w.table * g_tab, w.joints * g_jnt)
+
+
+def chain_to_dofs(model, data, bodies: np.ndarray, points: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+    """(nv,) gradient over the model's dofs of a function of world `points` (n, 3) fixed on `bodies` (n,).
+
+    g = sum_i J_i^T dE/dx_i with J_i the translational Jacobian (`mj_jac`) of point i on its body; the
+    kinematics of `data` must be current (`mj_kinematics`, `mj_comPos`). A free joint's rotational dofs are
+    in its body frame, as `mj_integratePos` expects.
+    """
+    import mujoco
+
+    jacp = np.zeros((3, model.nv))
+    out = np.zeros(model.nv)
+    for body, point, grad in zip(np.asarray(bodies, int), np.atleast_2d(points), np.atleast_2d(gradient),
+                                 strict=True):
+        if not grad.any():
+            continue
+        mujoco.mj_jac(model, data, jacp, None, np.asarray(point, float), int(body))
+        out += jacp.T @ grad
+    return out
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) cross-product matrices of the rows of `v` (n, 3): [v]x w = v x w."""
+    v = np.atleast_2d(v)
+    out = np.zeros((len(v), 3, 3))
+    out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
+    out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
+    out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
+    return out

@@ -1,0 +1,190 @@
+"""The energy terms of `manigrasp.planners.dexopt` on a sphere and a box: analytic values and analytic gradients."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from manigrasp.errors import ConfigError
+from manigrasp.planners import dexopt
+from manigrasp.planners.dexopt import Box, EnergyWeights, Sphere
+
+SPHERE = Sphere((0.01, -0.02, 0.1), 0.04)
+ROT = np.array([[np.cos(0.4), -np.sin(0.4), 0.0], [np.sin(0.4), np.cos(0.4), 0.0], [0.0, 0.0, 1.0]]) @ np.array(
+    [[1.0, 0.0, 0.0], [0.0, np.cos(0.3), -np.sin(0.3)], [0.0, np.sin(0.3), np.cos(0.3)]])
+BOX = Box((0.02, 0.01, 0.08), (0.03, 0.05, 0.02), ROT)
+
+
+def _numeric_gradient(f, x: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    g = np.zeros_like(x)
+    for idx in np.ndindex(x.shape):
+        step = np.zeros_like(x)
+        step[idx] = h
+        g[idx] = (f(x + step) - f(x - step)) / (2 * h)
+    return g
+
+
+def test_sphere_sdf_values_and_derivatives() -> None:
+    c = np.array(SPHERE.centre)
+    points = c + np.array([[0.08, 0.0, 0.0], [0.0, 0.0, -0.01], [0.03, 0.04, 0.0]])
+    dist, grad, hess = SPHERE.sdf(points)
+    np.testing.assert_allclose(dist, [0.04, -0.03, 0.01], atol=1e-12)
+    np.testing.assert_allclose(grad[0], [1, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(grad[1], [0, 0, -1], atol=1e-12)
+    for p, g, h in zip(points, grad, hess, strict=True):
+        np.testing.assert_allclose(_numeric_gradient(lambda x: SPHERE.sdf(x[None])[0][0], p), g, atol=1e-6)
+        np.testing.assert_allclose(_numeric_gradient(lambda x: SPHERE.sdf(x[None])[1][0] @ np.ones(3), p),
+                                   h @ np.ones(3), atol=1e-4)
+
+
+def test_box_sdf_face_edge_corner_and_inside() -> None:
+    box = Box((0.0, 0.0, 0.0), (0.03, 0.05, 0.02))
+    points = np.array([[0.05, 0.0, 0.0],  # 2 cm off the +x face
+                       [0.06, 0.09, 0.0],  # off the (+x, +y) edge by (3, 4) cm
+                       [-0.04, -0.07, 0.04],  # off the corner by (1, 2, 2) cm
+                       [0.0, 0.01, 0.015]])  # inside, 5 mm under the +z face
+    dist, grad, _ = box.sdf(points)
+    np.testing.assert_allclose(dist, [0.02, 0.05, 0.03, -0.005], atol=1e-12)
+    np.testing.assert_allclose(grad[0], [1, 0, 0])
+    np.testing.assert_allclose(grad[1], [0.6, 0.8, 0])
+    np.testing.assert_allclose(grad[2], [-1 / 3, -2 / 3, 2 / 3])
+    np.testing.assert_allclose(grad[3], [0, 0, 1])
+
+
+def test_rotated_box_gradient_and_hessian_match_finite_differences() -> None:
+    rng = np.random.default_rng(3)
+    centre = np.array(BOX.centre)
+    for _ in range(20):
+        p = centre + ROT @ (np.array(BOX.half) * rng.uniform(-2.0, 2.0, 3))
+        d, g, h = BOX.sdf(p[None])
+        if np.min(np.abs(np.abs(ROT.T @ (p - centre)) - np.array(BOX.half))) < 1e-3:
+            continue  # too close to a kink of the distance field for a finite difference
+        np.testing.assert_allclose(_numeric_gradient(lambda x: BOX.sdf(x[None])[0][0], p), g[0], atol=1e-6)
+        for k in range(3):
+            np.testing.assert_allclose(_numeric_gradient(lambda x, k=k: BOX.sdf(x[None])[1][0, k], p), h[0][k],
+                                       atol=1e-3)
+
+
+def test_force_closure_is_zero_for_balanced_sphere_grasps_and_not_for_a_one_sided_one() -> None:
+    c, r = np.array(SPHERE.centre), SPHERE.radius
+    three = c + r * np.array([[np.cos(a), np.sin(a), 0.0] for a in (0.3, 0.3 + 2 * np.pi / 3, 0.3 + 4 * np.pi / 3)])
+    two = c + r * np.array([[0.0, 0.6, 0.8], [0.0, -0.6, -0.8]])
+    assert dexopt.force_closure(three, SPHERE)[0] == pytest.approx(0.0, abs=1e-20)
+    assert dexopt.force_closure(two, SPHERE)[0] == pytest.approx(0.0, abs=1e-20)
+    cap = c + r * np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, 0.6, 0.8]])
+    # The normals' sum of a one-sided grasp: |(0.6, 0.6, 2.6)|^2; radial normals exert no torque about c,
+    # and their torque about the origin is c x (sum n).
+    force = np.array([0.6, 0.6, 2.6])
+    assert dexopt.force_closure(cap, SPHERE)[0] == pytest.approx(force @ force + np.cross(c, -force) @ np.cross(
+        c, -force))
+
+
+def test_force_closure_of_two_offset_box_contacts_is_the_squared_torque_arm() -> None:
+    """Opposite contacts on the +-x faces at heights a and b: the forces cancel, the torque is (a - b) about z."""
+    box = Box((0.0, 0.0, 0.0), (0.03, 0.05, 0.02))
+    a, b = 0.01, -0.015
+    points = np.array([[0.03, a, 0.0], [-0.03, b, 0.0]])
+    assert dexopt.force_closure(points, box)[0] == pytest.approx((a - b) ** 2)
+    assert dexopt.force_closure(np.array([[0.03, a, 0.0], [-0.03, a, 0.0]]), box)[0] == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize("shape", [SPHERE, BOX], ids=["sphere", "box"])
+def test_analytic_gradients_match_finite_differences(shape) -> None:
+    rng = np.random.default_rng(7)
+    centre = np.array(shape.centre)
+    points = centre + rng.normal(scale=0.05, size=(4, 3))
+    for term in (dexopt.force_closure, dexopt.contact_distance, dexopt.penetration):
+        value, gradient = term(points, shape)
+        numeric = _numeric_gradient(lambda x, term=term: term(x, shape)[0], points)
+        np.testing.assert_allclose(gradient, numeric, rtol=1e-5, atol=1e-7, err_msg=term.__name__)
+
+
+def test_penetration_table_and_joint_limits_measure_depths() -> None:
+    c, r = np.array(SPHERE.centre), SPHERE.radius
+    samples = np.array([c + [0.0, 0.0, r - 0.004], c + [0.0, 0.0, r + 0.01], [0.0, 0.0, -0.003]])
+    value, gradient = dexopt.penetration(samples, SPHERE)
+    assert value == pytest.approx(0.004)
+    np.testing.assert_allclose(gradient, [[0, 0, -1], [0, 0, 0], [0, 0, 0]])  # descent pushes the sample out
+    value, gradient = dexopt.table_penetration(samples, 0.0)
+    assert value == pytest.approx(0.003) and gradient[2].tolist() == [0, 0, -1] and not gradient[:2].any()
+    value, gradient = dexopt.joint_limits(np.array([0.5, 1.8, -0.3]), np.zeros(3), np.full(3, 1.6))
+    assert value == pytest.approx(0.5) and gradient.tolist() == [0.0, 1.0, -1.0]
+
+
+def test_descent_on_the_energy_brings_three_contacts_to_a_balanced_grasp() -> None:
+    """Plain gradient descent on E_fc + 100 E_dis from three points near one side of the sphere."""
+    c, r = np.array(SPHERE.centre), SPHERE.radius
+    points = c + np.array([[0.05, 0.01, 0.0], [0.01, 0.05, 0.01], [-0.02, 0.045, -0.01]])
+    weights = EnergyWeights()
+    first = None
+    for _ in range(3000):
+        e_fc, g_fc = dexopt.force_closure(points, SPHERE)
+        e_dis, g_dis = dexopt.contact_distance(points, SPHERE)
+        first = first if first is not None else e_fc
+        points = points - 1e-4 * (weights.force_closure * g_fc + weights.distance * g_dis)
+    assert first > 0.5
+    assert dexopt.force_closure(points, SPHERE)[0] < 1e-10
+    np.testing.assert_allclose(SPHERE.sdf(points)[0], 0.0, atol=1e-6)  # on the surface
+    # Three unit normals summing to zero: the contacts lie on a great circle, 120 degrees apart.
+    unit = (points - c) / r
+    for i, j in ((0, 1), (1, 2), (0, 2)):
+        assert np.degrees(np.arccos(unit[i] @ unit[j])) == pytest.approx(120.0, abs=0.01)
+
+
+def test_weights_must_be_non_negative() -> None:
+    with pytest.raises(ConfigError, match="distance"):
+        EnergyWeights(distance=-1.0)
+
+
+FINGER = """
+<mujoco>
+  <worldbody>
+    <body name="palm">
+      <freejoint/>
+      <geom type="box" size="0.02 0.02 0.01"/>
+      <body name="link" pos="0 0 0.02">
+        <joint name="bend" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.05" size="0.008"/>
+        <body name="tip" pos="0 0 0.05">
+          <joint name="tip_bend" type="hinge" axis="0 1 0"/>
+          <geom type="sphere" size="0.01"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_chain_rule_through_mujoco_jacobians_matches_finite_differences_over_the_dofs() -> None:
+    model = mujoco.MjModel.from_xml_string(FINGER)
+    data = mujoco.MjData(model)
+    qpos0 = np.array([0.01, 0.02, 0.03, 0.9, 0.1, -0.2, 0.3, 0.4, 0.5])
+    qpos0[3:7] /= np.linalg.norm(qpos0[3:7])
+    bodies = np.array([model.body("tip").id, model.body("link").id])
+    local = np.array([[0.0, 0.0, 0.01], [0.008, 0.0, 0.03]])  # points fixed on the bodies
+
+    def points_at(qpos: np.ndarray) -> np.ndarray:
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        return np.array([data.xpos[b] + data.xmat[b].reshape(3, 3) @ p for b, p in zip(bodies, local, strict=True)])
+
+    def value(qpos: np.ndarray) -> float:
+        return dexopt.force_closure(points_at(qpos), SPHERE)[0] + dexopt.contact_distance(points_at(qpos), SPHERE)[0]
+
+    points = points_at(qpos0)
+    grad_points = dexopt.force_closure(points, SPHERE)[1] + dexopt.contact_distance(points, SPHERE)[1]
+    analytic = dexopt.chain_to_dofs(model, data, bodies, points, grad_points)
+    numeric = np.zeros(model.nv)
+    for k in range(model.nv):
+        shifted = []
+        for sign in (1.0, -1.0):
+            q = qpos0.copy()
+            dv = np.zeros(model.nv)
+            dv[k] = sign * 1e-6
+            mujoco.mj_integratePos(model, q, dv, 1.0)
+            shifted.append(value(q))
+        numeric[k] = (shifted[0] - shifted[1]) / 2e-6
+    np.testing.assert_allclose(analytic, numeric, rtol=1e-4, atol=1e-8)
