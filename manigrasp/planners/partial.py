@@ -25,8 +25,8 @@ with normals and the depth views it came from (`free_space.ViewedObservation`).
    the open jaw, the uncertainty u = t_free - w is at most `max_uncertainty`
    (the object may reach farther: the far finger's own volume must then be
    seen free, step 3, which bounds it where the finger is), and the far
-   contact was not seen (no observed point within 2 `radius`: a seen exit is
-   a visible pair's, with its measured normal).
+   contact was not seen (no observed point within 2 `radius` whose normal
+   faces along d: a seen exit is a visible pair's, with its measured normal).
 3. Collision (`SpaceProbe`): the open hand's collision geometry (MuJoCo, as
    `collision.HandProbe`) against the table, and points on its geoms'
    boxes against the views' blocked space: the part of the object's region
@@ -130,11 +130,19 @@ def hidden_pairs(cloud: CompletedCloud, chosen: np.ndarray, space: FreeSpace, wi
     gap = np.minimum(beyond, 2.0 * cloud.spacing)  # the edge lies within about one sampling gap of s
     width = np.clip(t_seen + 0.5 * np.where(last >= 0, gap, 0.0), widths[0], t_free)
     uncertainty = t_free - width
-    unseen = cKDTree(cloud.points[:cloud.observed]).query(p + width[:, None] * d)[0] > 2.0 * radius
+    unseen = ~_seen_exit(cloud, p + width[:, None] * d, d, 2.0 * radius)
     ok = (uncertainty <= max_uncertainty) & unseen & (width <= widths[1])
     pairs = Pairs(p=p, q=p + width[:, None] * d, n_p=n, n_q=d.copy(), axis=d, width=width,
                   alpha=np.zeros(len(p)))
     return HiddenPairs(pairs.take(ok), uncertainty[ok])
+
+
+def _seen_exit(cloud: CompletedCloud, q: np.ndarray, d: np.ndarray, radius: float) -> np.ndarray:
+    """(m,) True where a seen surface facing along d (m, 3) (normal within 60 degrees) lies within `radius` [m]
+    of the far contact q (m, 3): the line leaves the object through a surface a view saw."""
+    near = cKDTree(cloud.points[:cloud.observed]).query_ball_point(q, radius)
+    return np.array([bool(idx) and bool(np.any(cloud.normals[idx] @ d[i] > 0.5)) for i, idx in enumerate(near)],
+                    bool)
 
 
 def _flat(cloud: CompletedCloud, chosen: np.ndarray, k: int = 12) -> np.ndarray:
