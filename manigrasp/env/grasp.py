@@ -34,7 +34,6 @@ from typing import Any
 import dm_env
 import numpy as np
 import trimesh
-from scipy.spatial.transform import Rotation
 
 from manigrasp.env import points as _points
 from manigrasp.env import spaces
@@ -235,7 +234,4 @@ def _pose_matrix(pose: np.ndarray) -> np.ndarray:
     """(4, 4) of a (7,) pos + quat, the quaternion normalised as the protocol reads it (NaN when it cannot be)."""
     if not np.all(np.isfinite(pose)) or np.linalg.norm(pose[3:]) == 0:
         return np.full((4, 4), np.nan)
-    out = np.eye(4)
-    out[:3, :3] = Rotation.from_quat(pose[3:], scalar_first=True).as_matrix()
-    out[:3, 3] = pose[:3]
-    return out
+    return PoseRecord(*(float(v) for v in pose)).matrix()
