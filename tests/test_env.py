@@ -27,7 +27,7 @@ from manigrasp.env import GraspEnv
 from manigrasp.errors import ConfigError, UnknownNameError
 from manigrasp.objects import build_object
 from manigrasp.objects.catalog import ObjectSource
-from manigrasp.protocol import Status
+from manigrasp.protocol import PROTOCOLS, Status
 from manigrasp.protocol.result import PoseRecord
 from manigrasp.sim import SceneConfig
 
@@ -240,12 +240,23 @@ def test_bad_arguments_are_one_line_errors() -> None:
         _box_env(0).run_grasp({})
 
 
-def test_protocol_parameters_reach_the_trial() -> None:
-    """A lift-only protocol with the cube: a top grasp passes it and stops after the lift (no perturbation)."""
-    env = _box_env(0, points="none", action_frame="object", protocol="lift")
+@pytest.mark.parametrize("name", PROTOCOLS.names())
+def test_every_protocol_judges_a_top_grasp_on_the_cube(name: str) -> None:
+    """A centred top grasp holds a 0.3 kg cube in every registered protocol (grip 35 N, friction 0.5)."""
+    env = _box_env(0, points="none", action_frame="object", protocol=name)
     env.reset()
-    assert env.step({"position": np.zeros(3), "quaternion": TOP, "preshape": np.float64(0.0)}).reward == 1.0
-    assert env.last_result.last_phase == "lift"
+    last = env.step({"position": np.zeros(3), "quaternion": TOP, "preshape": np.float64(0.0)})
+    assert last.step_type == dm_env.StepType.LAST
+    assert (last.reward, env.last_result.status) == (1.0, Status.SUCCESS), env.last_result.detail
+
+
+def test_protocol_parameters_reach_the_trial() -> None:
+    """A push of 30 m g (88 N) along +x, tangential to the pads, beats the grip's friction (2 x 0.5 x 35 N)."""
+    env = _box_env(0, points="none", action_frame="object",
+                   protocol_params={"perturb_force_multiple": 30.0, "perturb_directions": ["+x"]})
+    env.reset()
+    assert env.step({"position": np.zeros(3), "quaternion": TOP, "preshape": np.float64(0.0)}).reward == 0.0
+    assert env.last_result.status == Status.DROPPED_PERTURB and env.last_result.last_phase == "lift"
 
 
 class GraspEnvConformance(test_utils.EnvironmentTestMixin, unittest.TestCase):
