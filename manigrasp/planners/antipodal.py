@@ -79,7 +79,7 @@ from manigrasp.planners.jaw_poses import PoseGrid, ranked_poses
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, Suppressor
 from manigrasp.planners.pairs import Pairs, cone_rays, find_pairs, thin_pairs
-from manigrasp.planners.partial import SpaceProbe, free_space_target, select_clear
+from manigrasp.planners.partial import DENSE_CHECKS, SpaceProbe, free_space_target, select_clear
 from manigrasp.planners.select import pack_free, select_free
 
 COMPLETIONS = ("free_space", "point_symmetry", "none")
@@ -111,7 +111,8 @@ class AntipodalPlanner:
         lateral_fractions: TCP offsets across the pads (the TCP's x axis) from the contacts' midpoint, as
             fractions of the fingers' half-width (`HandProbe.finger_extents`; 1 cm for parallel_jaw) [-].
         dense_approaches, dense_depth_fractions, dense_lateral_fractions: the denser grid of step 6.
-        dense_checks: the most poses of the dense grid tested for collision (the best ranked).
+        dense_checks: the most poses of the dense grid tested for collision (the best ranked; on a viewed
+            cloud at most `partial.DENSE_CHECKS`).
         dense_below: step 6 runs when step 5 keeps fewer than min(n, dense_below) poses: objects with few
             distinct grasps, where its cost (about 1-2 s) buys most; 0: never.
         contact: contact model of the analysis (friction mu, torsion gamma).
@@ -235,8 +236,9 @@ class AntipodalPlanner:
         if len(chosen) < min(n, self.dense_below) and len(pairs):
             dense = ranked_poses(pairs, score, self.dense_grid, extents, hand.max_width, self.max_approach_z,
                                  observation.table_height, rng, keep_unclear=False)
+            checks = min(self.dense_checks, DENSE_CHECKS) if isinstance(probe, SpaceProbe) else self.dense_checks
             packed = dense.order[pack_free(probe, dense.poses[dense.order], n, self.nms_distance, self.nms_angle,
-                                           True, self.pregrasp_offset, self.dense_checks)]
+                                           True, self.pregrasp_offset, checks)]
             if len(packed) > len(chosen):
                 ranked, chosen = dense, packed
         return self._candidates(pairs, score, eps, ranked.poses, ranked.pair_of, chosen, center, scale)

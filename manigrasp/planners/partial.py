@@ -63,6 +63,7 @@ from manigrasp.planners.pairs import Pairs
 
 MAX_VERTICAL = 0.9  # |d_z| above which a single-sided line is not tried (within ~25 degrees of vertical)
 FLAT_COS = np.cos(np.radians(15.0))  # a single-sided line starts where the neighbours' normals agree this well
+DENSE_CHECKS = 8000  # the most poses of the antipodal planner's dense grid tested on a viewed cloud (planning time)
 FREE_RUN = 3  # consecutive FREE samples that end the object along a line
 EDGE_REACH = 0.006  # [m] how far beyond the farthest seen point its surface's edge is looked for
 PLACEHOLDER = np.array([[50.0, 50.0, 50.0], [50.1, 50.0, 50.0], [50.0, 50.1, 50.0], [50.0, 50.0, 50.1]])
@@ -246,7 +247,7 @@ class SpaceProbe(HandProbe):
     """
 
     def __init__(self, hand: Hand, observation, space: FreeSpace, region: tuple[np.ndarray, np.ndarray],
-                 clearance: float, voxel: float = 0.002, finger_spacing: float = 0.004,
+                 clearance: float, voxel: float = 0.002, finger_spacing: float = 0.005,
                  palm_spacing: float = 0.015, hidden_margin: float | None = None) -> None:
         from scipy.ndimage import distance_transform_edt
 
