@@ -8,7 +8,7 @@
 
 Each episode is one grasp (a contextual bandit: the setting of learned grasp
 samplers), judged by the same scene, protocol and success criteria as a
-benchmark trial. `dm_env` comes with the dm-control dependency.
+benchmark trial. manigrasp depends on `dm-env` for this (not on dm-control: nothing uses its code).
 """
 
 from manigrasp.env.grasp import GraspEnv, load_asset
