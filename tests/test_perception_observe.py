@@ -51,3 +51,28 @@ def test_observation_errors(settled):
         observe("lidar", asset, pose, scene)
     with pytest.raises(ConfigError, match="needs the simulated scene"):
         observe("point_cloud", asset, pose)
+
+
+def test_point_cloud_of_several_cameras(settled):
+    """A second camera adds its points and its depth frame; the first camera's frame stays the same."""
+    from manigrasp.perception.setup import CameraSetup
+
+    asset, scene, pose = settled
+    one, info_one = observe_with_info("point_cloud", asset, pose, scene, seed=1)
+    two, info_two = observe_with_info("point_cloud", asset, pose, scene, seed=1, camera=CameraSetup(views=2))
+    assert len(one.views) == 1 and len(two.views) == 2
+    np.testing.assert_array_equal(two.views[0].depth, one.views[0].depth)
+    np.testing.assert_array_equal(two.points[:len(one.points)], one.points)
+    assert len(two.points) > len(one.points) and info_two.n_points == len(two.points)
+    assert info_one.camera.record()["camera_views"] == 1 and info_two.camera.record()["camera_views"] == 2
+
+
+def test_the_config_camera_reaches_every_group():
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.trials import groups
+
+    config = parse_config({"objects": ["mug"], "observation": "point_cloud",
+                           "camera": {"views": 3, "elevation_deg": 60}})
+    assert [(g.camera.views, g.camera.elevation_deg) for g in groups(config)] == [(3, 60.0)]
+    with pytest.raises(ConfigError, match="did you mean 'views'"):
+        parse_config({"objects": ["mug"], "camera": {"view": 2}})

@@ -23,6 +23,7 @@ import yaml
 from manigrasp.config import apply_overrides, from_mapping
 from manigrasp.errors import ConfigError
 from manigrasp.objects import catalog
+from manigrasp.perception.setup import CameraSetup
 from manigrasp.sim.config import SceneConfig
 
 OBSERVATIONS = ("ground_truth", "estimated_pose", "point_cloud")
@@ -159,6 +160,8 @@ class BenchConfig:
         observation: what planners see, one or several of "ground_truth", "estimated_pose" and
             "point_cloud" (several: every group runs under each, and the report puts them side by side).
         scene: physics and scene parameters.
+        camera: the cameras of the perception observations (`manigrasp.perception.setup.CameraSetup`: views,
+            azimuths, elevation, distance, noise).
         trial_timeout_s: wall-clock budget of one trial [s]; beyond it the trial is a `timeout`.
     """
 
@@ -171,6 +174,7 @@ class BenchConfig:
     protocol: NamedEntry = field(default_factory=lambda: NamedEntry("standard"))
     observation: tuple[str, ...] = ("ground_truth",)
     scene: SceneConfig = field(default_factory=SceneConfig)
+    camera: CameraSetup = field(default_factory=CameraSetup)
     trial_timeout_s: float = 120.0
 
     def __post_init__(self) -> None:

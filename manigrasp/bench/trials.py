@@ -17,6 +17,7 @@ from manigrasp.bench.config import BenchConfig, NamedEntry
 from manigrasp.bench.store import TrialKey
 from manigrasp.errors import ConfigError
 from manigrasp.objects.catalog import ObjectSource
+from manigrasp.perception.setup import CameraSetup
 from manigrasp.sim.config import SceneConfig
 
 
@@ -42,6 +43,7 @@ class Group:
         timeout_s: wall-clock budget per trial [s].
         label: the planner's label in trial ids and tables (`manigrasp.bench.config.labels`: distinct for
             every planner entry of a config, so two parameter sets of one planner never share a trial id).
+        camera: the cameras of a perception observation (None: the default `CameraSetup`).
     """
 
     object_source: ObjectSource
@@ -54,6 +56,7 @@ class Group:
     seed: int
     timeout_s: float
     label: str = ""
+    camera: CameraSetup | None = None
 
     @property
     def planner_label(self) -> str:
@@ -94,5 +97,5 @@ def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
                 for observation in config.observation:
                     seed = stable_seed(config.seed, source.name, hand, label, observation)
                     out.append(Group(source, hand, planner, config.protocol, observation, config.scene,
-                                     config.grasps_per_object, seed, config.trial_timeout_s, label))
+                                     config.grasps_per_object, seed, config.trial_timeout_s, label, config.camera))
     return out

@@ -109,7 +109,8 @@ def plan_group(group: Group) -> Plan:
         stage = "settling the object"
         pose = settle_object(scene)
         stage = "observing"
-        observation, info = observe_with_info(group.observation, _asset(group), pose, scene, seed=group.seed)
+        observation, info = observe_with_info(group.observation, _asset(group), pose, scene, seed=group.seed,
+                                              camera=group.camera)
         stage = "planning"
         planner = planners.load(group.planner.name, **dict(group.planner.params))
         start = time.perf_counter()
