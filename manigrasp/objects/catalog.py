@@ -1,9 +1,10 @@
 """The shipped YCB-like set, and building many objects at once.
 
-An object is named in one of three ways (`ObjectSource`): a shipped recipe
-name ("025_mug" or "mug"), a mesh file (with name, scale, mass), or one object
-folder of a real YCB download. `build_many` builds a list of them in parallel
-worker processes with a progress bar; CoACD results are cached on disk.
+An object is named in one of three ways (`ObjectSource`): a shipped name (a
+recipe, "025_mug" or "mug", or a shipped real scan, "003_cracker_box_scan"), a
+mesh file (with name, scale, mass), or one object folder of a real YCB
+download. `build_many` builds a list of them in parallel worker processes with
+a progress bar; CoACD results are cached on disk.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from dataclasses import asdict, dataclass
 from multiprocessing import get_context
 from pathlib import Path
 
-from manigrasp.objects import recipes
+from manigrasp.objects import recipes, scans
 from manigrasp.objects.decompose import DecompositionParams, coacd_version
 from manigrasp.objects.meshio import ycb_mesh_file
 from manigrasp.objects.pipeline import DEFAULT_DENSITY, BuildResult, build_object
@@ -50,7 +51,11 @@ class ObjectSource:
 
 
 def shipped(name: str) -> ObjectSource:
-    """The source of a shipped recipe object (accepts "025_mug" or "mug")."""
+    """The source of a shipped object: a recipe ("025_mug" or "mug") or a real scan
+    ("003_cracker_box_scan", a mesh in assets/scans/ with its YCB mass)."""
+    if scans.is_scan(name):
+        scan = scans.get(name)
+        return ObjectSource(name=scan.name, mesh=str(scan.path), mass=scan.mass_kg)
     recipe = recipes.get(name)
     return ObjectSource(name=recipe.name, recipe=recipe.name, mass=recipe.mass_kg)
 
