@@ -119,6 +119,8 @@ def test_labels_are_readable_and_distinct():
     assert labels([NamedEntry("antipodal"), NamedEntry("random")]) == ("antipodal", "random")
     assert labels([NamedEntry("random"), NamedEntry("random", {"spread": 0.2})]) == ("random", "random[spread=0.2]")
     assert labels([NamedEntry("a:P"), NamedEntry("b:P")]) == ("P[a]", "P[b]")
+    paths = labels([NamedEntry("a:P", {"model": "../x/y"}), NamedEntry("a:P", {"model": "z"})])
+    assert "/" not in paths[0] and paths[1] == "P[model=z]" and paths[0] != paths[1]  # trial ids stay paths
     with pytest.raises(ConfigError, match="listed twice"):
         labels([NamedEntry("random", {"spread": 0.2}), NamedEntry("random", {"spread": 0.2})])
 

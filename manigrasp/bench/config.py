@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -135,8 +136,10 @@ def labels(entries: Sequence[NamedEntry]) -> tuple[str, ...]:
 def _param_text(params: Mapping[str, Any], key: str) -> str:
     if key not in params:
         return "default"
-    text = json.dumps(params[key], sort_keys=True, separators=(",", ":"), default=str)
-    return text if len(text) <= 24 else hashlib.sha256(text.encode()).hexdigest()[:6]
+    value = params[key]
+    text = value if isinstance(value, str) else json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
+    readable = len(text) <= 24 and re.fullmatch(r"[\w.+\-=,:\[\]{}]*", text)  # trial ids are paths: no / or spaces
+    return text if readable else hashlib.sha256(text.encode()).hexdigest()[:6]
 
 
 MAX_GRASPS_PER_OBJECT = 10_000
