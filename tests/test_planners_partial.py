@@ -82,29 +82,47 @@ def test_single_view_box_grasps_are_collision_free_on_the_true_box(one_view, jaw
     assert all(probe.free(c.pose) for c in top)
 
 
-def test_a_jaw_in_the_occluded_space_behind_the_box_is_rejected(one_view, jaw):
-    """Top-down across the 5 cm side, fingertips 4.5 cm below the top (the palm just above it): the -x
-    finger lies in the box's shadow.
-
-    The true scene has room for it (MuJoCo against the real box says free); the view cannot tell, so the
-    probe rejects it. The same pose with the fingertips 5 mm below the top (the space the camera saw past
-    the box's far edge) is accepted.
-    """
-    space = FreeSpace(one_view.views)
-    probe = SpaceProbe(jaw, one_view, space, object_region(one_view.points, 0.0, 0.03), 0.001)
-    reach = probe.finger_extents()[0]
-    poses = tcp_frames(np.array([[0.0, 0.0, BOX[2] - 0.045 + reach], [0.0, 0.0, BOX[2] - 0.005 + reach]]),
-                       np.array([[0.0, 0.0, -1.0]] * 2), np.array([[1.0, 0.0, 0.0]] * 2))
+def true_box_probe(jaw: hands.Hand) -> HandProbe:
+    """MuJoCo's test against the real box (what the view does not know)."""
     import trimesh
 
     from manigrasp.objects import build_object
 
     asset = build_object(trimesh.creation.box(BOX), name="planner_test_box", mass=0.2).asset
-    truth = HandProbe(jaw, Observation.from_asset(asset, np.block([[np.eye(3), CENTRE[:, None]],
-                                                                   [np.zeros(3), 1.0]])))
-    assert not truth.collides(poses).any(), "both poses are free in the true scene"
+    return HandProbe(jaw, Observation.from_asset(asset, np.block([[np.eye(3), CENTRE[:, None]],
+                                                                  [np.zeros(3), 1.0]])))
+
+
+def top_down(x: float, depth: float, reach: float) -> np.ndarray:
+    """A top-down TCP pose closing along x, centred at `x` [m], fingertips `depth` [m] below the box top."""
+    return tcp_frames(np.array([[x, 0.0, BOX[2] - depth + reach]]), np.array([[0.0, 0.0, -1.0]]),
+                      np.array([[1.0, 0.0, 0.0]]))[0]
+
+
+def test_a_jaw_in_the_occluded_space_behind_a_seen_face_is_rejected(one_view, jaw):
+    """Fingertips 3 cm below the top, the hand shifted 3.5 cm toward +x: the -x finger lies behind the seen
+    +x face, in the box's unseen part, and is rejected. Centred with the fingertips 5 mm below the top (the
+    space the camera saw past the far edge), the hand is accepted."""
+    probe = SpaceProbe(jaw, one_view, FreeSpace(one_view.views), object_region(one_view.points, 0.0, 0.03),
+                       0.001, hidden_margin=0.002)
+    reach = probe.finger_extents()[0]
+    poses = np.stack([top_down(0.035, 0.03, reach), top_down(0.0, 0.005, reach)])
     np.testing.assert_array_equal(probe.collides(poses), [True, False])
     assert not probe.free(poses[0]) and probe.free(poses[1])
+    np.testing.assert_array_equal(true_box_probe(jaw).collides(poses), [True, False])
+
+
+def test_strict_unknown_space_rejects_a_jaw_in_the_shadow(one_view, jaw):
+    """Fingertips 4.5 cm below the top (the palm just above it), centred: the -x finger lies in the box's
+    shadow, 1.5 cm from its hidden face. The true scene has room for it; the strict probe (all unknown space
+    blocked) rejects it, the default (unknown space blocked only within 2 mm of the seen footprint: the
+    object's hidden part lies under its seen surfaces) accepts it."""
+    region = object_region(one_view.points, 0.0, 0.03)
+    space = FreeSpace(one_view.views)
+    pose = top_down(0.0, 0.045, SpaceProbe(jaw, one_view, space, region, 0.001).finger_extents()[0])
+    assert not true_box_probe(jaw).collides(pose[None])[0]
+    assert SpaceProbe(jaw, one_view, space, region, 0.001, hidden_margin=None).collides(pose[None])[0]
+    assert not SpaceProbe(jaw, one_view, space, region, 0.001, hidden_margin=0.002).collides(pose[None])[0]
 
 
 def test_a_bare_cloud_cannot_use_free_space(one_view, jaw):

@@ -182,7 +182,7 @@ class AntipodalPlanner:
     hidden_uncertainty: float = 0.025
     free_space_tau: float = DEFAULT_TAU
     region_margin: float = 0.03
-    hidden_margin: float | None = 0.005
+    hidden_margin: float | None = 0.002
 
     def __post_init__(self) -> None:
         for key in ("n_samples", "rays_per_sample", "n_approaches", "max_checks", "dense_approaches", "dense_checks"):
