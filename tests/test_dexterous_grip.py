@@ -1,7 +1,8 @@
 """Grips that hold: `FingerHold` (stiffened finger servos after closing) and linkage-coupled fingers.
 
-Closed loop: a can grasped by hand (side power grasp) under the `standard` protocol (close, lift 10 cm, hold,
-six 1 x m g perturbations) creeps less than 2 mm in the hand, for every right dexterous hand.
+Closed loop: a can grasped by hand (side power grasp) under the `standard` protocol with ``finger_hold_gain=20``
+(close, lift 10 cm, hold, six 1 x m g perturbations) creeps less than 2 mm in the hand, for every right
+dexterous hand.
 """
 
 from __future__ import annotations
@@ -111,8 +112,8 @@ def _side_power_grasp(scene, object_pose: np.ndarray) -> np.ndarray:
     return pose
 
 
-def _standard_trial(scene, pose: np.ndarray, object_pose: np.ndarray):
-    protocol = PROTOCOLS.load("standard")
+def _standard_trial(scene, pose: np.ndarray, object_pose: np.ndarray, hold_gain: float = 20.0):
+    protocol = PROTOCOLS.load("standard", finger_hold_gain=hold_gain)
     return protocol.run(scene, GraspCandidate(pose=pose, score=1.0), np.random.default_rng(0),
                         deadline=time.monotonic() + 120, object_pose=object_pose, seed=0)
 
@@ -130,6 +131,18 @@ def test_held_can_creeps_less_than_2_mm_under_lift_and_six_perturbations(name: s
     # The next trial on the same scene starts from the closing gains again: it repeats the first exactly.
     again = _standard_trial(scene, pose, settle_object(scene))
     assert again.max_translation_m == first.max_translation_m and again.grip_force_n == first.grip_force_n
+    # With the hold off (the protocols' default), the next trial gives the gains back and leaves them.
+    _HOLDS[scene].release()
+    gains = scene.model.actuator_gainprm.copy()
+    _HOLDS[scene].engage(scene.data)
+    _standard_trial(scene, pose, settle_object(scene), hold_gain=0.0)
+    assert not _HOLDS[scene].engaged
+    np.testing.assert_array_equal(scene.model.actuator_gainprm, gains)
+
+
+def test_hold_gain_of_the_protocol_is_validated() -> None:
+    with pytest.raises(ConfigError, match="finger_hold_gain"):
+        PROTOCOLS.load("standard", finger_hold_gain=0.5)
 
 
 def test_parallel_jaw_grasp_is_never_stiffened(tmp_path) -> None:

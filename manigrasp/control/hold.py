@@ -23,9 +23,12 @@ import numpy as np
 
 from manigrasp.errors import ConfigError
 
-# Stiffness of the held grasp relative to the closing servo's [-]: the robosuite hands' 0.5 N m/rad tendons hold at
-# 10 N m/rad, the Allegro's 1 N m/rad joints at 20 (a finger moving 0.03 rad then changes its force by its whole
-# 0.6-0.7 N m range).
+# Stiffness of the held grasp relative to the closing servo's [-] (the protocols' `finger_hold_gain` is off by
+# default): the robosuite hands' 0.5 N m/rad tendons hold at 10 N m/rad, the Allegro's 1 N m/rad joints at 20 (a
+# finger moving 0.03 rad then changes its force by its whole 0.6-0.7 N m range). A can grasped by hand creeps
+# about 1 mm at 20 (3-4 mm at 5, 12-20 mm without); but on the power planner's grasps of `bench dexterous` the
+# held fingers stop following the object and more grasps drop under the perturbations (replayed, same grasps:
+# inspire_right 21/80 held at 20 vs 32/80 not held, fourier_right 36 vs 39, allegro_right 2 vs 4).
 HOLD_GAIN = 20.0
 
 

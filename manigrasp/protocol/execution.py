@@ -76,6 +76,8 @@ class GraspParams:
         regulate_grip_after_close: keep the grip-force loop running after the close phase
             (reading contacts every tick); False: the finger command is held where the loop
             left it, and the finger servos hold the grip with no Python in the loop.
+        finger_hold_gain: after a dexterous hand closes, stiffen its finger servos this many times
+            around the forces they reached (`manigrasp.control.FingerHold`); 0: off [-].
         metric_edges: edges of the linearised friction cones in the metrics.
         metric_friction_tol: tolerance of the smallest-friction-for-closure bisection [-].
         simulated_min_friction: also compute the smallest friction for closure of the simulated
@@ -103,6 +105,7 @@ class GraspParams:
     control_period_s: float = 0.01
     check_period_s: float = 0.02
     regulate_grip_after_close: bool = False
+    finger_hold_gain: float = 0.0
     metric_edges: int = 8
     metric_friction_tol: float = 0.01
     simulated_min_friction: bool = False
@@ -125,6 +128,8 @@ class GraspParams:
             raise ConfigError(f"min_fingers must be >= 0, got {self.min_fingers}")
         if self.metric_edges < 4 or self.metric_edges % 2 or not self.metric_friction_tol > 0:
             raise ConfigError("metric_edges must be even and >= 4, metric_friction_tol > 0")
+        if not (self.finger_hold_gain == 0 or self.finger_hold_gain >= 1):
+            raise ConfigError(f"finger_hold_gain must be 0 (off) or >= 1, got {self.finger_hold_gain}")
         if self.torque_scale is not None and not self.torque_scale > 0:
             raise ConfigError(f"torque_scale must be > 0 or None, got {self.torque_scale}")
 

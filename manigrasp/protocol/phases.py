@@ -24,11 +24,12 @@ from manigrasp.sim import grip_force, read_hand_contacts
 _HOLDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def finger_hold(run: TrialRun) -> FingerHold:
-    """The scene's `FingerHold` (made on first use, from the model's own gains)."""
+def finger_hold(run: TrialRun, gain: float) -> FingerHold:
+    """The scene's `FingerHold` of `gain` (made on first use, from the model's own gains)."""
     scene = run.scene
-    if scene not in _HOLDS:
-        _HOLDS[scene] = FingerHold(scene.model, scene.hand_actuators)
+    if scene not in _HOLDS or _HOLDS[scene].gain != gain:
+        release_hold(run)
+        _HOLDS[scene] = FingerHold(scene.model, scene.hand_actuators, gain)
     return _HOLDS[scene]
 
 
@@ -90,10 +91,10 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
 
     The grip loop (`GripController`) runs at the control rate while closing; afterwards
     the finger command stays where it left it (unless `regulate_grip_after_close`), so
-    the finger servos hold the grip with no Python in the loop; a dexterous hand's servos are
-    then stiffened around the configuration and forces they reached (`FingerHold`: each finger
-    keeps its force but stops following the object, which otherwise rolls out of the palm
-    along the curling fingers); the next pre-grasp or close gives the gains back. The object's pose in the
+    the finger servos hold the grip with no Python in the loop; with `finger_hold_gain`, a
+    dexterous hand's servos are then stiffened around the configuration and forces they reached
+    (`FingerHold`: each finger keeps its force but stops following the object); the next
+    pre-grasp or close gives the gains back. The object's pose in the
     hand is the reference of all later motion, and (with `metrics`) the grip force and
     simulated-contact metrics are recorded. `detail` goes to the observer's phase call.
     """
@@ -121,8 +122,8 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     contacts = read_hand_contacts(run.scene)
     if grip.mode == "position" or len(contacts.fingers_touching) == 0:
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
-    if hand.kind == "dexterous" and run.grip is None:
-        finger_hold(run).engage(run.scene.data)
+    if hand.kind == "dexterous" and run.grip is None and p.finger_hold_gain > 0:
+        finger_hold(run, p.finger_hold_gain).engage(run.scene.data)
     if metrics:
         run.grip_force_n = grip_force(contacts)
         run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,
