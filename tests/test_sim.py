@@ -107,12 +107,24 @@ def test_contact_forces_hold_the_object_weight(box_scene) -> None:
     assert np.all(c.normal_force > 0)
 
 
-def test_to_contacts_gives_soft_finger_records(box_scene) -> None:
-    _grasp_and_lift(box_scene)
-    records = to_contacts(read_hand_contacts(box_scene))
+def test_to_contacts_gives_soft_finger_records_for_rigid_pads(box_asset) -> None:
+    scene = build_scene("parallel_jaw", box_asset, SceneConfig(pads="rigid"))
+    _grasp_and_lift(scene)
+    records = to_contacts(read_hand_contacts(scene))
     assert len(records) >= 2
     assert {r.kind.value for r in records} == {"soft_finger"}
     assert all(r.mu == pytest.approx(0.5) and r.gamma > 0 for r in records)
+
+
+def test_compliant_pads_touch_with_a_patch_of_point_contacts(box_scene) -> None:
+    """Each pad of the 2 x 3 element grid touches the flat box face with all six elements (hard-finger
+    points: the patch's torsional resistance is their sliding friction over its area)."""
+    _grasp_and_lift(box_scene)
+    contacts = read_hand_contacts(box_scene)
+    records = to_contacts(contacts)
+    assert {r.kind.value for r in records} == {"hard_finger"}
+    assert len(records) == 12
+    assert grip_force(contacts) == pytest.approx(box_scene.hand.max_grip_force, rel=0.02)
 
 
 def test_fixed_object_and_bad_object_mjcf(tmp_path) -> None:

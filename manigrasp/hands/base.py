@@ -47,6 +47,9 @@ class Hand:
         mass: total mass of the hand [kg] (computed from the compiled model).
         source: where the model comes from (our assets, robosuite, user).
         notes: free-text facts worth showing (fixes applied at load...).
+        pad_geoms: the box geoms of the finger pads that `manigrasp.hands.pads`
+            makes compliant when a scene asks for ``pads: compliant`` (empty:
+            the hand has no such pads and is always simulated as modelled).
     """
 
     name: str
@@ -63,6 +66,7 @@ class Hand:
     mass: float
     source: str = "manigrasp"
     notes: tuple[str, ...] = field(default_factory=tuple)
+    pad_geoms: tuple[str, ...] = ()
 
     approach_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     closing_axis: tuple[float, float, float] = (0.0, 1.0, 0.0)

@@ -47,6 +47,7 @@ def make_parallel_jaw() -> Hand:
         max_grip_force=GRIP_FORCE,
         mass=mass,
         source="manigrasp (assets/hands/parallel_jaw.xml)",
+        pad_geoms=("finger1_pad", "finger2_pad"),
         notes=("fingers coupled by an equality constraint; one position actuator on the width tendon, "
                f"force-limited to {GRIP_FORCE:g} N (the push of each pad)",),
     )

@@ -34,6 +34,7 @@ import mujoco
 import numpy as np
 
 from manigrasp.errors import SimulationError
+from manigrasp.hands import pads
 from manigrasp.hands.base import Hand
 from manigrasp.objects.asset import ObjectAsset
 from manigrasp.sim.config import SceneConfig
@@ -141,7 +142,7 @@ def _attach_object(spec: mujoco.MjSpec, obj: ObjectSource) -> None:
 
 
 def _attach_hand(spec: mujoco.MjSpec, hand: Hand, frames: HandFrames, config: SceneConfig) -> None:
-    child = hand.build_spec()
+    child = hand_spec(hand, config)
     body = child.body(hand.root_body)
     if body is None:
         raise SimulationError(f"hand {hand.name!r}: root body {hand.root_body!r} not in its MJCF")
@@ -165,16 +166,30 @@ def _attach_hand(spec: mujoco.MjSpec, hand: Hand, frames: HandFrames, config: Sc
     _tune_hand_geoms(root, config)
 
 
+def hand_spec(hand: Hand, config: SceneConfig) -> mujoco.MjSpec:
+    """A fresh spec of `hand` alone, its pads made compliant if `config.pads` asks for it."""
+    child = hand.build_spec()
+    if config.pads == "compliant" and hand.pad_geoms:
+        directions = pads.pad_directions(child, hand.pad_geoms, hand.tcp_site)
+        pads.make_compliant(child, directions, config.pad_model(), config.hand_friction)
+    return child
+
+
 def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig) -> None:
-    """Hand-object friction, condim and priority on every colliding hand geom; gravcomp."""
+    """Hand-object friction, condim and priority on every colliding hand geom; gravcomp.
+
+    Compliant pad elements keep condim 3 (sliding friction only): their patch's torsional
+    resistance comes from sliding friction over its area (`manigrasp.hands.pads`).
+    """
     bodies = [root, *root.find_all(mujoco.mjtObj.mjOBJ_BODY)]
     for body in bodies:
         body.gravcomp = 1.0 if config.hand_gravcomp else 0.0
         for geom in body.geoms:
             if geom.contype == 0 and geom.conaffinity == 0:
                 continue
-            geom.friction = [config.hand_friction, config.hand_torsional_friction, 0.0001]
-            geom.condim = config.hand_condim
+            element = pads.is_element(geom.name.removeprefix(HAND_PREFIX))
+            geom.friction = [config.hand_friction, 0.0 if element else config.hand_torsional_friction, 0.0001]
+            geom.condim = 3 if element else config.hand_condim
             geom.priority = max(int(geom.priority), 1)
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import mujoco
 
 from manigrasp.errors import ConfigError
+from manigrasp.hands.pads import PadModel
 
 INTEGRATORS = {
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -19,6 +20,8 @@ INTEGRATORS = {
     "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
 }
+PAD_MODES = ("compliant", "rigid")
+REST_MODES = ("file", "most_stable")
 CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
@@ -44,6 +47,14 @@ class SceneConfig:
         table_friction: sliding friction of the table [-].
         open_settle_time: simulated time [s] the hand alone is driven with its
             open command to find its open joint configuration (done once per scene).
+        pads: "compliant" (the hands' pad boxes become elastic-foundation patches,
+            `manigrasp.hands.pads`) or "rigid" (the pad boxes as modelled, the model of
+            runs before compliant pads existed).
+        pad_modulus: Young's modulus of the compliant pads' rubber [Pa].
+        pad_pitch: spacing of the compliant pads' contact elements [m].
+        rest: the object's resting orientation before it settles: "file" (as its mesh
+            file has it) or "most_stable" (the most probable quasi-static stable pose,
+            `manigrasp.objects.poses`).
     """
 
     timestep: float = 0.002
@@ -58,15 +69,24 @@ class SceneConfig:
     table_half_extents: tuple[float, float, float] = (0.4, 0.4, 0.02)
     table_friction: float = 0.5
     open_settle_time: float = 0.5
+    pads: str = "compliant"
+    pad_modulus: float = 3.4e5
+    pad_pitch: float = 0.01
+    rest: str = "file"
 
     def __post_init__(self) -> None:
         if self.integrator not in INTEGRATORS:
             raise ConfigError(f"unknown integrator {self.integrator!r}; available: {', '.join(INTEGRATORS)}")
         if self.cone not in CONES:
             raise ConfigError(f"unknown cone {self.cone!r}; available: {', '.join(CONES)}")
+        if self.pads not in PAD_MODES:
+            raise ConfigError(f"unknown pads {self.pads!r}; available: {', '.join(PAD_MODES)}")
+        if self.rest not in REST_MODES:
+            raise ConfigError(f"unknown rest {self.rest!r}; available: {', '.join(REST_MODES)}")
         if self.hand_condim not in (1, 3, 4, 6):
             raise ConfigError(f"hand_condim must be 1, 3, 4 or 6, got {self.hand_condim}")
-        positive = {"timestep": self.timestep, "impratio": self.impratio, "table_friction": self.table_friction}
+        positive = {"pad_modulus": self.pad_modulus, "pad_pitch": self.pad_pitch, "timestep": self.timestep,
+                     "impratio": self.impratio, "table_friction": self.table_friction}
         for key, value in positive.items():
             if not value > 0:
                 raise ConfigError(f"{key} must be > 0, got {value}")
@@ -74,6 +94,10 @@ class SceneConfig:
             raise ConfigError("hand_friction and open_settle_time must be >= 0")
         if len(self.gravity) != 3 or len(self.table_half_extents) != 3 or min(self.table_half_extents) <= 0:
             raise ConfigError("gravity and table_half_extents must have 3 components (extents > 0)")
+
+    def pad_model(self) -> PadModel:
+        """The compliant pads' parameters (`manigrasp.hands.pads`) of this scene."""
+        return PadModel(modulus=self.pad_modulus, pitch=self.pad_pitch, timestep=self.timestep)
 
     def apply(self, option: mujoco.MjOption | object) -> None:
         """Write the physics options into a spec's or model's `option`."""

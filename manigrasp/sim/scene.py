@@ -17,6 +17,7 @@ import numpy as np
 
 from manigrasp.errors import SimulationError
 from manigrasp.hands.base import Hand
+from manigrasp.objects.poses import RestPose, stable_poses
 from manigrasp.sim.compose import (
     BASE_JOINTS,
     BASE_SERVOS,
@@ -118,7 +119,8 @@ class Scene:
         self.geom_is_object[self.object_geoms] = True
         self.geom_finger = self.finger_of_body[model.geom_bodyid]
         self._object_qpos = self._object_free_qpos()
-        self.object_rest_height = self._rest_height()
+        self.rest = self._rest_pose()
+        self.object_rest_height = self.rest.height
         self.mount = np.eye(4)
         self.reset()
 
@@ -157,9 +159,9 @@ class Scene:
             raise SimulationError("the object's body must have a free joint or no joint")
         return int(self.model.jnt_qposadr[j])
 
-    def _rest_height(self) -> float:
-        """Height [m] of the object frame above its lowest collision point (identity orientation)."""
-        m, lowest = self.model, np.inf
+    def _object_points(self) -> np.ndarray:
+        """(n, 3) points of the object's collision geoms in the object frame [m] (mesh vertices, box corners)."""
+        m, out = self.model, [np.zeros((0, 3))]
         for g in self.object_geoms:
             if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
                 mesh = m.geom_dataid[g]
@@ -168,9 +170,16 @@ class Scene:
                 center, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
                 corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
                 pts = center + corners * half
-            world = pts @ quat_to_mat(m.geom_quat[g]).T + m.geom_pos[g]
-            lowest = min(lowest, float(world[:, 2].min()))
-        return -lowest if np.isfinite(lowest) else 0.0
+            out.append(pts @ quat_to_mat(m.geom_quat[g]).T + m.geom_pos[g])
+        return np.concatenate(out)
+
+    def _rest_pose(self) -> RestPose:
+        """The object's resting orientation and height, as `config.rest` chooses."""
+        points = self._object_points()
+        if self.config.rest == "most_stable" and len(points) >= 4:
+            return stable_poses(points)[0]
+        height = -float(points[:, 2].min()) if len(points) else 0.0
+        return RestPose(rotation=np.eye(3), height=height, probability=1.0)
 
     # ------------------------------------------------------------- state
     def reset(self, mount: np.ndarray | None = None, object_pose: np.ndarray | None = None,
@@ -207,8 +216,9 @@ class Scene:
         self.mount = mount.copy()
 
     def object_rest_pose(self, xy: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
-        """(4, 4) pose of the object resting upright on the table at `xy` [m]."""
-        return pose_matrix([xy[0], xy[1], self.object_rest_height])
+        """(4, 4) pose of the object resting on the table at `xy` [m], in the orientation that
+        `config.rest` chooses: as in its file ("file") or its most stable pose ("most_stable")."""
+        return self.rest.matrix(xy)
 
     def set_object_pose(self, pose: np.ndarray) -> None:
         """Place the object at `pose` (4, 4) with zero velocity (a fixed object: edit the model)."""

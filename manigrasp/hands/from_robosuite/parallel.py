@@ -58,6 +58,7 @@ def make_panda() -> Hand:
         open_ctrl=np.array([PANDA_STROKE]), closed_ctrl=np.array([-PANDA_GRIP_FORCE / PANDA_KP]),
         max_width=jaw_gap(model, data, build.TCP_SITE).width, max_grip_force=PANDA_GRIP_FORCE,
         mass=build.total_mass(model), source="robosuite",
+        pad_geoms=("finger1_pad_collision", "finger2_pad_collision"),
         notes=load_gripper_spec("panda_gripper.xml")[1] + (
             "two 20 N finger servos replaced by one 70 N servo on the opening q1 - q2, fingers coupled "
             "by an equality (one motor drives both in the real hand)",
@@ -156,6 +157,7 @@ def make_robotiq_2f85() -> Hand:
         closed_ctrl=np.array([ROBOTIQ_CLOSED + ROBOTIQ_TORQUE / ROBOTIQ_KP]),
         max_width=jaw_gap(model, data, build.TCP_SITE).width, max_grip_force=force_closed,
         mass=build.total_mass(model), source="robosuite",
+        pad_geoms=("left_fingerpad_collision", "right_fingerpad_collision"),
         notes=load_gripper_spec("robotiq_gripper_85.xml")[1] + (
             "four-bar linkage closed by joint couplings (inner knuckle = driver, inner finger = -driver; "
             "a parallelogram, pads stay parallel) instead of robosuite's springy tendons",

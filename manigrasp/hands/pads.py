@@ -1,0 +1,213 @@
+"""Compliant finger pads: an elastic-foundation (Winkler) patch model in MuJoCo.
+
+A rigid box pad on a flat face touches at its four corners, and on a scanned,
+bumpy surface at one or two points: the grip then has almost no resistance to
+torsion. A real rubber pad conforms and touches over a patch. This module
+replaces a hand's rigid pad box by a grid of small contact elements, each a
+sphere on its own prismatic joint along the pad normal with a linear spring
+(and damper) to the finger: every element penetrates and pushes independently,
+so the pressure follows the surface. It is the classic elastic foundation of
+contact mechanics (K. L. Johnson, *Contact Mechanics*, 1985, section 4.3) and
+what Drake's hydroelastic contact computes for a compliant layer of thickness
+h against a rigid body: pressure p = E d / h at local penetration d (Elandt
+et al., "A pressure field model for fast, robust approximation of net contact
+force and moment between nominally rigid objects", IROS 2019).
+
+Parameters (`PadModel`) and their source:
+
+- modulus E = 0.34 MPa: a soft silicone gripper pad (Smooth-On Dragon Skin 20,
+  Shore 20A, 100 % tensile modulus 338 kPa in its technical bulletin);
+  foundation stiffness per area E / h [N/m^3].
+- thickness h: the pad box's own thickness in the hand model (6 mm on
+  `parallel_jaw`, 8 mm on `panda`, 2 mm on `robotiq_2f85`).
+- pitch 1 cm: elements per axis = round(pad extent / pitch), at least 2, so a
+  2 x 3 cm pad gets 2 x 3 elements (each one extra degree of freedom: a finer
+  grid costs simulation time roughly in proportion, 5 mm being about 5x slower
+  per step than 1 cm; 1 cm keeps the validation cases within their bounds).
+  Each element carries k_i = E A_i / h, so the stiffnesses sum to the pad's
+  k = E A / h (3.4e4 N/m on `parallel_jaw`, 1 mm compression at the standard
+  35 N grip: enough to conform to millimetre bumps).
+- damping: critical for each element (b_i = 2 sqrt(k_i m_i)).
+- travel: 80 % of h, then the element bottoms out on the rigid backing (a joint
+  limit), as rubber does.
+- friction: each element gets the hand's sliding friction (0.5 in the standard
+  protocol) and no torsional friction of its own (condim 3): the patch's
+  torsional resistance comes from sliding friction over its area, integral of
+  mu p r dA (for a 2 x 3 cm pad under uniform pressure, 0.0046 F; the rigid box
+  touching at its corners gives about twice that).
+- element inertia: the spring-mass period must stay well above the 2 ms time
+  step, so each joint gets armature k_i (dt / 0.5)^2 (an inertia along the
+  joint only: it adds no weight and no hand inertia); each element body has 1 g.
+
+The rigid pad box stays in the model as the backing, without collisions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from manigrasp.errors import HandError
+
+ELEMENT_PREFIX = "padel_"  # element bodies, joints and geoms: padel_<pad geom>_<i>_<j>
+ELEMENT_MASS = 0.001  # [kg]
+STABILITY_FACTOR = 0.5  # element spring-mass frequency times the time step
+# Element contacts are near-rigid (the spring is the joint's): impedance close to 1 keeps
+# MuJoCo's soft friction from creeping. The light element bodies have a larger inverse
+# weight than a finger, and the constraint's regulariser grows with it ((1 - d) / d times
+# it): at the pads' usual 0.95 a pad under torque creeps at ~0.3 rad/s per N m.
+ELEMENT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+
+
+@dataclass(frozen=True)
+class PadModel:
+    """Parameters of the elastic-foundation pad (see the module docstring for their source).
+
+    Attributes:
+        modulus: Young's modulus of the pad rubber [Pa].
+        pitch: target spacing of the elements [m].
+        travel_fraction: compression at which an element bottoms out, fraction of the thickness [-].
+        damping_ratio: of each element's spring-mass pair [-].
+        timestep: simulation step the element inertia is sized for [s].
+    """
+
+    modulus: float = 3.4e5
+    pitch: float = 0.01
+    travel_fraction: float = 0.8
+    damping_ratio: float = 1.0
+    timestep: float = 0.002
+
+    def __post_init__(self) -> None:
+        for key in ("modulus", "pitch", "travel_fraction", "damping_ratio", "timestep"):
+            if not getattr(self, key) > 0:
+                raise HandError(f"PadModel.{key} must be > 0, got {getattr(self, key)}")
+
+
+@dataclass(frozen=True)
+class PadGeometry:
+    """A rigid box pad in its body's frame: face centre (3,), outward unit normal n (3,),
+    the two in-face unit axes u, v (3,) with half extents (2,) along them [m], and thickness [m]."""
+
+    center: np.ndarray
+    normal: np.ndarray
+    axes: np.ndarray
+    half: np.ndarray
+    thickness: float
+
+
+def pad_geometry(geom: mujoco.MjsGeom, toward: np.ndarray) -> PadGeometry:
+    """The face of box `geom` (spec element, body frame) whose outward normal points most along `toward`.
+
+    The face is the one across the box's thinnest axis; `toward` (3,) is a direction in the
+    body frame (from the pad toward the object, e.g. toward the TCP).
+    """
+    if geom.type != mujoco.mjtGeom.mjGEOM_BOX:
+        raise HandError(f"pad geom {geom.name!r} is not a box; only box pads can be made compliant")
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(geom.quat, float))
+    rot = rot.reshape(3, 3)
+    size = np.asarray(geom.size[:3], float)
+    k = int(np.argmin(size))
+    sign = 1.0 if float(rot[:, k] @ toward) >= 0 else -1.0
+    normal = sign * rot[:, k]
+    others = [i for i in range(3) if i != k]
+    return PadGeometry(center=np.asarray(geom.pos, float) + normal * size[k], normal=normal,
+                       axes=rot[:, others].T.copy(), half=size[others], thickness=2.0 * float(size[k]))
+
+
+def element_grid(pad: PadGeometry, pitch: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Element centres on the face (n, 3) [m] in the body frame, their areas (n,) [m^2], and the sphere radius [m].
+
+    The face is cut into na x nb equal cells (n_i = max(2, round(2 half_i / pitch))), one element per cell centre.
+    """
+    counts = [max(2, round(2 * h / pitch)) for h in pad.half]
+    cells = [2 * h / c for h, c in zip(pad.half, counts, strict=True)]
+    a = (np.arange(counts[0]) + 0.5) * cells[0] - pad.half[0]
+    b = (np.arange(counts[1]) + 0.5) * cells[1] - pad.half[1]
+    aa, bb = np.meshgrid(a, b, indexing="ij")
+    points = pad.center + aa.reshape(-1, 1) * pad.axes[0] + bb.reshape(-1, 1) * pad.axes[1]
+    area = np.full(points.shape[0], cells[0] * cells[1])
+    return points, area, 0.5 * min(cells)
+
+
+def element_stiffness(model: PadModel, area: np.ndarray, thickness: float) -> np.ndarray:
+    """Winkler stiffness of each element, k_i = E A_i / h [N/m] (they sum to E A / h)."""
+    return model.modulus * np.asarray(area, float) / thickness
+
+
+def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], model: PadModel,
+                   friction: float) -> None:
+    """Replace each rigid box pad of `spec` by a grid of spring-loaded contact elements (in place).
+
+    Args:
+        spec: a hand's spec (not compiled).
+        pads: (geom name, direction (3,) in the geom's body frame from the pad toward the object).
+        model: pad parameters.
+        friction: sliding friction of the elements [-].
+    """
+    for name, toward in pads:
+        geom = spec.geom(name)
+        if geom is None:
+            raise HandError(f"pad geom {name!r} not in the hand model")
+        pad = pad_geometry(geom, np.asarray(toward, float))
+        points, area, radius = element_grid(pad, model.pitch)
+        stiffness = element_stiffness(model, area, pad.thickness)
+        body = geom.parent
+        geom.contype, geom.conaffinity = 0, 0
+        for i, (point, k) in enumerate(zip(points, stiffness, strict=True)):
+            _add_element(body, f"{ELEMENT_PREFIX}{name}_{i:02d}", point - radius * pad.normal, pad.normal,
+                         radius, float(k), pad.thickness * model.travel_fraction, model, friction)
+
+
+def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, normal: np.ndarray, radius: float,
+                 k: float, travel: float, model: PadModel, friction: float) -> None:
+    """One element: a body on a slide joint along -normal (q = compression [m]) with spring k [N/m]."""
+    armature = k * (model.timestep / STABILITY_FACTOR) ** 2
+    mass = ELEMENT_MASS + armature
+    child = body.add_body(name=name, pos=pos, mass=ELEMENT_MASS, inertia=[1e-9, 1e-9, 1e-9],
+                          explicitinertial=True)
+    child.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=-normal, stiffness=[k], springref=0.0,
+                    damping=[2.0 * model.damping_ratio * np.sqrt(k * mass)], armature=armature,
+                    limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=[-travel, travel],
+                    frictionloss=0.0, margin=0.0)
+    child.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], condim=3,
+                   friction=[friction, 0.0, 0.0], priority=1, rgba=[0.15, 0.15, 0.15, 1.0],
+                   contype=1, conaffinity=1, density=0.0, margin=0.0,
+                   solref=[0.004, 1.0], solimp=list(ELEMENT_SOLIMP))
+
+
+def pad_directions(spec: mujoco.MjSpec, pad_geoms: Sequence[str], tcp_site: str) -> list[tuple[str, np.ndarray]]:
+    """For each pad geom, the direction (3,) in its body's frame from the pad toward the TCP site.
+
+    Measured on a copy of the hand compiled at its reference configuration.
+    """
+    model = spec.copy().compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, tcp_site)
+    out = []
+    for name in pad_geoms:
+        g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
+        if g < 0 or site < 0:
+            raise HandError(f"pad geom {name!r} or TCP site {tcp_site!r} not in the hand model")
+        body = model.geom_bodyid[g]
+        world = data.site_xpos[site] - data.geom_xpos[g]
+        out.append((name, data.xmat[body].reshape(3, 3).T @ world))
+    return out
+
+
+def is_element(name: str) -> bool:
+    """Whether a (hand-local, unprefixed) geom/body/joint name is a pad element."""
+    return name.startswith(ELEMENT_PREFIX)
+
+
+def uniform_patch_torque(mu: float, force: float, half: Sequence[float], n: int = 400) -> float:
+    """Largest torque [N m] about the centre of a rectangle (half extents `half` [m]) under
+    uniform pressure at total normal force `force` [N] before it slips: mu F mean(r) (midpoint rule, n x n)."""
+    a = (np.arange(n) + 0.5) / n * 2 * half[0] - half[0]
+    b = (np.arange(n) + 0.5) / n * 2 * half[1] - half[1]
+    r = np.hypot(*np.meshgrid(a, b, indexing="ij"))
+    return float(mu * force * r.mean())

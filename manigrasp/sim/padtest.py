@@ -1,0 +1,116 @@
+"""A pad pressed on a surface, closed loop in MuJoCo: the validation cases of the pad contact model.
+
+One finger pad (the `parallel_jaw` pad: a 2 x 3 cm box, 6 mm thick) hangs
+face-down from a carrier body that can slide along the pad normal (world z)
+and turn about it; gravity is off. A constant force F pushes the carrier
+down onto a fixed surface at z = 0 (a flat box, or a height field of bumps),
+then a torque about the normal is ramped up slowly until the pad turns. The
+normal force the surface returns and the torque at which the pad starts to
+slip are what `press_pad` measures; `manigrasp.hands.pads.uniform_patch_torque`
+is the value a uniform-pressure patch gives.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from manigrasp.hands import pads
+from manigrasp.sim.config import SceneConfig
+
+PAD_HALF = (0.01, 0.015, 0.003)  # [m], the parallel_jaw pad box (x, y in the face; z thickness)
+SURFACE_HALF = 0.04  # [m], half side of the square surface
+SLIP_SPEED = 0.05  # [rad/s], the pad counts as slipping once it turns faster than this
+
+
+@dataclass(frozen=True)
+class PressResult:
+    """What a pressed pad measured.
+
+    Attributes:
+        normal_force: total normal force of the surface on the pad at rest [N].
+        holding_torque: largest torque about the normal before the pad slipped [N m].
+        contacts: number of pad-surface contacts at rest.
+    """
+
+    normal_force: float
+    holding_torque: float
+    contacts: int
+
+
+def bumps(n: int = 81, amplitude: float = 0.0005, wavelength: float = 0.03) -> np.ndarray:
+    """(n, n) heights [m] of an egg-crate surface a cos(2 pi x / L) cos(2 pi y / L) over the square
+    surface, crest under the pad centre: crest to trough 2 a (1 mm by default)."""
+    grid = np.linspace(-SURFACE_HALF, SURFACE_HALF, n)
+    x, y = np.meshgrid(grid, grid, indexing="xy")
+    return amplitude * np.cos(2 * np.pi * x / wavelength) * np.cos(2 * np.pi * y / wavelength)
+
+
+def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | None = None) -> mujoco.MjModel:
+    """The rig's model: `mode` "compliant" or "rigid" pad, over a flat surface or `heights` (n, n) [m]."""
+    config = config or SceneConfig()
+    spec = mujoco.MjSpec()
+    config.apply(spec.option)
+    spec.option.gravity = [0.0, 0.0, 0.0]
+    top = 0.0
+    if heights is None:
+        spec.worldbody.add_geom(name="surface", type=mujoco.mjtGeom.mjGEOM_BOX,
+                                size=[SURFACE_HALF, SURFACE_HALF, 0.01], pos=[0, 0, -0.01])
+    else:
+        low, high = float(heights.min()), float(heights.max())
+        span = max(high - low, 1e-6)
+        field = spec.add_hfield(name="bumps", nrow=heights.shape[0], ncol=heights.shape[1],
+                                size=[SURFACE_HALF, SURFACE_HALF, span, 0.01])
+        field.userdata = ((heights - low) / span).ravel().tolist()
+        spec.worldbody.add_geom(name="surface", type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="bumps",
+                                pos=[0, 0, low])
+        top = high
+    carrier = spec.worldbody.add_body(name="carrier", pos=[0, 0, top + 2 * PAD_HALF[2]])
+    carrier.add_joint(name="press", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1], damping=[5.0])
+    carrier.add_joint(name="turn", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], damping=[0.0])
+    carrier.add_geom(name="pad", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(PAD_HALF), pos=[0, 0, -PAD_HALF[2]],
+                     mass=0.1, priority=1, condim=config.hand_condim,
+                     friction=[config.hand_friction, config.hand_torsional_friction, 0.0001],
+                     solref=[0.004, 1.0], solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
+    if mode == "compliant":
+        pads.make_compliant(spec, [("pad", np.array([0.0, 0.0, -1.0]))], config.pad_model(),
+                            config.hand_friction)
+    spec.add_actuator(name="press", target="press", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    spec.add_actuator(name="turn", target="turn", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    return spec.compile()
+
+
+def press_pad(mode: str, force: float, heights: np.ndarray | None = None, torque_rate: float = 0.2,
+              config: SceneConfig | None = None) -> PressResult:
+    """Press the pad with `force` [N], measure the normal force, then ramp a torque at
+    `torque_rate` [N m/s] until the pad turns faster than `SLIP_SPEED`. Deterministic."""
+    model = pad_rig(mode, heights, config)
+    data = mujoco.MjData(model)
+    surface = model.geom("surface").id
+    while data.time < 0.5:  # the press force ramps up over 0.3 s, then holds
+        data.ctrl[0] = -force * min(1.0, data.time / 0.3)
+        mujoco.mj_step(model, data)
+    normal, count = _surface_force(model, data, surface)
+    turn = model.joint("turn").id
+    start, limit = data.time, 10.0
+    while data.time - start < limit:
+        data.ctrl[1] = torque_rate * (data.time - start)
+        mujoco.mj_step(model, data)
+        if abs(data.qvel[model.jnt_dofadr[turn]]) > SLIP_SPEED:
+            break
+    return PressResult(normal_force=normal, holding_torque=float(data.ctrl[1]), contacts=count)
+
+
+def _surface_force(model: mujoco.MjModel, data: mujoco.MjData, surface: int) -> tuple[float, int]:
+    """Sum of the normal forces [N] of the contacts with `surface`, and their count."""
+    total, count, wrench = 0.0, 0, np.zeros(6)
+    for i in range(data.ncon):
+        contact = data.contact[i]
+        if surface not in (contact.geom1, contact.geom2):
+            continue
+        mujoco.mj_contactForce(model, data, i, wrench)
+        total += abs(float(contact.frame[2]) * wrench[0])  # normal component along world z
+        count += 1
+    return total, count

@@ -1,0 +1,41 @@
+"""Stable resting poses: a box rests most probably on its largest face; a scene can start there."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp.errors import MeshError
+from manigrasp.objects import build_object
+from manigrasp.objects.poses import stable_poses
+from manigrasp.protocol.settle import settle_object
+from manigrasp.sim import SceneConfig, build_scene
+
+EXTENTS = (0.02, 0.04, 0.1)  # a tall box, standing on its smallest face in its file
+
+
+def test_box_rests_most_probably_on_its_largest_face() -> None:
+    poses = stable_poses(trimesh.creation.box(EXTENTS).vertices)
+    assert len(poses) == 6
+    assert sum(p.probability for p in poses) == pytest.approx(1.0)
+    assert [p.probability for p in poses] == sorted((p.probability for p in poses), reverse=True)
+    best = poses[0]
+    assert best.height == pytest.approx(0.01)  # half the smallest extent
+    np.testing.assert_allclose(best.rotation @ best.rotation.T, np.eye(3), atol=1e-9)
+    assert abs(best.rotation[2, 0]) == pytest.approx(1.0)  # the object's x (thinnest) axis is vertical
+    assert poses[-1].height == pytest.approx(0.05)  # standing on end is the least probable
+
+
+def test_flat_points_are_refused() -> None:
+    with pytest.raises(MeshError, match="no 3-D convex hull"):
+        stable_poses(np.c_[np.random.default_rng(0).random((10, 2)), np.zeros(10)])
+
+
+@pytest.mark.parametrize(("rest", "height"), [("file", 0.05), ("most_stable", 0.01)])
+def test_scene_rest_option_chooses_the_starting_pose(tmp_path, rest: str, height: float) -> None:
+    asset = build_object(trimesh.creation.box(EXTENTS), name="tall_box", mass=0.1, cache_root=tmp_path).asset
+    scene = build_scene("parallel_jaw", asset, SceneConfig(rest=rest))
+    assert scene.object_rest_pose()[2, 3] == pytest.approx(height, abs=1e-6)
+    settled = settle_object(scene)
+    assert settled[2, 3] == pytest.approx(height, abs=1e-3)  # it stays where it was put

@@ -1,0 +1,92 @@
+"""Compliant finger pads (elastic foundation) against computable physics, closed loop in MuJoCo.
+
+The rig (`manigrasp.sim.padtest`) presses one `parallel_jaw` pad (2 x 3 cm) on a fixed
+surface with a force F, then ramps a torque about the pad normal until the pad turns.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from manigrasp.errors import ConfigError
+from manigrasp.hands import load, pads
+from manigrasp.sim import SceneConfig, build_scene
+from manigrasp.sim.padtest import PAD_HALF, bumps, press_pad
+
+MU = SceneConfig().hand_friction
+FORCE = 35.0  # [N], the standard protocol's grip (half of parallel_jaw's 70 N)
+
+
+def patch_torque(force: float) -> float:
+    return pads.uniform_patch_torque(MU, force, PAD_HALF[:2])
+
+
+def test_uniform_patch_torque_matches_closed_forms() -> None:
+    # A square of half side a: mean distance from the centre = a (sqrt(2) + asinh(1)) / 3.
+    a = 0.01
+    assert pads.uniform_patch_torque(1.0, 1.0, (a, a)) == pytest.approx(a * (np.sqrt(2) + np.arcsinh(1)) / 3, rel=1e-4)
+    # Linear in mu and F.
+    assert pads.uniform_patch_torque(0.5, 20.0, (a, 2 * a)) == pytest.approx(
+        10.0 * pads.uniform_patch_torque(1.0, 1.0, (a, 2 * a)), rel=1e-9)
+
+
+def test_element_stiffnesses_sum_to_the_pad_stiffness() -> None:
+    pad = pads.PadGeometry(center=np.zeros(3), normal=np.array([0, 0, -1.0]), axes=np.eye(3)[:2],
+                           half=np.array([0.01, 0.015]), thickness=0.006)
+    model = pads.PadModel()
+    points, area, radius = pads.element_grid(pad, model.pitch)
+    assert len(points) == 2 * 3 and radius == pytest.approx(0.005)
+    assert area.sum() == pytest.approx(4 * 0.01 * 0.015)
+    k = pads.element_stiffness(model, area, pad.thickness)
+    assert k.sum() == pytest.approx(model.modulus * 6e-4 / 0.006)  # E A / h
+
+
+@pytest.mark.parametrize("mode", ["compliant", "rigid"])
+def test_pressing_a_flat_face_returns_the_press_force(mode: str) -> None:
+    for force in (10.0, FORCE):
+        assert press_pad(mode, force).normal_force == pytest.approx(force, rel=0.02)
+
+
+def test_compliant_pad_holds_the_uniform_patch_torque_and_rigid_pad_overshoots_it() -> None:
+    compliant = press_pad("compliant", FORCE)
+    assert compliant.contacts == 6  # every element of the 2 x 3 grid touches the flat face
+    assert compliant.holding_torque == pytest.approx(patch_torque(FORCE), rel=0.15)
+    # The rigid box touches at its corners (1.8 cm out) plus soft-finger torsion: about 2x too much.
+    assert press_pad("rigid", FORCE).holding_torque > 1.5 * patch_torque(FORCE)
+
+
+def test_compliant_pad_keeps_its_torque_on_1mm_bumps_and_rigid_pad_loses_it() -> None:
+    field = bumps()  # crest to trough 1 mm, crest under the pad centre
+    assert np.ptp(field) == pytest.approx(0.001, rel=0.01)
+    flat, bumpy = press_pad("compliant", FORCE), press_pad("compliant", FORCE, field)
+    assert bumpy.normal_force == pytest.approx(FORCE, rel=0.02)
+    assert bumpy.holding_torque == pytest.approx(flat.holding_torque, rel=0.25)
+    rigid_flat, rigid_bumpy = press_pad("rigid", FORCE), press_pad("rigid", FORCE, field)
+    assert rigid_bumpy.holding_torque < 0.75 * rigid_flat.holding_torque  # fails the 25 % criterion
+
+
+def test_press_is_deterministic() -> None:
+    assert press_pad("compliant", FORCE, bumps()) == press_pad("compliant", FORCE, bumps())
+
+
+@pytest.mark.parametrize("hand", ["parallel_jaw", "panda", "robotiq_2f85"])
+def test_every_parallel_jaw_hand_gets_compliant_pads(hand: str) -> None:
+    rigid = build_scene(hand, config=SceneConfig(pads="rigid")).model
+    compliant = build_scene(hand, config=SceneConfig(pads="compliant")).model
+    elements = [g for g in range(compliant.ngeom) if pads.is_element(compliant.geom(g).name.split("/")[-1])]
+    assert len(elements) >= 8  # at least 2 x 2 per pad
+    assert not any(pads.is_element(rigid.geom(g).name.split("/")[-1]) for g in range(rigid.ngeom))
+    for name in load(hand).pad_geoms:  # the rigid boxes stay as backing, without collisions
+        g = mujoco.mj_name2id(compliant, mujoco.mjtObj.mjOBJ_GEOM, f"hand/{name}")
+        assert compliant.geom_contype[g] == 0 and compliant.geom_conaffinity[g] == 0
+    assert (compliant.geom_condim[elements] == 3).all()
+    np.testing.assert_allclose(compliant.geom_friction[elements, 0], MU)
+
+
+def test_bad_pad_options_are_config_errors() -> None:
+    with pytest.raises(ConfigError, match="unknown pads"):
+        SceneConfig(pads="soft")
+    with pytest.raises(ConfigError, match="pad_pitch"):
+        SceneConfig(pad_pitch=0.0)
