@@ -1,0 +1,53 @@
+"""Scan vs recipe pairing and its report section."""
+
+from __future__ import annotations
+
+import pytest
+
+from manigrasp.bench.report import Rate
+from manigrasp.bench.twins import markdown_section, twin_rows
+
+
+def rate(successes: int, trials: int = 20) -> Rate:
+    from manigrasp.bench.stats import wilson_interval
+
+    low, high = wilson_interval(successes, trials)
+    return Rate(trials, successes, successes / trials, low, high)
+
+
+GROUPS = {
+    ("parallel_jaw", "antipodal", "ground_truth", "003_cracker_box"): rate(19),
+    ("parallel_jaw", "antipodal", "ground_truth", "003_cracker_box_scan"): rate(6),
+    ("parallel_jaw", "antipodal", "ground_truth", "010_potted_meat_can"): rate(19),
+    ("parallel_jaw", "antipodal", "ground_truth", "010_potted_meat_can_scan"): rate(18),
+    ("parallel_jaw", "random", "ground_truth", "010_potted_meat_can_scan"): rate(3),  # no twin in this method
+    ("parallel_jaw", "antipodal", "ground_truth", "025_mug"): rate(15),
+}
+
+
+def test_scans_pair_with_their_recipe_twin_in_the_same_method() -> None:
+    rows = twin_rows(GROUPS)
+    assert [(r.scan, r.recipe) for r in rows] == [("003_cracker_box_scan", "003_cracker_box"),
+                                                 ("010_potted_meat_can_scan", "010_potted_meat_can")]
+    box, can = rows
+    assert box.gap_points == pytest.approx(65.0) and not box.within and not box.intervals_overlap
+    assert can.gap_points == pytest.approx(5.0) and can.within and can.intervals_overlap
+
+
+def test_markdown_section_shows_counts_rates_and_verdicts() -> None:
+    class FakeReport:
+        groups = GROUPS
+
+    title, _, table = markdown_section(FakeReport())  # type: ignore[arg-type]
+    assert title == "## Scan vs recipe"
+    lines = table.splitlines()
+    assert len(lines) == 2 + 2
+    assert "| 003_cracker_box | 6/20 |" in lines[2] and "| 19/20 |" in lines[2] and "| +65 | no |" in lines[2]
+    assert lines[3].endswith("| +5 | yes |")
+
+
+def test_no_pairs_no_section() -> None:
+    class FakeReport:
+        groups = {k: v for k, v in GROUPS.items() if not k[3].endswith("_scan")}
+
+    assert markdown_section(FakeReport()) == []  # type: ignore[arg-type]
