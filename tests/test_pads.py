@@ -78,7 +78,7 @@ def test_every_parallel_jaw_hand_gets_compliant_pads(hand: str) -> None:
     elements = [g for g in range(compliant.ngeom) if pads.is_element(compliant.geom(g).name.split("/")[-1])]
     assert len(elements) >= 8  # at least 2 x 2 per pad
     assert not any(pads.is_element(rigid.geom(g).name.split("/")[-1]) for g in range(rigid.ngeom))
-    for name in load(hand).pad_geoms:  # the rigid boxes stay as backing, without collisions
+    for name in load(hand).pad_geoms + load(hand).pad_backing:  # the rigid boxes stay, without collisions
         g = mujoco.mj_name2id(compliant, mujoco.mjtObj.mjOBJ_GEOM, f"hand/{name}")
         assert compliant.geom_contype[g] == 0 and compliant.geom_conaffinity[g] == 0
     assert (compliant.geom_condim[elements] == 3).all()

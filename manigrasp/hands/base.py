@@ -50,6 +50,9 @@ class Hand:
         pad_geoms: the box geoms of the finger pads that `manigrasp.hands.pads`
             makes compliant when a scene asks for ``pads: compliant`` (empty:
             the hand has no such pads and is always simulated as modelled).
+        pad_backing: rigid geoms right behind the pads (a fingertip block) that lose
+            their collisions with compliant pads: the pad elements then bottom out at
+            their travel instead of the block taking the load after a fraction of a mm.
     """
 
     name: str
@@ -67,6 +70,7 @@ class Hand:
     source: str = "manigrasp"
     notes: tuple[str, ...] = field(default_factory=tuple)
     pad_geoms: tuple[str, ...] = ()
+    pad_backing: tuple[str, ...] = ()
 
     approach_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     closing_axis: tuple[float, float, float] = (0.0, 1.0, 0.0)

@@ -172,6 +172,11 @@ def hand_spec(hand: Hand, config: SceneConfig) -> mujoco.MjSpec:
     if config.pads == "compliant" and hand.pad_geoms:
         directions = pads.pad_directions(child, hand.pad_geoms, hand.tcp_site)
         pads.make_compliant(child, directions, config.pad_model(), config.hand_friction)
+        for name in hand.pad_backing:
+            backing = child.geom(name)
+            if backing is None:
+                raise SimulationError(f"hand {hand.name!r}: pad backing geom {name!r} not in its MJCF")
+            backing.contype, backing.conaffinity = 0, 0
     return child
 
 

@@ -158,6 +158,7 @@ def make_robotiq_2f85() -> Hand:
         max_width=jaw_gap(model, data, build.TCP_SITE).width, max_grip_force=force_closed,
         mass=build.total_mass(model), source="robosuite",
         pad_geoms=("left_fingerpad_collision", "right_fingerpad_collision"),
+        pad_backing=("left_fingertip_collision", "right_fingertip_collision"),
         notes=load_gripper_spec("robotiq_gripper_85.xml")[1] + (
             "four-bar linkage closed by joint couplings (inner knuckle = driver, inner finger = -driver; "
             "a parallelogram, pads stay parallel) instead of robosuite's springy tendons",
@@ -166,6 +167,8 @@ def make_robotiq_2f85() -> Hand:
             "(F = f / (2 |dy_pad/dq|)); max_grip_force is the value every width reaches",
             "finger = outer knuckle subtree (outer finger, inner finger, pad); inner knuckles are linkage bars",
             "TCP between the pads at mid-stroke height: pad centres move 1.4 cm along z over the stroke",
+            "compliant pads: the 2 mm pad boxes become elastic foundations; the fingertip blocks 0.3 mm "
+            "behind them stop colliding (the elements bottom out at 1.6 mm instead)",
         ))
 
 
