@@ -5,7 +5,7 @@ adversarial user must get: bad input is one line on stderr, exit code 2 and no r
 planner or trial that fails, hangs or kills its worker is a recorded status and the run completes;
 a run directory refuses a different experiment, a second process and a lost run.json.
 
-    .venv/bin/python benchmarks/adversarial.py   # 35 attempts, ~7 min on a busy 2-core machine; exit 1 if any BAD
+    .venv/bin/python benchmarks/adversarial.py   # 36 attempts, ~7 min on a busy 2-core machine; exit 1 if any BAD
 """
 
 from __future__ import annotations
@@ -191,6 +191,19 @@ def _identity(work: Path) -> str | None:
     proc = bench(work, "c.yaml", "seed=7")
     checks.append(proc.returncode == 2 and "no run.json" in proc.stderr)
     return None if all(checks) else f"checks {checks}"
+
+
+@attempt("garbage results.sqlite; --jobs 1000 capped at the cores")
+def _store_and_jobs(work: Path) -> str | None:
+    proc = bench(work, "quick", *SMALL, "--jobs", "1000")
+    if proc.returncode != 0 or "capped at the" not in proc.stderr:
+        return f"--jobs 1000: exit {proc.returncode}: {proc.stderr[-300:]}"
+    for extra in (work / "run").glob("results.sqlite-*"):
+        extra.unlink()
+    (work / "run" / "results.sqlite").write_bytes(b"garbage" * 1000)
+    proc = bench(work, "quick", *SMALL)
+    ok = proc.returncode == 2 and "not a readable results store" in proc.stderr and "\n" not in proc.stderr.strip()
+    return None if ok else f"garbage store: exit {proc.returncode}: {proc.stderr[-300:]}"
 
 
 @attempt("second process on the same --out; workers end with SIGTERM of the main process")
