@@ -342,3 +342,16 @@ def test_workers_end_with_the_main_process(tmp_path, sig):
         time.sleep(0.2)
     alive = [p for p in workers if psutil.pid_exists(p) and psutil.Process(p).status() != "zombie"]
     assert not alive
+
+
+def test_ray_records_a_planner_that_crashes_its_worker(tmp_path):
+    ray = pytest.importorskip("ray")
+    data = dict(ONE, planners=["faulty_planners:Segfaults", "random"])
+    try:
+        summary = run_benchmark(parse_config(data), tmp_path / "run", jobs=2, executor="ray", progress=False)
+    finally:
+        ray.shutdown()
+    rows = {r["planner"]: r for r in _rows(tmp_path / "run")}
+    assert summary.ran == len(rows) == 2
+    assert rows["Segfaults"]["status"] == "planner_error" and "planning task failed" in rows["Segfaults"]["detail"]
+    assert rows["random"]["status"] not in ("planner_error", "harness_fault")

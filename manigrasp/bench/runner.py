@@ -4,10 +4,10 @@ Executors: "local" (worker processes on this machine, `manigrasp.bench.pool`:
 planning and trials have hard wall-clock budgets, and a worker that hangs or
 dies is replaced with its task recorded) and "ray" (the same tasks on a Ray
 cluster, or a local Ray instance when no address is given; needs the optional
-`ray` extra; no hard budgets). Planning is one task per group, each trial one
-task, so a killed run loses at most the trials that were running; re-running
-the same command resumes from the store. The run directory is locked while a
-run uses it.
+`ray` extra; no hard budgets, but a task whose worker dies is recorded).
+Planning is one task per group, each trial one task, so a killed run loses at
+most the trials that were running; re-running the same command resumes from
+the store. The run directory is locked while a run uses it.
 """
 
 from __future__ import annotations
@@ -263,18 +263,29 @@ def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None, 
     if not ray.is_initialized():
         ray.init(address=address, num_cpus=None if address else jobs, include_dashboard=False,
                  log_to_driver=False, ignore_reinit_error=True)
-    remote_plan = ray.remote(plan_group)
-    remote_trial = ray.remote(run_trial)
+    remote_plan = ray.remote(max_retries=0)(plan_group)  # a task that crashes its worker is recorded, not retried
+    remote_trial = ray.remote(max_retries=0)(run_trial)
     plans = {remote_plan.remote(g): g for g in pending}
-    trials: list = []
+    trials: dict = {}
     while plans or trials:
-        ready, _ = ray.wait(list(plans) + trials, num_returns=1)
+        ready, _ = ray.wait(list(plans) + list(trials), num_returns=1)
         ref = ready[0]
         if ref in plans:
             group = plans.pop(ref)
-            plan = ray.get(ref)
-            trials += [remote_trial.remote(group, i, plan, settings) for i in todo[id(group)]]
+            try:
+                plan = ray.get(ref)
+            except ray.exceptions.RayError as exc:  # the worker died (a planner's segfault, os._exit)
+                plan = Plan.failed(group, Status.PLANNER_ERROR, f"the planning task failed: {_ray_reason(exc)}")
+            trials |= {remote_trial.remote(group, i, plan, settings): (group, i) for i in todo[id(group)]}
         else:
-            trials.remove(ref)
-            yield ray.get(ref)
+            group, index = trials.pop(ref)
+            try:
+                yield ray.get(ref)
+            except ray.exceptions.RayError as exc:
+                yield group.key(index), TrialResult(Status.HARNESS_FAULT, detail=f"the trial task failed: "
+                                                    f"{_ray_reason(exc)}", seed=group.trial_seed(index))
+
+
+def _ray_reason(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:700]
 
