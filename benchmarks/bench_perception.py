@@ -14,6 +14,12 @@ run, not this script (see configs/perception.yaml):
     manigrasp bench perception --out runs/perc_gt
     manigrasp bench perception --out runs/perc_est observation=estimated_pose
     manigrasp compare runs/perc_gt runs/perc_est
+
+and so is planning on the fused cloud of several cameras (`camera:` key), e.g.
+
+    manigrasp bench perception --out runs/perc_v2 observation=point_cloud camera.views=2
+
+(benchmarks/bench_partial_view.py: 1, 2, 3 views and the completion path side by side, with planning times).
 """
 
 from __future__ import annotations

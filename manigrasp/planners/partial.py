@@ -212,16 +212,15 @@ def footprint_mask(points: np.ndarray, low: np.ndarray, shape: np.ndarray, voxel
     `margin` [m] horizontally of the vertical projection of `points` (n, 3) and at most `margin` above the
     highest point over them: where an object resting on the table, whose hidden part lies under its
     seen surfaces, can be."""
-    from scipy.ndimage import distance_transform_edt, maximum_filter
+    from scipy.ndimage import maximum_filter
 
     cells = np.floor((points[:, :2] - low[:2]) / voxel).astype(int)
     keep = np.all((cells >= 0) & (cells < shape[:2]), axis=1)
     top = np.full(tuple(shape[:2]), -np.inf)
     np.maximum.at(top, (cells[keep, 0], cells[keep, 1]), points[keep, 2])
-    reach = int(np.ceil(margin / voxel))
+    reach = int(np.ceil(margin / voxel))  # the highest point within `margin` (a square of cells) of each cell
     top = maximum_filter(top, size=2 * reach + 1, mode="constant", cval=-np.inf)
-    near = distance_transform_edt(~np.isfinite(top) | (top == -np.inf), sampling=voxel) <= margin
-    near &= np.isfinite(top)
+    near = np.isfinite(top)
     z = low[2] + voxel * (np.arange(shape[2]) + 0.5)
     return near[:, :, None] & (z[None, None, :] <= top[:, :, None] + margin)
 
