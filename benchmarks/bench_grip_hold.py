@@ -1,0 +1,73 @@
+"""Grips that hold: how far a hand-placed can creeps in each dexterous hand, with and without `FingerHold`.
+
+For each dexterous hand and each `finger_hold_gain` (0 = off, the protocols' default), a 66 mm x 12 cm,
+0.35 kg can standing on the table is grasped by hand (side power grasp at mid-height, can axis across the
+palm, thumb side up) and run through the `standard` protocol (close to half the hand's maximum grip force,
+lift 10 cm, hold 0.5 s, six 1 x m g perturbations). Printed per hand x gain: the status, the largest
+displacement [mm] and rotation [deg] of the can in the hand over the whole trial, the grip force [N].
+`--adaptive` also runs the five-finger hands with adaptive (uncoupled) fingers, as they were before the
+fingers' joints were coupled.
+
+    .venv/bin/python benchmarks/bench_grip_hold.py
+    .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right --gains 0 20 --adaptive
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import tempfile
+import time
+
+import numpy as np
+import trimesh
+
+from manigrasp import hands
+from manigrasp.objects import build_object
+from manigrasp.planners.base import GraspCandidate
+from manigrasp.protocol import PROTOCOLS, settle_object
+from manigrasp.sim import build_scene
+
+
+def side_power_grasp(scene, object_pose: np.ndarray) -> np.ndarray:
+    """TCP pose of a side power grasp of the standing can at mid-height, can axis along TCP x, thumb side up."""
+    scene.reset(mount=np.eye(4))
+    tcp = scene.tcp_pose()
+    thumb = scene.model.body(f"hand/{scene.hand.finger_bodies[0]}").id
+    side = np.sign((tcp[:3, :3].T @ (scene.data.xipos[thumb] - tcp[:3, 3]))[0]) or 1.0
+    pose = np.eye(4)
+    pose[:3, 3] = [object_pose[0, 3], object_pose[1, 3], scene.object_rest_height]
+    pose[:3, :3] = np.column_stack([[0.0, 0.0, side], [0.0, -side, 0.0], [1.0, 0.0, 0.0]])
+    return pose
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hands", nargs="+", default=["inspire_right", "fourier_right", "allegro_right"])
+    parser.add_argument("--gains", nargs="+", type=float, default=[0.0, 5.0, 20.0])
+    parser.add_argument("--adaptive", action="store_true", help="also the five-finger hands with adaptive fingers")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as cache:
+        can = build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,
+                           cache_root=cache).asset
+        print(f"{'hand':28s} {'gain':>5s} {'status':16s} {'creep [mm]':>10s} {'turn [deg]':>10s} {'grip [N]':>8s}")
+        for name in args.hands:
+            variants = [(name, hands.load(name))]
+            if args.adaptive and not name.startswith("allegro"):
+                from manigrasp.hands.from_robosuite.dexterous import MODELS, make_from
+
+                variants.append((f"{name} (adaptive)", make_from(dataclasses.replace(MODELS[name], coupled=False))))
+            for label, hand in variants:
+                scene = build_scene(hand, can)
+                for gain in args.gains:
+                    object_pose = settle_object(scene)
+                    pose = side_power_grasp(scene, object_pose)
+                    protocol = PROTOCOLS.load("standard", finger_hold_gain=gain)
+                    result = protocol.run(scene, GraspCandidate(pose=pose, score=1.0), np.random.default_rng(0),
+                                          deadline=time.monotonic() + 300, object_pose=object_pose, seed=0)
+                    print(f"{label:28s} {gain:5g} {result.status.value:16s} {1000 * result.max_translation_m:10.2f} "
+                          f"{result.max_rotation_deg:10.1f} {result.grip_force_n:8.2f}")
+
+
+if __name__ == "__main__":
+    main()
