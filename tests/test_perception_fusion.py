@@ -44,8 +44,8 @@ def test_camera_setup_spreads_views_and_validates():
     cameras = CameraSetup(views=2, distance=0.5).cameras(np.array([0.1, 0.0]))
     assert [np.linalg.norm(c.position - [0.1, 0.0, 0.05]) for c in cameras] == pytest.approx([0.5, 0.5])
     record = CameraSetup(views=2).record()
-    assert record["camera_views"] == 2 and record["camera_azimuths_deg"] == "30,210"
-    assert record["camera_noise_sigma_0_m"] == pytest.approx(0.0012)
+    assert record["camera_views"] == 2 and record["camera_azimuth_deg"] == 30.0
+    assert record["camera_noise_sigma_m"] == pytest.approx(0.0012 + 0.0019 * 0.15**2)
     for bad, match in (({"views": 0}, "views"), ({"views": 2, "azimuths_deg": [0]}, "azimuths"),
                        ({"elevation_deg": 90}, "elevation"), ({"distance": 0}, "distance"),
                        ({"backend": "lidar"}, "backend"), ({"fovy_deg": 200}, "fovy")):

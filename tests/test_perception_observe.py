@@ -76,3 +76,15 @@ def test_the_config_camera_reaches_every_group():
     assert [(g.camera.views, g.camera.elevation_deg) for g in groups(config)] == [(3, 60.0)]
     with pytest.raises(ConfigError, match="did you mean 'views'"):
         parse_config({"objects": ["mug"], "camera": {"view": 2}})
+
+
+def test_a_trial_stores_its_camera_setup():
+    """The setup's record is a set of result columns: it survives the results store's flat round trip."""
+    from manigrasp.perception.setup import CameraSetup
+    from manigrasp.protocol.result import Status, TrialResult
+
+    record = CameraSetup(views=3, elevation_deg=60.0, distance=0.7).record()
+    result = TrialResult(Status.SUCCESS, **record)
+    back = TrialResult.from_flat(result.flat())
+    assert (back.camera_views, back.camera_elevation_deg, back.camera_distance_m) == (3, 60.0, 0.7)
+    assert back.camera_azimuth_deg == 30.0 and back.camera_noise_sigma_m == pytest.approx(0.0012 + 0.0019 * 0.3**2)

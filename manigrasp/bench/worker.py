@@ -149,6 +149,8 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
     result = replace(result, pose_rotation_error_deg=info.rotation_error_deg,
                      pose_translation_error_mm=info.translation_error_mm, pose_add_s_mm=info.add_s_mm,
                      object_pose=PoseRecord.of(plan.object_pose), plan_time_s=plan.planning_time_s)
+    if info.camera is not None:
+        result = replace(result, **info.camera.record())
     if index < len(plan.candidates):
         candidate = plan.candidates[index]
         width = getattr(candidate, "width", None)

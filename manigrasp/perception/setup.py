@@ -90,11 +90,10 @@ class CameraSetup:
         """Every camera, looking at (`target_xy`, table_height + target_height) [m]."""
         return tuple(self.view(i).camera(target_xy, table_height) for i in range(self.views))
 
-    def record(self) -> dict[str, float | int | str]:
-        """Flat fields describing the setup (for a trial's stored record)."""
-        n = self.noise
-        return {"camera_views": self.views,
-                "camera_azimuths_deg": ",".join(f"{a:g}" for a in self.view_azimuths()),
+    def record(self) -> dict[str, float | int]:
+        """The fields a trial stores (`manigrasp.protocol.result.TrialResult.camera_*`): number of cameras, the
+        first one's azimuth, elevation, distance and the depth noise's standard deviation at that distance
+        (the full setup is in run.json)."""
+        return {"camera_views": self.views, "camera_azimuth_deg": float(self.view_azimuths()[0]),
                 "camera_elevation_deg": float(self.elevation_deg), "camera_distance_m": float(self.distance),
-                "camera_noise_sigma_0_m": float(n.sigma_0), "camera_noise_k": float(n.k),
-                "camera_dropout_start_deg": float(n.dropout_start_deg)}
+                "camera_noise_sigma_m": float(self.noise.sigma(self.distance))}

@@ -122,6 +122,10 @@ class TrialResult:
         plan_time_s: wall time of the whole planning call that produced this trial's candidate
             (one call per object x hand x planner x observation) [s]; `planning_time_s` is
             that time divided by the number of candidates.
+        camera_views, camera_azimuth_deg, camera_elevation_deg, camera_distance_m, camera_noise_sigma_m: the
+            cameras of a perception observation (`manigrasp.perception.setup.CameraSetup.record`: number, first
+            camera's azimuth [deg], elevation [deg], distance [m], the depth noise's standard deviation at
+            that distance [m]); 0 and NaN for ground truth.
     """
 
     status: Status
@@ -147,6 +151,11 @@ class TrialResult:
     grasp_preshape: float = math.nan
     object_pose: PoseRecord = field(default_factory=PoseRecord)
     plan_time_s: float = math.nan
+    camera_views: int = 0
+    camera_azimuth_deg: float = math.nan
+    camera_elevation_deg: float = math.nan
+    camera_distance_m: float = math.nan
+    camera_noise_sigma_m: float = math.nan
 
     @property
     def success(self) -> bool:
