@@ -37,8 +37,10 @@ def test_element_stiffnesses_sum_to_the_pad_stiffness() -> None:
                            half=np.array([0.01, 0.015]), thickness=0.006)
     model = pads.PadModel()
     points, area, radius = pads.element_grid(pad, model.pitch)
-    assert len(points) == 2 * 3 and radius == pytest.approx(0.005)
+    assert len(points) == 3 * 4 and radius == pytest.approx(0.005)  # nodes on a 1 cm grid, rims included
     assert area.sum() == pytest.approx(4 * 0.01 * 0.015)
+    np.testing.assert_allclose(np.abs(points[:, :2]).max(axis=0), [0.01, 0.015])  # the outline touches
+    assert area.min() == pytest.approx(area.max() / 4)  # a corner carries a quarter cell
     k = pads.element_stiffness(model, area, pad.thickness)
     assert k.sum() == pytest.approx(model.modulus * 6e-4 / 0.006)  # E A / h
 
@@ -51,7 +53,7 @@ def test_pressing_a_flat_face_returns_the_press_force(mode: str) -> None:
 
 def test_compliant_pad_holds_the_uniform_patch_torque_and_rigid_pad_overshoots_it() -> None:
     compliant = press_pad("compliant", FORCE)
-    assert compliant.contacts == 6  # every element of the 2 x 3 grid touches the flat face
+    assert compliant.contacts == 12  # every element of the 3 x 4 grid touches the flat face
     assert compliant.holding_torque == pytest.approx(patch_torque(FORCE), rel=0.15)
     # The rigid box touches at its corners (1.8 cm out) plus soft-finger torsion: about 2x too much.
     assert press_pad("rigid", FORCE).holding_torque > 1.5 * patch_torque(FORCE)

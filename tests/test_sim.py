@@ -117,13 +117,13 @@ def test_to_contacts_gives_soft_finger_records_for_rigid_pads(box_asset) -> None
 
 
 def test_compliant_pads_touch_with_a_patch_of_point_contacts(box_scene) -> None:
-    """Each pad of the 2 x 3 element grid touches the flat box face with all six elements (hard-finger
-    points: the patch's torsional resistance is their sliding friction over its area)."""
+    """Each pad's 3 x 4 elements all touch the flat box face (hard-finger points: the patch's
+    torsional resistance is their sliding friction over its area)."""
     _grasp_and_lift(box_scene)
     contacts = read_hand_contacts(box_scene)
     records = to_contacts(contacts)
     assert {r.kind.value for r in records} == {"hard_finger"}
-    assert len(records) == 12
+    assert len(records) == 24
     assert grip_force(contacts) == pytest.approx(box_scene.hand.max_grip_force, rel=0.02)
 
 

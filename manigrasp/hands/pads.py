@@ -4,8 +4,8 @@ A rigid box pad on a flat face touches at its four corners, and on a scanned,
 bumpy surface at one or two points: the grip then has almost no resistance to
 torsion. A real rubber pad conforms and touches over a patch. This module
 replaces a hand's rigid pad box by a grid of small contact elements, each a
-sphere on its own prismatic joint along the pad normal with a linear spring
-(and damper) to the finger: every element penetrates and pushes independently,
+flattened (oblate) ellipsoid on its own prismatic joint along the pad normal
+with a linear spring (and damper) to the finger: every element penetrates and pushes independently,
 so the pressure follows the surface. It is the classic elastic foundation of
 contact mechanics (K. L. Johnson, *Contact Mechanics*, 1985, section 4.3) and
 what Drake's hydroelastic contact computes for a compliant layer of thickness
@@ -20,13 +20,16 @@ Parameters (`PadModel`) and their source:
   foundation stiffness per area E / h [N/m^3].
 - thickness h: the pad box's own thickness in the hand model (6 mm on
   `parallel_jaw`, 8 mm on `panda`, 2 mm on `robotiq_2f85`).
-- pitch 1 cm: elements per axis = round(pad extent / pitch), at least 2, so a
-  2 x 3 cm pad gets 2 x 3 elements (each one extra degree of freedom: a finer
-  grid costs simulation time roughly in proportion, 5 mm being about 5x slower
-  per step than 1 cm; 1 cm keeps the validation cases within their bounds).
-  Each element carries k_i = E A_i / h, so the stiffnesses sum to the pad's
-  k = E A / h (3.4e4 N/m on `parallel_jaw`, 1 mm compression at the standard
-  35 N grip: enough to conform to millimetre bumps).
+- pitch 1 cm: nodes on a 1 cm grid that spans the whole face, rims and corners
+  included (3 x 4 on a 2 x 3 cm pad), each with its trapezoidal share of the
+  area, so the pad's outline touches like the rigid box's. Each element is one
+  extra degree of freedom: a finer grid costs simulation time in proportion.
+  Each carries k_i = E A_i / h, so the stiffnesses sum to the pad's k = E A / h
+  (3.4e4 N/m on `parallel_jaw`, 1 mm compression at the standard 35 N grip:
+  enough to conform to millimetre bumps).
+- element shape: semi-axes half the spacing in the face and h / 3 along the
+  normal, so an object edge pressing on one is pushed back mostly along the
+  normal (a sphere's flank would push it sideways).
 - damping: critical for each element (b_i = 2 sqrt(k_i m_i)).
 - travel: 80 % of h, then the element bottoms out on the rigid backing (a joint
   limit), as rubber does.
@@ -38,6 +41,12 @@ Parameters (`PadModel`) and their source:
 - element inertia: the spring-mass period must stay well above the 2 ms time
   step, so each joint gets armature k_i (dt / 0.5)^2 (an inertia along the
   joint only: it adds no weight and no hand inertia); each element body has 1 g.
+- contacts of the elements are near-rigid (solimp 0.99-0.999: the compliance is
+  the springs'), and elements do not collide with each other.
+
+Known limit of the 1 cm grid: a contact strip narrower than the spacing (a pad
+overlapping an object only by its rim, at a slant) is carried by one element,
+a point without torsional resistance, where a real pad has a small patch.
 
 The rigid pad box stays in the model as the backing, without collisions.
 """
@@ -55,6 +64,9 @@ from manigrasp.errors import HandError
 ELEMENT_PREFIX = "padel_"  # element bodies, joints and geoms: padel_<pad geom>_<i>_<j>
 ELEMENT_MASS = 0.001  # [kg]
 STABILITY_FACTOR = 0.5  # element spring-mass frequency times the time step
+# Elements are sibling bodies, which MuJoCo does not filter: contype 2 / conaffinity 1 keeps
+# them from colliding with each other while they still meet everything of contype 1.
+ELEMENT_CONTYPE, ELEMENT_CONAFFINITY = 2, 1
 # Element contacts are near-rigid (the spring is the joint's): impedance close to 1 keeps
 # MuJoCo's soft friction from creeping. The light element bodies have a larger inverse
 # weight than a finger, and the constraint's regulariser grows with it ((1 - d) / d times
@@ -119,18 +131,27 @@ def pad_geometry(geom: mujoco.MjsGeom, toward: np.ndarray) -> PadGeometry:
 
 
 def element_grid(pad: PadGeometry, pitch: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Element centres on the face (n, 3) [m] in the body frame, their areas (n,) [m^2], and the sphere radius [m].
+    """Element nodes on the face (n, 3) [m] in the body frame, their areas (n,) [m^2], and the sphere radius [m].
 
-    The face is cut into na x nb equal cells (n_i = max(2, round(2 half_i / pitch))), one element per cell centre.
+    Nodes span the whole face, its edges and corners included (n_i + 1 per axis,
+    n_i = max(1, round(2 half_i / pitch))), each carrying its trapezoidal share of the
+    area (1/4 of a cell at a corner, 1/2 on an edge, 1 inside): so the pad's outline
+    touches like the rigid box's (a strip of object under the pad's rim is still held)
+    and the areas sum to the face's.
     """
-    counts = [max(2, round(2 * h / pitch)) for h in pad.half]
-    cells = [2 * h / c for h, c in zip(pad.half, counts, strict=True)]
-    a = (np.arange(counts[0]) + 0.5) * cells[0] - pad.half[0]
-    b = (np.arange(counts[1]) + 0.5) * cells[1] - pad.half[1]
-    aa, bb = np.meshgrid(a, b, indexing="ij")
+    axes_nodes, axes_weights = [], []
+    for h in pad.half:
+        n = max(1, round(2 * h / pitch))
+        nodes = np.linspace(-h, h, n + 1)
+        weights = np.full(n + 1, 2 * h / n)
+        weights[[0, -1]] /= 2
+        axes_nodes.append(nodes)
+        axes_weights.append(weights)
+    aa, bb = np.meshgrid(*axes_nodes, indexing="ij")
     points = pad.center + aa.reshape(-1, 1) * pad.axes[0] + bb.reshape(-1, 1) * pad.axes[1]
-    area = np.full(points.shape[0], cells[0] * cells[1])
-    return points, area, 0.5 * min(cells)
+    area = np.outer(*axes_weights).ravel()
+    spacing = min(float(np.diff(nodes)[0]) for nodes in axes_nodes)
+    return points, area, spacing / 2
 
 
 def element_stiffness(model: PadModel, area: np.ndarray, thickness: float) -> np.ndarray:
@@ -154,28 +175,38 @@ def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], 
             raise HandError(f"pad geom {name!r} not in the hand model")
         pad = pad_geometry(geom, np.asarray(toward, float))
         points, area, radius = element_grid(pad, model.pitch)
+        thin = min(radius, pad.thickness / 3)  # half-thickness of the flattened element
         stiffness = element_stiffness(model, area, pad.thickness)
         body = geom.parent
         geom.contype, geom.conaffinity = 0, 0
         for i, (point, k) in enumerate(zip(points, stiffness, strict=True)):
-            _add_element(body, f"{ELEMENT_PREFIX}{name}_{i:02d}", point - radius * pad.normal, pad.normal,
-                         radius, float(k), pad.thickness * model.travel_fraction, model, friction)
+            _add_element(body, f"{ELEMENT_PREFIX}{name}_{i:02d}", point - thin * pad.normal, pad,
+                         np.array([radius, radius, thin]), float(k), pad.thickness * model.travel_fraction, model,
+                         friction)
 
 
-def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, normal: np.ndarray, radius: float,
+def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeometry, size: np.ndarray,
                  k: float, travel: float, model: PadModel, friction: float) -> None:
-    """One element: a body on a slide joint along -normal (q = compression [m]) with spring k [N/m]."""
+    """One element: an oblate ellipsoid (semi-axes `size`: in the face, in the face, along the
+    normal) whose lowest point lies on the pad face, on a slide joint along -normal
+    (q = compression [m]) with spring k [N/m]. Flattened so that an object edge pressing on it
+    is pushed back mostly along the pad normal, as by rubber, not sideways as by a sphere's flank."""
     armature = k * (model.timestep / STABILITY_FACTOR) ** 2
     mass = ELEMENT_MASS + armature
-    child = body.add_body(name=name, pos=pos, mass=ELEMENT_MASS, inertia=[1e-9, 1e-9, 1e-9],
+    u, v = pad.axes
+    if float(np.cross(u, v) @ pad.normal) < 0:
+        v = -v
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.column_stack([u, v, pad.normal]).ravel())
+    child = body.add_body(name=name, pos=pos, quat=quat, mass=ELEMENT_MASS, inertia=[1e-9, 1e-9, 1e-9],
                           explicitinertial=True)
-    child.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=-normal, stiffness=[k], springref=0.0,
-                    damping=[2.0 * model.damping_ratio * np.sqrt(k * mass)], armature=armature,
+    child.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, -1.0], stiffness=[k],
+                    springref=0.0, damping=[2.0 * model.damping_ratio * np.sqrt(k * mass)], armature=armature,
                     limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=[-travel, travel],
                     frictionloss=0.0, margin=0.0)
-    child.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], condim=3,
+    child.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID, size=list(size), condim=3,
                    friction=[friction, 0.0, 0.0], priority=1, rgba=[0.15, 0.15, 0.15, 1.0],
-                   contype=1, conaffinity=1, density=0.0, margin=0.0,
+                   contype=ELEMENT_CONTYPE, conaffinity=ELEMENT_CONAFFINITY, density=0.0, margin=0.0,
                    solref=[0.004, 1.0], solimp=list(ELEMENT_SOLIMP))
 
 
