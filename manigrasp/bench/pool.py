@@ -215,3 +215,114 @@ def _death(w: _Worker) -> str:
         except ValueError:
             return f"its worker process died of signal {-code}"
     return f"its worker process exited with code {code} before finishing"
+
+
+class RayPool:
+    """The `Pool` interface on a Ray cluster: the same `Task`s, budgets and `Outcome`s.
+
+    At most as many tasks run as the cluster has CPUs (the rest wait here, so a task's clock never runs while
+    it queues). A task's budget starts when it calls `timed_start` (reported through a small clock actor and
+    seen by the driver within `POLL_S`), before that it has `setup_s`; a task that overruns is cancelled
+    with ``ray.cancel(force=True)`` (its worker process is killed) and reported as "timeout". A task whose
+    worker dies (a segfault, os._exit) is "died"; tasks are never retried.
+
+    Args:
+        ray: the imported, initialised `ray` module.
+        slots: tasks run at once (default: the cluster's CPUs).
+        setup_s: budget of a task's part before `timed_start` [s].
+    """
+
+    POLL_S = 0.5
+
+    def __init__(self, ray, slots: int | None = None, setup_s: float = DEFAULT_SETUP_S) -> None:  # noqa: ANN001
+        self._ray = ray
+        self._slots = max(1, slots or int(ray.cluster_resources().get("CPU", 1)))
+        self._setup_s = setup_s
+        self._queue: deque[Task] = deque()
+        self._running: dict = {}  # ObjectRef -> [task, key, deadline, started]
+        self._clock = ray.remote(num_cpus=0)(_Clock).remote()
+        self._call = ray.remote(max_retries=0)(_ray_call)
+        self._keys = 0
+
+    def submit(self, task: Task, first: bool = False) -> None:
+        """Queue `task` (at the front with `first`)."""
+        if first:
+            self._queue.appendleft(task)
+        else:
+            self._queue.append(task)
+
+    def outcomes(self) -> Iterator[Outcome]:
+        """Run the queued tasks (and any submitted meanwhile), yielding each one's `Outcome` as it ends."""
+        ray = self._ray
+        while self._queue or self._running:
+            while self._queue and len(self._running) < self._slots:
+                task = self._queue.popleft()
+                self._keys += 1
+                ref = self._call.remote(self._clock, self._keys, task.fn, *task.args)
+                self._running[ref] = [task, self._keys, time.monotonic() + self._setup_s + task.budget_s, False]
+            nearest = min(entry[2] for entry in self._running.values()) - time.monotonic()
+            ready, _ = ray.wait(list(self._running), num_returns=1, timeout=max(0.0, min(nearest, self.POLL_S)))
+            started = set(ray.get(self._clock.take.remote()))
+            now = time.monotonic()
+            for entry in self._running.values():
+                if entry[1] in started and not entry[3]:
+                    entry[2], entry[3] = now + entry[0].budget_s, True
+            for ref in ready:
+                task, _, _, was_started = self._running.pop(ref)
+                try:
+                    yield Outcome(task, "done", ray.get(ref), started=was_started)
+                except ray.exceptions.RayTaskError as exc:  # the task raised
+                    yield Outcome(task, "error", detail=_ray_reason(exc), started=was_started)
+                except ray.exceptions.RayError as exc:  # its worker died
+                    yield Outcome(task, "died", detail=f"its Ray task failed: {_ray_reason(exc)}",
+                                  started=was_started)
+            for ref in [r for r, entry in self._running.items() if now > entry[2]]:
+                task, _, _, was_started = self._running.pop(ref)
+                ray.cancel(ref, force=True)
+                yield Outcome(task, "timeout", detail=f"overran its {task.budget_s:g} s budget; its Ray task was "
+                                                      "cancelled (worker process ended)", started=was_started)
+
+    def close(self) -> None:
+        """Cancel what still runs."""
+        for ref in self._running:
+            self._ray.cancel(ref, force=True)
+        self._running.clear()
+        self._ray.kill(self._clock)
+
+    def __enter__(self) -> RayPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class _Clock:
+    """A Ray actor collecting which tasks have called `timed_start` since the driver last asked."""
+
+    def __init__(self) -> None:
+        self.started: list[int] = []
+
+    def start(self, key: int) -> None:
+        self.started.append(key)
+
+    def take(self) -> list[int]:
+        out, self.started = self.started, []
+        return out
+
+
+def _ray_call(clock, key: int, fn: Callable, *args: object) -> object:  # noqa: ANN001 - runs in a Ray worker
+    """`fn(*args)` in a Ray worker, telling `clock` when its budgeted part starts."""
+    from manigrasp.bench import worker
+
+    def started() -> None:
+        clock.start.remote(key)
+
+    worker._ON_TIMED_START.append(started)
+    try:
+        return fn(*args)
+    finally:
+        worker._ON_TIMED_START.remove(started)
+
+
+def _ray_reason(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:700]
