@@ -13,10 +13,12 @@ RUN    ?= runs/quick
 
 setup: $(STAMP)
 
-# A virtual environment with the pinned dependencies (constraints.txt is the lock).
+# A virtual environment with the pinned dependencies (constraints.txt is the lock), then a check that each
+# extra works (perception: open3d also needs the system library libusb-1.0: apt-get install libusb-1.0-0).
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -c constraints.txt -e ".[$(EXTRAS)]"
+	$(BIN)/python -m manigrasp.bench.extras $(EXTRAS)
 	touch $(STAMP)
 
 # The main job on the embedded defaults: the quick benchmark (resumes if interrupted),

@@ -29,5 +29,16 @@ def cache_dir() -> Path:
     """The on-disk cache: ``$MANIGRASP_CACHE`` or ``~/.cache/manigrasp``."""
     env = os.environ.get("MANIGRASP_CACHE")
     root = Path(env).expanduser() if env else Path.home() / ".cache" / "manigrasp"
-    root.mkdir(parents=True, exist_ok=True)
+    if root.exists() and not root.is_dir():
+        from manigrasp.errors import ConfigError
+
+        raise ConfigError(f"the object cache {root} is a file, not a folder ({'MANIGRASP_CACHE' if env else 'default'}"
+                          "); point MANIGRASP_CACHE at a folder")
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        from manigrasp.errors import ConfigError
+
+        raise ConfigError(f"cannot create the object cache {root}: {exc.strerror}; point MANIGRASP_CACHE at a "
+                          "writable folder") from None
     return root

@@ -344,14 +344,16 @@ def test_workers_end_with_the_main_process(tmp_path, sig):
     assert not alive
 
 
-def test_ray_records_a_planner_that_crashes_its_worker(tmp_path):
+def test_ray_records_a_planner_that_crashes_its_worker_and_one_that_hangs(tmp_path):
     ray = pytest.importorskip("ray")
-    data = dict(ONE, planners=["faulty_planners:Segfaults", "random"])
+    data = dict(ONE, planners=["faulty_planners:Segfaults", "faulty_planners:Sleeps", "random"], trial_timeout_s=3)
+    start = time.monotonic()
     try:
         summary = run_benchmark(parse_config(data), tmp_path / "run", jobs=2, executor="ray", progress=False)
     finally:
         ray.shutdown()
     rows = {r["planner"]: r for r in _rows(tmp_path / "run")}
-    assert summary.ran == len(rows) == 2
-    assert rows["Segfaults"]["status"] == "planner_error" and "planning task failed" in rows["Segfaults"]["detail"]
-    assert rows["random"]["status"] not in ("planner_error", "harness_fault")
+    assert summary.ran == len(rows) == 3 and time.monotonic() - start < 120
+    assert rows["Segfaults"]["status"] == "planner_error" and "Ray task failed" in rows["Segfaults"]["detail"]
+    assert rows["Sleeps"]["status"] == "timeout" and "3 s budget" in rows["Sleeps"]["detail"]
+    assert rows["random"]["status"] not in ("planner_error", "harness_fault", "timeout")

@@ -15,7 +15,7 @@ import hashlib
 import json
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -260,4 +260,16 @@ def load_config(path: str | Path, overrides: Sequence[str] = ()) -> BenchConfig:
         raise ConfigError(f"config {path} is not valid YAML: {' '.join(str(exc).split())}") from exc
     except RecursionError:
         raise ConfigError(f"config {path} is nested too deeply") from None
-    return parse_config({} if data is None else data, overrides, where=path.name)
+    return resolve_paths(parse_config({} if data is None else data, overrides, where=path.name), path.parent)
+
+
+def resolve_paths(config: BenchConfig, folder: Path) -> BenchConfig:
+    """`config` with a relative `path` of a `file` planner made absolute against `folder` (the config file's
+    folder, as relative mesh paths are), so the run does not depend on the working directory."""
+    planners = []
+    for entry in config.planners:
+        path = dict(entry.params).get("path")
+        if entry.name == "file" and isinstance(path, str) and path and not Path(path).expanduser().is_absolute():
+            entry = replace(entry, params={**dict(entry.params), "path": str(Path(folder).resolve() / path)})
+        planners.append(entry)
+    return replace(config, planners=tuple(planners))

@@ -104,10 +104,11 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
     ACRONYM file's ``object/file`` (the built object's visual mesh, whose frame is the object frame).
     """
     from manigrasp import hands
+    from manigrasp.bench.rundir import config_dir
 
     run_dir = Path(run_dir)
     config = config or _run_config(run_dir)
-    sources = _sources(config, base)
+    sources = _sources(config, base or config_dir(run_dir))
     with ResultsStore(run_dir / "results.sqlite") as store:
         rows = list(store.rows())
     by_group: dict[str, list[dict]] = defaultdict(list)

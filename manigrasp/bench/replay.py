@@ -70,13 +70,15 @@ class StoredTrial:
 def stored_trials(run_dir: Path, base: Path | None = None) -> dict[str, StoredTrial]:
     """Every stored trial of `run_dir` whose group the run's config still enumerates, by trial id.
 
-    `base`: the directory relative mesh paths of the config were given against (default: the working directory).
+    `base`: the directory relative mesh paths of the config were given against (default: the config's folder
+    stored in run.json, else the working directory).
     """
     from manigrasp.bench.config import parse_config
-    from manigrasp.bench.rundir import load_meta
+    from manigrasp.bench.rundir import config_dir, load_meta
     from manigrasp.bench.trials import groups
 
     run_dir = Path(run_dir)
+    base = base or config_dir(run_dir)
     config = parse_config(load_meta(run_dir)["config"], where=f"{run_dir}/run.json")
     store_path = run_dir / "results.sqlite"
     if not store_path.is_file():

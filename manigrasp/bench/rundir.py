@@ -27,18 +27,25 @@ from manigrasp.bench.config import BenchConfig
 from manigrasp.config import to_mapping
 from manigrasp.errors import ConfigError
 
-KEY_PACKAGES = ("mujoco", "numpy", "scipy", "trimesh", "coacd", "manifold3d", "robosuite", "dm-control",
+KEY_PACKAGES = ("mujoco", "numpy", "scipy", "trimesh", "coacd", "manifold3d", "robosuite", "dm-env",
                 "rerun-sdk", "pymeshfix", "embreex")
+OPTIONAL_PACKAGES = ("open3d-cpu", "open3d", "h5py", "example-robot-data", "pyarrow", "ray")
+"""Recorded only when installed (the optional extras)."""
 
 
 def versions() -> dict[str, str]:
-    """Versions of manigrasp, Python and its key dependencies."""
+    """Versions of manigrasp, Python, its key dependencies and the optional extras that are installed."""
     out = {"manigrasp": __version__, "python": platform.python_version()}
     for name in KEY_PACKAGES:
         try:
             out[name] = version(name)
         except PackageNotFoundError:
             out[name] = "not installed"
+    for name in OPTIONAL_PACKAGES:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            pass
     return out
 
 
@@ -140,6 +147,7 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
             raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
                               "use another --out to start a new run")
         existing.setdefault("identity", ident)
+        existing.setdefault("config_dir", str((base or Path.cwd()).resolve()))
         existing.setdefault("resumed", []).append(datetime.now(UTC).isoformat())
         _write_json(meta_path, existing)
         return existing
@@ -152,6 +160,7 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
         "config": resolved,
         "seed": config.seed,
         "identity": ident,
+        "config_dir": str((base or Path.cwd()).resolve()),
         "versions": versions(),
         "git_commit": git_commit(),
         "host": socket.gethostname(),
@@ -210,6 +219,16 @@ def locked(run_dir: Path) -> Iterator[None]:
         yield
     finally:
         os.close(fd)
+
+
+def config_dir(run_dir: Path) -> Path | None:
+    """The folder the run's config file was in (run.json's ``config_dir``): what its relative mesh and grasp
+    file paths are relative to; None for a run made before it was stored, or without a readable run.json."""
+    try:
+        folder = read_meta(run_dir).get("config_dir")
+    except ConfigError:
+        return None
+    return Path(folder) if isinstance(folder, str) and folder else None
 
 
 def load_meta(run_dir: Path) -> dict:

@@ -4,7 +4,9 @@ Executors: "local" (worker processes on this machine, `manigrasp.bench.pool`:
 planning and trials have hard wall-clock budgets, and a worker that hangs or
 dies is replaced with its task recorded) and "ray" (the same tasks on a Ray
 cluster, or a local Ray instance when no address is given; needs the optional
-`ray` extra; no hard budgets, but a task whose worker dies is recorded).
+`ray` extra; the same budgets, enforced with `ray.cancel(force=True)`, and a task
+whose worker dies is recorded: `manigrasp.bench.pool.RayPool`). Optional extras
+the config needs are checked first (`manigrasp.bench.extras`).
 Planning is one task per group, each trial one task, so a killed run loses at
 most the trials that were running; re-running the same command resumes from
 the store. The run directory is locked while a run uses it.
@@ -22,13 +24,14 @@ from pathlib import Path
 
 from manigrasp.bench import rundir
 from manigrasp.bench.config import BenchConfig
+from manigrasp.bench.extras import install_hint
 from manigrasp.bench.pool import Outcome, Pool, Task
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.bench.trials import Group, groups
 from manigrasp.bench.worker import Plan, plan_group, run_trial
 from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.protocol.result import Status, TrialResult
-from manigrasp.record.policy import RecordSettings
+from manigrasp.record.policy import RecordPolicy, RecordSettings, recording_problem
 
 EXECUTORS = ("local", "ray")
 
@@ -43,6 +46,27 @@ class RunSummary:
     ran: int
     successes: int
     seconds: float
+    recorded: tuple = ()
+    record_skipped: tuple = ()
+
+    @property
+    def record_note(self) -> str | None:
+        """One line on the stored trials recorded after the run (`--record` on stored trials), or None."""
+        if not self.recorded and not self.record_skipped:
+            return None
+        differ = sum(not r.same_status for r in self.recorded)
+        parts = [f"recorded {len(self.recorded)} stored trial(s) by re-simulating their stored grasp and seed"
+                 f" into {self.run_dir / 'recordings'}"]
+        if differ:
+            parts.append(f"{differ} replayed with another status than stored (see `manigrasp replay`)")
+        if self.record_skipped:
+            reasons: dict[str, int] = {}
+            for _, why in self.record_skipped:
+                key = "already recorded" if why.startswith("already recorded") else why
+                reasons[key] = reasons.get(key, 0) + 1
+            parts.append(f"{len(self.record_skipped)} not recorded (" +
+                         ", ".join(f"{n}: {why}" for why, n in reasons.items()) + ")")
+        return "; ".join(parts)
 
 
 def validate(config: BenchConfig, base: Path | None = None) -> list[Group]:
@@ -116,7 +140,7 @@ def run_benchmark(
     base: Path | None = None,
     progress: bool = True,
     on_result: Callable[[TrialKey, TrialResult], None] | None = None,
-    record: str = "none",
+    record: str | RecordPolicy = "none",
     in_process: bool = False,
 ) -> RunSummary:
     """Run (or resume) the benchmark of `config` into `run_dir`.
@@ -124,6 +148,12 @@ def run_benchmark(
     `record` is a recording policy ("none", "failures", "successes", "all" or N: the first N trials of
     each group): those trials are written to ``run_dir/recordings/<trial>.rrd``. Recording never
     changes a result.
+
+    Trials stored before this call are not run again; those of them `record` selects are re-simulated from
+    their stored grasp and seed and recorded after the run (`manigrasp.bench.replay.record_trials`; in this
+    process, without time budgets), reported in the summary's `recorded`, `record_skipped` and `record_note`.
+    A recordings folder that cannot be written (a file named `recordings`) is said on stderr in one line and
+    the trials run and are stored all the same: a recording failure never changes a result.
 
     `in_process` (local executor, one job) plans and runs trials in this process, for profiling: no hard
     time budgets, and a planner that hangs or crashes the process takes the run with it.
@@ -136,11 +166,19 @@ def run_benchmark(
         print(f"manigrasp: --jobs {jobs} capped at the {max_jobs()} cores of this machine", file=sys.stderr)
         jobs = max_jobs()
     start = time.perf_counter()
+    policy = record if isinstance(record, RecordPolicy) else RecordPolicy.parse(record)
+    from manigrasp.bench import extras
+
+    extras.check(config, executor)
     all_groups = validate(config, base)
     run_dir = Path(run_dir)
     with rundir.locked(run_dir):
         rundir.prepare(run_dir, config, base)
-        settings = RecordSettings.for_run(run_dir, record)
+        settings = RecordSettings.for_run(run_dir, policy)
+        problem = recording_problem(settings)
+        if problem:
+            print(f"manigrasp: {problem}; the trials run and are stored without recordings", file=sys.stderr)
+            settings = None
         _prebuild_objects(all_groups, jobs)
         store, done = _open_store(run_dir)
         todo = {id(g): [i for i in range(g.n_grasps) if g.key(i).trial_id not in done] for g in all_groups}
@@ -162,7 +200,29 @@ def run_benchmark(
         finally:
             bar.close()
             store.close()
-    return RunSummary(run_dir, total, already, ran, successes, time.perf_counter() - start)
+        recorded = _record_stored(run_dir, policy, done, base) if settings is not None and done else None
+    return RunSummary(run_dir, total, already, ran, successes, time.perf_counter() - start,
+                      *((recorded.replays, recorded.skipped) if recorded else ()))
+
+
+def _record_stored(run_dir: Path, policy: RecordPolicy, done: set[str], base: Path | None):
+    """Record the trials stored before this run that `policy` selects, re-simulating each (a `Recorded`)."""
+    from manigrasp.bench.replay import record_trials, stored_trials
+
+    stored = stored_trials(run_dir, base)
+    chosen = [t for t in sorted(done & set(stored))
+              if policy.may_record(stored[t].index) and policy.keeps(stored[t].result.status)]
+    what = f"the first {policy.first_n} of each group" if policy.kind == "first" else policy.kind
+    if chosen:
+        print(f"manigrasp: recording {len(chosen)} stored trial(s) ({what}) by re-simulating them", file=sys.stderr)
+    else:
+        print(f"manigrasp: --record: none of the {len(done)} trials stored before this run is among {what}; "
+              "nothing to record", file=sys.stderr)
+    try:
+        return record_trials(run_dir, chosen, base)
+    except ManigraspError as exc:  # the results stand; only the recordings are missing
+        print(f"manigrasp: the stored trials could not be recorded: {exc}", file=sys.stderr)
+        return None
 
 
 def _open_store(run_dir: Path) -> tuple[ResultsStore, set[str]]:
@@ -215,19 +275,24 @@ def _iter_local(pending: list[Group], todo: dict, jobs: int, address: str | None
     trial `harness_fault`; the run goes on.
     """
     with Pool(jobs) as pool:
-        for group in pending:
-            pool.submit(Task(("plan", group), plan_group, (group,), group.timeout_s))
-        for outcome in pool.outcomes():
-            kind, group, *index = outcome.task.tag
-            if kind == "plan":
-                plan = outcome.value if outcome.kind == "done" else _failed_plan(group, outcome)
-                for i in reversed(todo[id(group)]):  # trials before further plans: results stream early
-                    pool.submit(Task(("trial", group, i), run_trial, (group, i, plan, settings),
-                                     group.timeout_s + TRIAL_GRACE_S), first=True)
-            elif outcome.kind == "done":
-                yield outcome.value
-            else:
-                yield group.key(index[0]), _failed_trial(group, index[0], outcome)
+        yield from _run_tasks(pool, pending, todo, settings)
+
+
+def _run_tasks(pool, pending: list[Group], todo: dict, settings) -> Iterator[tuple[TrialKey, TrialResult]]:  # noqa: ANN001
+    """Plan each group, then run its trials, in `pool` (a `Pool` or a `RayPool`)."""
+    for group in pending:
+        pool.submit(Task(("plan", group), plan_group, (group,), group.timeout_s))
+    for outcome in pool.outcomes():
+        kind, group, *index = outcome.task.tag
+        if kind == "plan":
+            plan = outcome.value if outcome.kind == "done" else _failed_plan(group, outcome)
+            for i in reversed(todo[id(group)]):  # trials before further plans: results stream early
+                pool.submit(Task(("trial", group, i), run_trial, (group, i, plan, settings),
+                                 group.timeout_s + TRIAL_GRACE_S), first=True)
+        elif outcome.kind == "done":
+            yield outcome.value
+        else:
+            yield group.key(index[0]), _failed_trial(group, index[0], outcome)
 
 
 def _iter_inline(pending: list[Group], todo: dict, jobs: int, address: str | None, settings
@@ -255,37 +320,16 @@ def _failed_trial(group: Group, index: int, outcome: Outcome) -> TrialResult:
 
 def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None, settings
               ) -> Iterator[tuple[TrialKey, TrialResult]]:
+    """`_iter_local` on Ray (`manigrasp.bench.pool.RayPool`): the same tasks, budgets and recorded statuses."""
     try:
         import ray
     except ImportError as exc:
-        raise ConfigError("the ray executor needs the optional `ray` extra: in the manigrasp clone run "
-                          "`make setup EXTRAS=dev,ray` (or `pip install -e '.[ray]'`)") from exc
+        raise ConfigError(f"the ray executor needs the optional `ray` extra: {install_hint('ray')}") from exc
+    from manigrasp.bench.pool import RayPool
+
     if not ray.is_initialized():
         ray.init(address=address, num_cpus=None if address else jobs, include_dashboard=False,
                  log_to_driver=False, ignore_reinit_error=True)
-    remote_plan = ray.remote(max_retries=0)(plan_group)  # a task that crashes its worker is recorded, not retried
-    remote_trial = ray.remote(max_retries=0)(run_trial)
-    plans = {remote_plan.remote(g): g for g in pending}
-    trials: dict = {}
-    while plans or trials:
-        ready, _ = ray.wait(list(plans) + list(trials), num_returns=1)
-        ref = ready[0]
-        if ref in plans:
-            group = plans.pop(ref)
-            try:
-                plan = ray.get(ref)
-            except ray.exceptions.RayError as exc:  # the worker died (a planner's segfault, os._exit)
-                plan = Plan.failed(group, Status.PLANNER_ERROR, f"the planning task failed: {_ray_reason(exc)}")
-            trials |= {remote_trial.remote(group, i, plan, settings): (group, i) for i in todo[id(group)]}
-        else:
-            group, index = trials.pop(ref)
-            try:
-                yield ray.get(ref)
-            except ray.exceptions.RayError as exc:
-                yield group.key(index), TrialResult(Status.HARNESS_FAULT, detail=f"the trial task failed: "
-                                                    f"{_ray_reason(exc)}", seed=group.trial_seed(index))
-
-
-def _ray_reason(exc: BaseException) -> str:
-    return f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:700]
+    with RayPool(ray, slots=None if address else jobs) as pool:
+        yield from _run_tasks(pool, pending, todo, settings)
 

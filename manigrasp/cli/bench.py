@@ -52,7 +52,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--export", choices=("parquet", "csv"), help="also export the results table")
     p.add_argument("--record", default="none", metavar="none|failures|successes|all|N",
                    help="write RUN_DIR/recordings/<trial>.rrd (rerun) for these trials; N: the first N of each "
-                        "object x hand x planner (default none). Open them with `manigrasp view RUN_DIR`")
+                        "object x hand x planner (default none). Trials already stored are re-simulated from their "
+                        "stored grasp and seed and recorded after the run. A recording that cannot be written is "
+                        "reported and never changes a result. Open them with `manigrasp view RUN_DIR`")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_bench)
 
@@ -79,10 +81,15 @@ def _bench(args: argparse.Namespace) -> int:
     config = load_config(path, args.overrides)
     if args.jobs < 1:
         raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
+    from manigrasp.bench import extras
+
+    extras.check(config, args.executor, args.export)  # an extra the run needs: one line before any trial
     summary = run_benchmark(config, args.out, jobs=args.jobs, executor=args.executor,
                             address=args.address, base=path.parent, progress=not args.quiet, record=args.record)
     print(f"{summary.ran} trials run, {summary.already_done} already stored, {summary.total} in all "
           f"({summary.seconds:.0f} s)", file=sys.stderr)
+    if summary.record_note:
+        print(summary.record_note, file=sys.stderr)
     if args.export:
         from manigrasp.bench.export import export
         from manigrasp.bench.store import ResultsStore

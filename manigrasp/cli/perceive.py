@@ -43,10 +43,11 @@ def _camera(text: str):
 
 
 def _perceive(args: argparse.Namespace) -> int:
-    try:
-        import open3d  # noqa: F401
-    except ImportError as exc:
-        raise ConfigError("`manigrasp perceive` needs open3d: install the `perception` extra") from exc
+    from manigrasp.bench.extras import problem
+
+    missing = problem("perception", import_it=True)  # the extra, or libusb under an installed open3d
+    if missing:
+        raise ConfigError(f"`manigrasp perceive`: {missing}")
     from manigrasp.objects import catalog, recipes
     from manigrasp.perception.models import ModelDatabase
     from manigrasp.perception.pipeline import perceive, tabletop

@@ -68,9 +68,28 @@ def _row(rank: int, c: GraspCandidate) -> list[str]:
     return [str(rank), f"{c.score:.3f}", eps, width, closure, approach]
 
 
+def _check_record_target(path: Path) -> None:
+    """Refuse, before planning, a --record file that cannot be written (one line)."""
+    import os
+
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise ConfigError(f"--record {path} is a folder; give a file name such as {path / 'plan.rrd'}")
+    if not folder.is_dir():
+        raise ConfigError(f"--record {path}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ConfigError(f"--record {path}: the folder {folder} is not writable")
+
+
 def _plan(args: argparse.Namespace) -> int:
+    from manigrasp.bench.config import MAX_SEED
+
     if args.n < 1:
         raise ConfigError(f"-n must be >= 1, got {args.n}")
+    if not 0 <= args.seed <= MAX_SEED:
+        raise ConfigError(f"--seed must be an integer in 0..2**63-1, got {args.seed}")
+    if args.record:
+        _check_record_target(args.record)
     hand = hands.load(args.hand)
     planner = planners.load(args.planner)
     observation = planners.Observation.from_asset(_asset(args))
@@ -78,8 +97,11 @@ def _plan(args: argparse.Namespace) -> int:
     if args.record:
         from manigrasp.record.plan import record_plan
 
-        record_plan(args.record, observation, result.candidates,
-                    title=f"{result.planner} on {observation.asset.name} ({hand.name})")
+        try:
+            record_plan(args.record, observation, result.candidates,
+                        title=f"{result.planner} on {observation.asset.name} ({hand.name})")
+        except OSError as exc:  # the folder went away or filled up while planning
+            raise ConfigError(f"--record {args.record}: cannot write it: {exc.strerror or exc}") from None
         print(f"recording written: {args.record}", file=sys.stderr)
     if args.json:
         print_json({"object": observation.asset.name, "hand": hand.name, "planner": result.planner,

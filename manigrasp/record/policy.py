@@ -15,6 +15,7 @@ deleted once its status is known:
 from __future__ import annotations
 
 import hashlib
+import os
 import re
 import warnings
 from collections.abc import Iterator
@@ -132,11 +133,16 @@ class TrialRecording:
         self._result: TrialResult | None = None
         self.recorder: TrialRecorder | None = None
         if settings is not None and settings.policy.may_record(index):
-            settings.directory.mkdir(parents=True, exist_ok=True)
             self.final = settings.directory / trial_file_name(trial_id)
             self.partial = self.final.with_name(self.final.name + ".partial")
-            self.recorder = TrialRecorder(self.partial, recording_id=trial_id, candidate=candidate,
-                                          options=settings.options)
+            try:  # a folder that cannot be made (a file named `recordings`, read-only) drops the recording only
+                settings.directory.mkdir(parents=True, exist_ok=True)
+                self.recorder = TrialRecorder(self.partial, recording_id=trial_id, candidate=candidate,
+                                              options=settings.options)
+            except Exception as exc:  # noqa: BLE001 - recording never changes a trial's result
+                self.error = exc
+                warnings.warn(f"recording of trial {trial_id} failed and was dropped: {_reason(exc)}",
+                              RecordingWarning, stacklevel=3)
 
     @property
     def observer(self) -> TrialObserver:
@@ -167,9 +173,34 @@ class TrialRecording:
         except OSError as exc:
             self.error, self.path = self.error or exc, None
         if self.error is not None:
-            warnings.warn(f"recording of trial {self.trial_id} failed and was dropped: {self.error!r}",
+            warnings.warn(f"recording of trial {self.trial_id} failed and was dropped: {_reason(self.error)}",
                           RecordingWarning, stacklevel=2)
         return self.path
+
+
+def _reason(exc: BaseException) -> str:
+    if isinstance(exc, FileExistsError) and exc.filename:
+        return f"{exc.filename} is a file, not a folder"
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f": {exc.filename}" if exc.filename else ""
+        return f"{exc.strerror}{where}"
+    return f"{type(exc).__name__}: {exc}"
+
+
+def recording_problem(settings: RecordSettings | None) -> str | None:
+    """Why nothing can be recorded into `settings.directory` (it is a file, or cannot be created), or None.
+
+    The run checks this once before its trials, to say so in one line; the trials run and are stored regardless.
+    """
+    if settings is None:
+        return None
+    try:
+        settings.directory.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        return f"nothing can be recorded: {_reason(exc)}"
+    if not os.access(settings.directory, os.W_OK | os.X_OK):
+        return f"nothing can be recorded: {settings.directory} is not writable"
+    return None
 
 
 @contextmanager

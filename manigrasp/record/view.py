@@ -43,7 +43,9 @@ def recordings_dir(run_dir: str | Path) -> Path:
     if not Path(run_dir).is_dir():
         raise ConfigError(f"no run directory {run_dir}")
     if not folder.is_dir() or not any(folder.glob(f"*{SUFFIX}")):
-        raise ConfigError(f"run {run_dir} has no recordings (run `manigrasp bench ... --record failures|all|N`)")
+        raise ConfigError(f"run {run_dir} has no recordings: re-run its `manigrasp bench CONFIG --out {run_dir}` "
+                          "command with --record failures|successes|all|N (its stored trials are re-simulated "
+                          "from their stored grasp and seed and recorded)")
     return folder
 
 
