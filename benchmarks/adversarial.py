@@ -5,7 +5,8 @@ adversarial user must get: bad input is one line on stderr, exit code 2 and no r
 planner or trial that fails, hangs or kills its worker is a recorded status and the run completes;
 a run directory refuses a different experiment, a second process and a lost run.json.
 
-    .venv/bin/python benchmarks/adversarial.py   # 36 attempts, ~7 min on a busy 2-core machine; exit 1 if any BAD
+    .venv/bin/python benchmarks/adversarial.py   # 41 attempts, ~8 min on a busy 2-core machine; exit 1 if any BAD
+    ADVERSARIAL_ONLY=ray,record .venv/bin/python benchmarks/adversarial.py   # only attempts naming ray or record
 """
 
 from __future__ import annotations
@@ -44,8 +45,14 @@ def statuses(work: Path, out: str = "run") -> dict[str, set[str]]:
     return found
 
 
+ONLY = os.environ.get("ADVERSARIAL_ONLY", "")
+"""Run only the attempts whose name holds one of these comma-separated words (all when empty)."""
+
+
 def attempt(name: str) -> Callable:
     def register(check: Callable[[Path], str | None]) -> Callable:
+        if ONLY and not any(word in name for word in ONLY.split(",")):
+            return check
         with tempfile.TemporaryDirectory() as tmp:
             try:
                 problem = check(Path(tmp))
@@ -230,6 +237,79 @@ def _lock_and_orphans(work: Path) -> str | None:
     finally:
         if first.poll() is None:
             first.kill()
+
+
+def manigrasp(work: Path, *args: str, env: dict | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "manigrasp", *args], cwd=work, env=env or ENV, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def one_line(proc: subprocess.CompletedProcess, phrase: str) -> str | None:
+    err = proc.stderr.strip()
+    ok = proc.returncode == 2 and "\n" not in err and phrase in err and "Traceback" not in err
+    return None if ok else f"exit {proc.returncode}: {err[-300:]!r} (wanted one line with {phrase!r})"
+
+
+@attempt("a file named recordings, --record all: statuses as without recording, reported")
+def _recordings_file(work: Path) -> str | None:
+    if (proc := bench(work, "quick", *SMALL)).returncode != 0:
+        return f"clean run: {proc.stderr[-300:]}"
+    clean = statuses(work)
+    for store in (work / "run").glob("results.sqlite*"):  # the same run again, now with --record all
+        store.unlink()
+    (work / "run" / "recordings").write_text("in the way")
+    proc = bench(work, "quick", *SMALL, "--record", "all")
+    if proc.returncode != 0 or statuses(work) != clean:
+        return f"exit {proc.returncode}, {statuses(work)} vs clean {clean}: {proc.stderr[-300:]}"
+    return None if "nothing can be recorded" in proc.stderr else f"not reported: {proc.stderr[-300:]}"
+
+
+@attempt("--record failures on a finished run records its stored failures; view finds them")
+def _record_after(work: Path) -> str | None:
+    args = ["quick", "objects=004_sugar_box", "planners=random", "grasps_per_object=2", "protocol=lift"]
+    if (proc := bench(work, *args)).returncode != 0:
+        return f"first run: {proc.stderr[-300:]}"
+    with sqlite3.connect(work / "run" / "results.sqlite") as db:
+        failures = db.execute("SELECT COUNT(*) FROM trials WHERE status != 'success'").fetchone()[0]
+    proc = bench(work, *args, "--record", "failures")
+    files = list((work / "run" / "recordings").glob("*.rrd")) if (work / "run" / "recordings").is_dir() else []
+    if proc.returncode != 0 or len(files) != failures:
+        return f"exit {proc.returncode}, {len(files)} recordings of {failures} failures: {proc.stderr[-300:]}"
+    if failures and f"recorded {failures} stored trial(s)" not in proc.stderr:
+        return f"not said: {proc.stderr[-300:]}"
+    view = manigrasp(work, "view", "run", "--print-only")
+    return None if view.returncode == 0 or not failures else f"view: {view.stderr[-300:]}"
+
+
+@attempt("a config needing a missing extra (perception) is refused before any trial, with the clone command")
+def _missing_extra(work: Path) -> str | None:
+    (work / "sitecustomize.py").write_text(  # hide open3d from this process tree
+        "import importlib.util, sys\n_find = importlib.util.find_spec\n"
+        "importlib.util.find_spec = lambda name, *a: None if name == 'open3d' else _find(name, *a)\n")
+    env = dict(ENV, PYTHONPATH=os.pathsep.join([str(work), ENV["PYTHONPATH"]]))
+    proc = subprocess.run([sys.executable, "-m", "manigrasp", "bench", "quick", *SMALL, "observation=estimated_pose",
+                           "--out", "run", "--quiet"], cwd=work, env=env, capture_output=True, text=True, timeout=300)
+    problem = one_line(proc, "make setup EXTRAS=dev,perception")
+    return problem or ("a run directory was created" if (work / "run").exists() else None)
+
+
+@attempt("plan --seed -1; plan --record into a missing folder; MANIGRASP_CACHE is a file")
+def _plan_errors(work: Path) -> str | None:
+    plan = ["plan", "--object", "mug", "--hand", "parallel_jaw", "--planner", "random", "-n", "2"]
+    (work / "cachefile").write_text("x")
+    return (one_line(manigrasp(work, *plan, "--seed", "-1"), "--seed must be")
+            or one_line(manigrasp(work, *plan, "--record", "missing/p.rrd"), "does not exist")
+            or one_line(manigrasp(work, *plan, env=dict(ENV, MANIGRASP_CACHE=str(work / "cachefile"))),
+                        "is a file, not a folder"))
+
+
+@attempt("planner that sleeps forever under --executor ray, trial_timeout_s=3")
+def _ray_sleeps(work: Path) -> str | None:
+    proc = bench(work, "quick", "objects=004_sugar_box", "grasps_per_object=1", "protocol=lift",
+                 "planners=[faulty_planners:Sleeps, random]", "trial_timeout_s=3", "--executor", "ray", "--jobs", "2",
+                 timeout=240)
+    found = statuses(work) if proc.returncode == 0 else {}
+    return None if found.get("Sleeps") == {"timeout"} else f"exit {proc.returncode}, {found}: {proc.stderr[-300:]}"
 
 
 bad = [name for name, ok, _ in results if not ok]
