@@ -97,6 +97,8 @@ def test_record_selecting_no_stored_trial_says_so(tmp_path, capsys):
     assert not summary.recorded and summary.record_note is None
     assert f"none of the 1 trials stored before this run is among {wanted}" in capsys.readouterr().err
     assert not list((run / "recordings").glob("*.rrd"))
+    assert main(["view", str(run)]) == 2  # and view says how to record them: the command that does
+    assert "with --record failures|successes|all|N (its stored trials are re-simulated" in capsys.readouterr().err
 
 
 def test_run_json_keeps_the_config_folder_for_replay_and_record(mesh_run):

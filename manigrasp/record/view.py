@@ -81,7 +81,8 @@ def select_recordings(run_dir: str | Path, trial: str | None = None, status: str
         found = [p for p in files if p.name in wanted]
         if not found:
             sample = ", ".join(p.name for p in files[:5])
-            raise ConfigError(f"no recording of trial {trial!r} in {folder} (there are {len(files)}, e.g. {sample})")
+            raise ConfigError(f"no recording of trial {trial!r} in {folder} (there are {len(files)}, e.g. {sample}); "
+                              f"`manigrasp replay {run_dir} {trial} --record FILE.rrd` records it")
         return found
     if status is None:
         return files
@@ -91,7 +92,8 @@ def select_recordings(run_dir: str | Path, trial: str | None = None, status: str
     stored = _statuses_from_store(Path(run_dir))
     found = [p for p in files if _status_of(p, stored) == status]
     if not found:
-        raise ConfigError(f"no recording of a trial with status {status!r} in {folder}")
+        raise ConfigError(f"no recording of a trial with status {status!r} in {folder}; re-run the run's `manigrasp "
+                          "bench` command with --record failures (or all) to record its stored trials")
     return found
 
 
