@@ -31,7 +31,9 @@ def check_source(source: str, n_points: int) -> None:
     if source != "none" and not (isinstance(n_points, int | np.integer) and n_points > 0):
         raise ConfigError(f"n_points must be a positive integer with points={source!r}, got {n_points!r}")
     if source == "depth" and importlib.util.find_spec("open3d") is None:
-        raise ConfigError("points='depth' needs the perception extra (pip install 'manigrasp[perception]')")
+        raise ConfigError("points='depth' needs the perception extra: in the manigrasp clone run "
+                          "`make setup EXTRAS=dev,perception` (or "
+                          "`.venv/bin/pip install -c constraints.txt -e '.[perception]'`)")
 
 
 def mesh_points(mesh: trimesh.Trimesh, object_pose: np.ndarray, n: int,

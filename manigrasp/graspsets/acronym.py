@@ -61,7 +61,9 @@ def _h5py() -> Any:
     try:
         import h5py
     except ImportError as exc:
-        raise GraspFileError("ACRONYM's HDF5 layout needs h5py: pip install 'manigrasp[datasets]'") from exc
+        raise GraspFileError("ACRONYM's HDF5 layout needs h5py, the `datasets` extra: in the manigrasp clone run "
+                             "`make setup EXTRAS=dev,datasets` (or "
+                             "`.venv/bin/pip install -c constraints.txt -e '.[datasets]'`)") from exc
     return h5py
 
 

@@ -1,6 +1,6 @@
 """The Allegro hand (Wonik Robotics, v4): 16 joints, each with its own motor, read from `example-robot-data`.
 
-An optional extra (``pip install 'manigrasp[allegro]'``, example-robot-data==6.0.0): the URDF and meshes of
+An optional extra (``make setup EXTRAS=dev,allegro``, example-robot-data==6.0.0): the URDF and meshes of
 ``allegro_hand_description`` are read from the installed package and loaded by MuJoCo's URDF parser; these
 fixes are applied at load (each is recorded in the hand's notes):
 
@@ -48,7 +48,8 @@ from manigrasp.hands.from_robosuite import build
 
 DISTRIBUTION = "example-robot-data"
 VERSION = "6.0.0"
-EXTRA_HINT = f"pip install 'manigrasp[allegro]' (or {DISTRIBUTION}=={VERSION})"
+EXTRA_HINT = ("in the manigrasp clone run `make setup EXTRAS=dev,allegro` (or `.venv/bin/pip install -c "
+              f"constraints.txt -e '.[allegro]'`, which installs {DISTRIBUTION}=={VERSION})")
 _DESCRIPTION = "cmeel.prefix/share/example-robot-data/robots/allegro_hand_description"
 _PACKAGE_URL = "package://example-robot-data/robots/allegro_hand_description/meshes/"
 
