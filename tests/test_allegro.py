@@ -42,7 +42,7 @@ def test_missing_package_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> Non
         raise importlib.metadata.PackageNotFoundError(name)
 
     monkeypatch.setattr(allegro.importlib.metadata, "distribution", missing)
-    with pytest.raises(HandError, match=r"'allegro' extra.*manigrasp\[allegro\].*example-robot-data==6\.0\.0"):
+    with pytest.raises(HandError, match=r"'allegro' extra.*make setup EXTRAS=dev,allegro.*example-robot-data==6\.0\.0"):
         allegro.make("allegro_right")
 
 
