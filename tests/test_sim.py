@@ -116,15 +116,16 @@ def test_to_contacts_gives_soft_finger_records_for_rigid_pads(box_asset) -> None
     assert all(r.mu == pytest.approx(0.5) and r.gamma > 0 for r in records)
 
 
-def test_compliant_pads_touch_with_a_patch_of_point_contacts(box_scene) -> None:
+def test_compliant_pads_touch_with_a_patch_of_point_contacts(box_asset) -> None:
     """Each pad's 3 x 4 elements all touch the flat box face (hard-finger points: the patch's
     torsional resistance is their sliding friction over its area)."""
-    _grasp_and_lift(box_scene)
-    contacts = read_hand_contacts(box_scene)
+    scene = build_scene("parallel_jaw", box_asset, SceneConfig(pads="compliant"))
+    _grasp_and_lift(scene)
+    contacts = read_hand_contacts(scene)
     records = to_contacts(contacts)
     assert {r.kind.value for r in records} == {"hard_finger"}
     assert len(records) == 24
-    assert grip_force(contacts) == pytest.approx(box_scene.hand.max_grip_force, rel=0.02)
+    assert grip_force(contacts) == pytest.approx(scene.hand.max_grip_force, rel=0.02)
 
 
 def test_fixed_object_and_bad_object_mjcf(tmp_path) -> None:

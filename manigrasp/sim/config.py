@@ -47,9 +47,9 @@ class SceneConfig:
         table_friction: sliding friction of the table [-].
         open_settle_time: simulated time [s] the hand alone is driven with its
             open command to find its open joint configuration (done once per scene).
-        pads: "compliant" (the hands' pad boxes become elastic-foundation patches,
-            `manigrasp.hands.pads`) or "rigid" (the pad boxes as modelled, the model of
-            runs before compliant pads existed).
+        pads: "rigid" (the default: the pad boxes as modelled) or "compliant" (the
+            hands' pad boxes become elastic-foundation patches, `manigrasp.hands.pads`;
+            opt-in until its effect on the recipes is explained, see the README).
         pad_modulus: Young's modulus of the compliant pads' rubber [Pa].
         pad_pitch: spacing of the compliant pads' contact elements [m].
         rest: the object's resting orientation before it settles: "file" (as its mesh
@@ -69,7 +69,7 @@ class SceneConfig:
     table_half_extents: tuple[float, float, float] = (0.4, 0.4, 0.02)
     table_friction: float = 0.5
     open_settle_time: float = 0.5
-    pads: str = "compliant"
+    pads: str = "rigid"
     pad_modulus: float = 3.4e5
     pad_pitch: float = 0.01
     rest: str = "file"
