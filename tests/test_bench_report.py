@@ -212,6 +212,31 @@ def test_pose_errors_are_summarised_per_observation_and_shown_side_by_side(tmp_p
     assert "Observations side by side" in text and "estimated_pose" in text
 
 
+def test_perception_table_shows_the_number_of_camera_views(tmp_path):
+    """A point-cloud method seen by 2 cameras says so; ground truth has no camera ("-")."""
+    results = [(TrialKey("a", "parallel_jaw", "antipodal", obs, "standard", i),
+                TrialResult(Status.SUCCESS if i % 2 else Status.NO_CONTACT, camera_views=views))
+               for obs, views in (("point_cloud", 2), ("ground_truth", 0)) for i in range(4)]
+    report = summarize(results)
+    assert report.views == {("parallel_jaw", "antipodal", "ground_truth"): 0,
+                            ("parallel_jaw", "antipodal", "point_cloud"): 2}
+    assert report_from_json(json.loads(json.dumps(report.to_json()))).views == report.views
+    text = write_markdown(report, results, tmp_path, {"config": {}}).read_text()
+    assert "| camera views |" in text
+    assert "| parallel_jaw | antipodal | point_cloud | 2 | 0.50" in text
+    assert "| parallel_jaw | antipodal | ground_truth | - | 0.50" in text
+
+
+def test_report_has_a_scan_vs_recipe_section_when_a_scan_and_its_twin_ran(tmp_path):
+    results = _results({("003_cracker_box_scan", "antipodal"): 6, ("003_cracker_box", "antipodal"): 19})
+    text = write_markdown(summarize(results), results, tmp_path, {"config": {}}).read_text()
+    section = text[text.index("## Scan vs recipe"):]
+    row = next(line for line in section.splitlines() if line.startswith("| parallel_jaw | antipodal | ground_truth"))
+    assert "6/20" in row and "19/20" in row and "+65" in row and row.rstrip().endswith("| no |")
+    plain = _results({("025_mug", "antipodal"): 18})
+    assert "Scan vs recipe" not in write_markdown(summarize(plain), plain, tmp_path, {"config": {}}).read_text()
+
+
 def _two_planners() -> list[tuple[TrialKey, TrialResult]]:
     """Antipodal: force closure 1 and score 1 on every candidate, 16/20 succeed; random: closure 0 and score 0
     on every candidate, 2/20 succeed. Within each planner both metrics are constant; pooled, they only tell the

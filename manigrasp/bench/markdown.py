@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from manigrasp.bench import plots
+from manigrasp.bench import plots, twins
 from manigrasp.bench.plots import method_label
 from manigrasp.bench.report import POOLED, Report, format_auc, format_planning_time, format_rate
 from manigrasp.bench.store import TrialKey
@@ -31,9 +31,10 @@ def _perception(report: Report) -> list[str]:
         errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}", f"{e.median_translation_mm:.1f} / "
                   f"{e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}", f"{e.share_within_5deg_1cm:.2f}"
                   ) if e else ("-", "-", "-", "-")
-        rows.append([h, p, o, format_rate(r), *errors])
+        views = report.views.get((h, p, o), 0)
+        rows.append([h, p, o, views or "-", format_rate(r), *errors])
     return ["## Observations side by side (perception in the loop)",
-            _table(["hand", "planner", "observation", "rate [95% CI]",
+            _table(["hand", "planner", "observation", "camera views", "rate [95% CI]",
                     "rotation error deg (median / p90; not meaningful for symmetric objects)",
                     "translation error mm (median / p90)", "ADD-S mm (median)",
                     "share with ADD-S < 5 mm & translation < 1 cm"], rows)]
@@ -93,6 +94,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
                [[h, p, o, obj, r.trials, r.successes, format_rate(r), _modes(r.failure_modes)]
                 for (h, p, o, obj), r in report.groups.items()]),
         *_perception(report),
+        *twins.markdown_section(report),
         "## Analytic metrics as predictors of success",
         "ROC AUC of each metric for telling successes from failures within one hand x planner (0.5 = chance), "
         "with a 95 % bootstrap interval (resampled within successes and failures, fixed seed). n counts the "

@@ -121,6 +121,8 @@ class Report:
         auc: per hand x planner x observation, each metric's AUC for success with its interval.
         auc_pooled: the same over every trial pooled (`POOLED`).
         pose_errors: estimated-pose errors per hand x planner x observation.
+        views: cameras the planner's observation came from, per hand x planner x observation
+            (0: no camera, ground truth; the largest if a method's trials differ).
     """
 
     overall: Rate
@@ -129,6 +131,7 @@ class Report:
     auc: dict[Method, dict[str, AucEstimate]] = field(default_factory=dict)
     auc_pooled: dict[str, AucEstimate] = field(default_factory=dict)
     pose_errors: dict[Method, PoseErrors] = field(default_factory=dict)
+    views: dict[Method, int] = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """The JSON form printed by ``manigrasp report --json`` (NaN as null)."""
@@ -143,6 +146,7 @@ class Report:
             "auc_pooled": [{"pools": POOLED, "metric": m, **asdict(e)} for m, e in self.auc_pooled.items()],
             "pose_errors": [{"hand": h, "planner": p, "observation": o, **asdict(e)}
                             for (h, p, o), e in self.pose_errors.items()],
+            "views": [{"hand": h, "planner": p, "observation": o, "views": v} for (h, p, o), v in self.views.items()],
         })
 
 
@@ -180,6 +184,7 @@ def report_from_json(data: dict) -> Report:
         auc_pooled={a["metric"]: auc(a) for a in data.get("auc_pooled", [])},
         pose_errors={(e["hand"], e["planner"], e["observation"]): PoseErrors(
             **{k: e[k] for k in PoseErrors.__dataclass_fields__}) for e in data.get("pose_errors", [])},
+        views={(v["hand"], v["planner"], v["observation"]): int(v["views"]) for v in data.get("views", [])},
     )
 
 
@@ -215,6 +220,7 @@ def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
         auc={k: metric_aucs(v) for k, v in sorted(by_method.items())},
         auc_pooled=metric_aucs(every),
         pose_errors=pose_errors(by_group),
+        views={k: max(int(r.camera_views or 0) for r in v) for k, v in sorted(by_method.items())},
     )
 
 
