@@ -1,6 +1,7 @@
 """Scan vs recipe, rigid vs compliant pads, side by side: success counts and trials per second.
 
-For each pad model (rigid, then compliant) one run of the five shipped real YCB scans and their
+For each pad model (default: rigid, then compliant; `--modes` adds e.g. `compliant:3e6`, compliant pads
+with a Young's modulus of 3 MPa, `scene.pad_modulus`) one run of the five shipped real YCB scans and their
 recipe twins (`configs/scans.yaml`, narrowed by the options) goes into OUT/<pads>/; then the
 table prints, per hand x planner x object, successes/trials on the scan and on the recipe under
 each pad model, the gap in points (recipe - scan) and whether it is within 10 points; and per
@@ -9,6 +10,7 @@ pad model the trials per second of the whole run (same objects, same machine, on
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bench_scans                  # parallel_jaw, antipodal
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --hands parallel_jaw panda --planners antipodal random
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --config quick             # any config: speed side by side
+    .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --modes rigid compliant compliant:3e6
 
 Runs resume (a re-run prints the stored results without simulating again; then trials/s is of the
 trials simulated by this invocation, so time a fresh OUT).
@@ -33,6 +35,12 @@ from manigrasp.paths import configs_dir  # noqa: E402
 MODES = ("rigid", "compliant")
 
 
+def mode_overrides(mode: str) -> list[str]:
+    """Config overrides of a pad mode: "rigid", "compliant" or "compliant:E" (E: Young's modulus [Pa])."""
+    pads, _, modulus = mode.partition(":")
+    return [f"scene.pads={pads}"] + ([f"scene.pad_modulus={float(modulus)}"] if modulus else [])
+
+
 def _run(config_path: Path, overrides: list[str], out: Path, jobs: int) -> tuple[dict, float, int]:
     config = load_config(config_path, overrides)
     start = time.perf_counter()
@@ -51,45 +59,51 @@ def main() -> None:
     parser.add_argument("--grasps", type=int, default=20, help="grasps per object")
     parser.add_argument("--objects", nargs="+", default=None, help="objects (default: the config's)")
     parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--modes", nargs="+", default=list(MODES),
+                        help="pad modes, first is the reference: rigid, compliant, compliant:E (E in Pa)")
     args = parser.parse_args()
+    modes = args.modes
     path = Path(args.config) if args.config.endswith(".yaml") else configs_dir() / f"{args.config}.yaml"
     common = [f"hands=[{', '.join(args.hands)}]", f"planners=[{', '.join(args.planners)}]",
               f"grasps_per_object={args.grasps}"] + ([f"objects=[{', '.join(args.objects)}]"] if args.objects else [])
     print(f"# {path.name}: {' '.join(common)}; {args.jobs} job(s); {os.cpu_count()} cores, "
           f"{platform.processor() or platform.machine()}")
     groups, speed = {}, {}
-    for mode in MODES:
-        groups[mode], seconds, ran = _run(path, [*common, f"scene.pads={mode}"], args.out / mode, args.jobs)
+    for mode in modes:
+        groups[mode], seconds, ran = _run(path, [*common, *mode_overrides(mode)], args.out / mode.replace(":", "_"),
+                                          args.jobs)
         speed[mode] = (ran, seconds)
     print("\n## trials per second (whole run: planning + simulation)")
     for mode, (ran, seconds) in speed.items():
         rate = ran / seconds if ran else float("nan")
         print(f"{mode:9s} {ran:5d} trials simulated in {seconds:7.1f} s = {rate:6.3f} trials/s")
-    (r_ran, r_s), (c_ran, c_s) = speed["rigid"], speed["compliant"]
-    if r_ran and c_ran:
-        print(f"compliant is {(c_s / c_ran) / (r_s / r_ran):.2f}x the rigid time per trial")
+    r_ran, r_s = speed[modes[0]]
+    for mode in modes[1:]:
+        c_ran, c_s = speed[mode]
+        if r_ran and c_ran:
+            print(f"{mode} is {(c_s / c_ran) / (r_s / r_ran):.2f}x the {modes[0]} time per trial")
     print(f"\n## scan vs recipe (successes/trials; gap = recipe - scan in points; ok: |gap| <= {GAP_POINTS:g})")
     print(f"{'hand':13s} {'planner':10s} {'object':20s} " + " ".join(
-        f"{m + ' scan':>14s} {m + ' recipe':>16s} {'gap':>5s} {'ok':>3s}" for m in MODES))
-    rows = {mode: {(r.method, r.recipe): r for r in twin_rows(groups[mode])} for mode in MODES}
-    for key in sorted(rows["rigid"].keys() | rows["compliant"].keys()):
+        f"{m + ' scan':>14s} {m + ' recipe':>16s} {'gap':>5s} {'ok':>3s}" for m in modes))
+    rows = {mode: {(r.method, r.recipe): r for r in twin_rows(groups[mode])} for mode in modes}
+    for key in sorted(set().union(*(rows[m].keys() for m in modes))):
         (hand, planner, _), recipe = key
         cells = []
-        for mode in MODES:
+        for mode in modes:
             r = rows[mode].get(key)
             cells.append("-" if r is None else f"{r.scan_rate.successes:>8d}/{r.scan_rate.trials:<5d} "
                          f"{r.recipe_rate.successes:>10d}/{r.recipe_rate.trials:<5d} {r.gap_points:+5.0f} "
                          f"{'yes' if r.within else 'no':>3s}")
         print(f"{hand:13s} {planner:10s} {recipe:20s} " + " ".join(cells))
-    others = sorted({k[3] for k in groups["rigid"]} - {r for (_, r) in rows["rigid"]}
-                    - {r.scan for r in rows["rigid"].values()})
+    ref = modes[0]
+    others = sorted({k[3] for k in groups[ref]} - {r for (_, r) in rows[ref]} - {r.scan for r in rows[ref].values()})
     if others:
-        print("\n## other objects (successes/trials): " + "rigid vs compliant")
-        for (hand, planner, obs, obj), rate in sorted(groups["rigid"].items()):
-            if obj in others:
-                c = groups["compliant"].get((hand, planner, obs, obj))
-                print(f"{hand:13s} {planner:10s} {obj:20s} {rate.successes:3d}/{rate.trials:<3d} "
-                      f"{'-' if c is None else f'{c.successes:3d}/{c.trials}'}")
+        print("\n## other objects (successes/trials): " + " vs ".join(modes))
+        for key, rate in sorted(groups[ref].items()):
+            if key[3] in others:
+                cells = [f"{rate.successes:3d}/{rate.trials:<3d}"] + [
+                    "-" if (c := groups[m].get(key)) is None else f"{c.successes:3d}/{c.trials:<3d}" for m in modes[1:]]
+                print(f"{key[0]:13s} {key[1]:10s} {key[3]:20s} " + " ".join(f"{c:>10s}" for c in cells))
 
 
 if __name__ == "__main__":
