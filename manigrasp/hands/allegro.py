@@ -63,6 +63,9 @@ HOLD_KP = 20.0
 # Joint damping [N m s/rad] (MuJoCo Menagerie wonik_allegro) and reflected rotor inertia [kg m^2].
 DAMPING = 0.1
 ARMATURE = 1e-2
+# Joint-stop constraint time constant [s] (MuJoCo solref_limit; its default is 0.02): the bending servos press
+# their 0.7 N m into the stops, which the default lets the joints pass by 1 degree.
+LIMIT_TIMECONST = 0.005
 # Thumb roll (joint 13) of the pre-shape [rad]: the bending thumb then meets an object in the cavity between the
 # middle and ring fingers (its tip at y = -0.02 m at mid-bend), the middle of the four fingertips' span.
 THUMB_ROLL = 0.9
@@ -127,6 +130,7 @@ def _actuate(spec: mujoco.MjSpec, model: AllegroModel) -> None:
         joint.damping = [model.damping, 0.0, 0.0]
         joint.frictionloss = 0.0
         joint.armature = model.armature
+        joint.solref_limit = [LIMIT_TIMECONST, 1.0]
     for joint in sorted((j.name for j in spec.joints), key=_joint_number):
         low, high = (float(v) for v in spec.joint(joint).range)
         soft = joint in bending
