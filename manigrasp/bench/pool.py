@@ -312,10 +312,12 @@ class _Clock:
 
 def _ray_call(clock, key: int, fn: Callable, *args: object) -> object:  # noqa: ANN001 - runs in a Ray worker
     """`fn(*args)` in a Ray worker, telling `clock` when its budgeted part starts."""
+    import ray
+
     from manigrasp.bench import worker
 
-    def started() -> None:
-        clock.start.remote(key)
+    def started() -> None:  # waits for the clock, so a task that crashes right after still counts as started
+        ray.get(clock.start.remote(key))
 
     worker._ON_TIMED_START.append(started)
     try:
