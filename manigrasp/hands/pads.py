@@ -72,6 +72,10 @@ ELEMENT_CONTYPE, ELEMENT_CONAFFINITY = 2, 1
 # weight than a finger, and the constraint's regulariser grows with it ((1 - d) / d times
 # it): at the pads' usual 0.95 a pad under torque creeps at ~0.3 rad/s per N m.
 ELEMENT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+# The travel limit is the rigid backing: as stiff as the element contacts. MuJoCo's default
+# limit (solref 0.02) is soft: an object edge resting on one or two corner elements at the
+# 35 N grip pushed them 7.6-10.4 mm, past the 4.8 mm travel and the 6 mm pad itself.
+LIMIT_SOLREF = (0.004, 1.0)
 
 
 @dataclass(frozen=True)
@@ -203,6 +207,7 @@ def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeome
     child.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, -1.0], stiffness=[k],
                     springref=0.0, damping=[2.0 * model.damping_ratio * np.sqrt(k * mass)], armature=armature,
                     limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=[-travel, travel],
+                    solref_limit=list(LIMIT_SOLREF), solimp_limit=list(ELEMENT_SOLIMP),
                     frictionloss=0.0, margin=0.0)
     child.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID, size=list(size), condim=3,
                    friction=[friction, 0.0, 0.0], priority=1, rgba=[0.15, 0.15, 0.15, 1.0],
