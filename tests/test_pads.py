@@ -92,3 +92,26 @@ def test_bad_pad_options_are_config_errors() -> None:
         SceneConfig(pads="soft")
     with pytest.raises(ConfigError, match="pad_pitch"):
         SceneConfig(pad_pitch=0.0)
+
+
+def test_an_element_pressed_alone_bottoms_out_at_its_travel() -> None:
+    # A 8 mm post under one corner element carries the whole 35 N: the element's spring (a quarter
+    # cell, 1.4e3 N/m) bottoms out at its travel (80 % of the 6 mm pad) and the rigid backing takes
+    # the rest. A soft limit let it sink 2x deeper, past the pad's own thickness.
+    from manigrasp.sim.padtest import SURFACE_HALF, pad_rig
+
+    n = 81
+    grid = np.linspace(-SURFACE_HALF, SURFACE_HALF, n)
+    x, y = np.meshgrid(grid, grid, indexing="xy")
+    heights = np.where((np.abs(x - PAD_HALF[0]) < 0.002) & (np.abs(y - PAD_HALF[1]) < 0.002), 0.008, 0.0)
+    model = pad_rig("compliant", heights)
+    data = mujoco.MjData(model)
+    while data.time < 0.6:
+        data.ctrl[0] = -FORCE * min(1.0, data.time / 0.3)
+        mujoco.mj_step(model, data)
+    joints = [j for j in range(model.njnt) if pads.is_element(model.joint(j).name)]
+    compression = np.array([abs(data.qpos[model.jnt_qposadr[j]]) for j in joints])
+    travel = model.jnt_range[joints[0]][1]
+    assert compression.max() > 0.95 * travel  # the post's element is bottomed out
+    assert compression.max() < travel + 0.0005
+    assert np.sort(compression)[-2] < 0.001  # and it is the only one loaded
