@@ -206,15 +206,6 @@ def _points(mj: mujoco.MjModel, data: mujoco.MjData, bodies: set[int]) -> np.nda
     return np.concatenate(chunks)
 
 
-def _subtree(mj: mujoco.MjModel, root: str) -> set[int]:
-    top = mj.body(root).id
-    out = {top}
-    for body in range(top + 1, mj.nbody):
-        if mj.body_parentid[body] in out:
-            out.add(body)
-    return out
-
-
 def cavity(mj: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, float, float]:
     """TCP position [m] in the open hand, the cavity's depth along +x and its span along +z [m] (at `data`'s pose).
 
@@ -225,7 +216,7 @@ def cavity(mj: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, float, 
     10 cm lift, and a full close curled the fingers past the TCP); here it rests on the palm (0.4 mm).
     """
     palm = _points(mj, data, {mj.body(ROOT_BODY).id})
-    thumb = _points(mj, data, _subtree(mj, "link_13.0"))
+    thumb = _points(mj, data, build.subtree_bodies(mj, "link_13.0"))
     thumb_tip = _points(mj, data, {mj.body(TIPS["thumb"]).id})
     tips = [_points(mj, data, {mj.body(TIPS[f]).id}) for f in FINGERS]
     palm_front, thumb_reach = float(palm[:, 0].max()), float(thumb_tip[:, 0].max())

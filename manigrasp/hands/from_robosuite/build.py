@@ -118,3 +118,13 @@ def set_joint_default(spec: mujoco.MjSpec, joint: str, value: float) -> None:
     else:
         raise ValueError(f"joint {joint!r}: only hinge and slide joints can be re-referenced")
     spec_joint.ref = value
+
+
+def subtree_bodies(mj: mujoco.MjModel, root: str) -> set[int]:
+    """Ids of body `root` and every body below it in the compiled model `mj`."""
+    top = mj.body(root).id
+    out = {top}
+    for body in range(top + 1, mj.nbody):  # MuJoCo numbers a body after its parent
+        if mj.body_parentid[body] in out:
+            out.add(body)
+    return out

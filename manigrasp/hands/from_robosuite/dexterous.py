@@ -191,19 +191,10 @@ def _vertices(mj: mujoco.MjModel, data: mujoco.MjData, bodies: set[int]) -> np.n
     return np.concatenate(chunks)
 
 
-def _subtree(mj: mujoco.MjModel, root: str) -> set[int]:
-    top = mj.body(root).id
-    out = {top}
-    for body in range(top + 1, mj.nbody):
-        if mj.body_parentid[body] in out:
-            out.add(body)
-    return out
-
-
 def cavity(mj: mujoco.MjModel, data: mujoco.MjData, model: FiveFingerModel) -> tuple[np.ndarray, float, float]:
     """Centre [m] of the open hand's cavity, its depth along -x and its span along -z [m] (at `data`'s pose)."""
     palm = _vertices(mj, data, {mj.body(model.palm_body).id})
-    thumb = _vertices(mj, data, _subtree(mj, model.thumb_body))
+    thumb = _vertices(mj, data, build.subtree_bodies(mj, model.thumb_body))
     tip = _vertices(mj, data, {mj.body(model.thumb_tip).id})
     finger_tips = [_vertices(mj, data, {mj.body(model.finger_tip.format(f=f)).id}) for f in FINGERS]
     palm_front, thumb_reach = float(np.max(-palm[:, 0])), float(np.max(-tip[:, 0]))
