@@ -61,7 +61,8 @@ class Tracer:
         scene, model, data = run.scene, run.scene.model, run.scene.data
         if self.pads is None:
             self._setup(model)
-        row: dict = {"t": run.sim_time, "phase": run.watch[2] if run.watch else run.last_phase}
+        row: dict = {"t": run.sim_time, "phase": run.watch[2] if run.watch else run.last_phase,
+                     "synergy": scene.hand_synergy(), "command": run.grip.synergy if run.grip else float("nan")}
         if run.in_hand is not None:
             cur = run.object_in_hand()
             row["rot"] = rotvec(cur[:3, :3] @ run.in_hand[:3, :3].T)
@@ -106,7 +107,7 @@ class Tracer:
 
 def fmt(row: dict, pads: list[str]) -> str:
     rot = row.get("rot")
-    s = f"t={row['t']:6.3f} {row['phase']:>8s} "
+    s = f"t={row['t']:6.3f} {row['phase']:>8s} s={row['synergy']:.3f}/{row['command']:.3f} "
     s += f"T={row['torque_demand']:.3f}/{row['torque_capacity']:.3f} Nm "
     if rot is not None:
         s += f"rot[x,y(grip),z]=({rot[0]:+5.1f},{rot[1]:+5.1f},{rot[2]:+5.1f}) deg |{np.linalg.norm(rot):4.1f}| "
