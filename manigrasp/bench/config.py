@@ -3,8 +3,9 @@
 A config is a YAML file (see configs/) validated into a frozen `BenchConfig`.
 Unknown keys are errors naming the nearest valid key; every value is checked
 for its type and range (`manigrasp.config.from_mapping`, then each class's
-`__post_init__`); a duplicate object, hand or planner entry is refused; a list
-field takes a single value as a one-element list. ``key=value`` overrides
+`__post_init__`); a duplicate object, hand, planner or camera setup entry is
+refused; a list field takes a single value as a one-element list (and ``camera:``
+a single mapping as one setup). ``key=value`` overrides
 (dotted for nested keys) are applied before validation. Every error is one
 `ConfigError` line, raised before anything is written.
 """
@@ -164,7 +165,9 @@ class BenchConfig:
             "point_cloud" (several: every group runs under each, and the report puts them side by side).
         scene: physics and scene parameters.
         camera: the cameras of the perception observations (`manigrasp.perception.setup.CameraSetup`: views,
-            azimuths, elevation, distance, noise).
+            azimuths, elevation, distance, noise), or a list of setups: then every group of a perception
+            observation runs under each setup, its observation labelled by the setup (`camera_labels`,
+            ``point_cloud@2views``), side by side in the report. A one-element list is that one setup.
         trial_timeout_s: wall-clock budget of one trial [s]; beyond it the trial is a `timeout`.
     """
 
@@ -177,7 +180,7 @@ class BenchConfig:
     protocol: NamedEntry = field(default_factory=lambda: NamedEntry("standard"))
     observation: tuple[str, ...] = ("ground_truth",)
     scene: SceneConfig = field(default_factory=SceneConfig)
-    camera: CameraSetup = field(default_factory=CameraSetup)
+    camera: CameraSetup | tuple[CameraSetup, ...] = field(default_factory=CameraSetup)
     trial_timeout_s: float = 120.0
 
     def __post_init__(self) -> None:
@@ -199,11 +202,56 @@ class BenchConfig:
         _refuse_duplicates("hand", self.hands)
         _refuse_duplicates("object", self.objects)
         labels(self.planners)  # refuses identical planner entries
+        if isinstance(self.camera, tuple):
+            if not self.camera:
+                raise ConfigError("camera must be a setup or a non-empty list of setups")
+            if len(self.camera) == 1:  # one setup, however written: the same config and run identity
+                object.__setattr__(self, "camera", self.camera[0])
+        camera_labels(self.camera_setups)  # refuses identical setups
 
     @property
     def planner_labels(self) -> tuple[str, ...]:
         """The planners' labels in result tables (see `labels`), aligned with `planners`."""
         return labels(self.planners)
+
+    @property
+    def camera_setups(self) -> tuple[CameraSetup, ...]:
+        """The camera setups, one or several."""
+        return self.camera if isinstance(self.camera, tuple) else (self.camera,)
+
+    @property
+    def camera_labels(self) -> tuple[str, ...]:
+        """The setups' suffixes of a perception observation's label, aligned with `camera_setups`: ``""``
+        for a single setup (trial ids as before), else ``@<views>view(s)`` (see `camera_labels`)."""
+        return camera_labels(self.camera_setups)
+
+
+def camera_labels(setups: Sequence[CameraSetup]) -> tuple[str, ...]:
+    """Distinct readable suffixes of several camera setups: ``""`` for one setup; else ``@1view``,
+    ``@2views``..., and where setups share a view count, the fields that set them apart
+    (``@2views[elevation_deg=60.0]``; a short hash if that is not enough).
+
+    Raises:
+        ConfigError: two setups are identical.
+    """
+    if len(setups) <= 1:
+        return ("",) * len(setups)
+    from manigrasp.config import to_mapping
+
+    fields = [to_mapping(s) for s in setups]
+    for i, f in enumerate(fields):
+        if f in fields[:i]:
+            raise ConfigError(f"camera setup {fields.index(f) + 1} and {i + 1} are identical; list each setup once")
+    out = [f"@{s.views}view{'s' * (s.views != 1)}" for s in setups]
+    for base in {b for b in out if out.count(b) > 1}:
+        same = [i for i, b in enumerate(out) if b == base]
+        differing = [k for k in fields[same[0]] if len({_param_text(fields[i], k) for i in same}) > 1]
+        for i in same:
+            out[i] = f"{base}[{','.join(f'{k}={_param_text(fields[i], k)}' for k in differing)}]"
+    if len(set(out)) < len(out):  # the readable suffixes did not tell them apart
+        out = [f"{lab}#{hashlib.sha256(json.dumps(f, sort_keys=True, default=str).encode()).hexdigest()[:6]}"
+               if out.count(lab) > 1 else lab for lab, f in zip(out, fields, strict=True)]
+    return tuple(out)
 
 
 def _refuse_duplicates(kind: str, items: Sequence[Any]) -> None:
@@ -217,9 +265,18 @@ LIST_FIELDS = ("objects", "hands", "planners", "observation")
 """Fields that hold a list; a single value (``objects=mug``, ``hands=panda``) is a one-element list."""
 
 
-def _normalise(data: dict[str, Any]) -> dict[str, Any]:
-    """Accept the short forms: a single value for a list field, an object or planner as a bare name."""
+def _normalise(data: dict[str, Any], where: str = "config") -> dict[str, Any]:
+    """Accept the short forms: a single value for a list field, an object or planner as a bare name; the
+    camera setup (a mapping) or setups (a list) are validated here, so an error names the list entry."""
     data = dict(data)
+    camera = data.get("camera")
+    if isinstance(camera, list):
+        data["camera"] = tuple(_camera_setup(c, f"{where}.camera[{i}]") for i, c in enumerate(camera))
+    elif isinstance(camera, Mapping):
+        data["camera"] = _camera_setup(camera, f"{where}.camera")
+    elif camera is not None and not isinstance(camera, CameraSetup | tuple):
+        raise ConfigError(f"{where}.camera: expected a camera setup (a mapping) or a list of them, "
+                          f"got {type(camera).__name__}")
     for key in LIST_FIELDS:
         if key in data and not isinstance(data[key], list):
             data[key] = [data[key]]
@@ -232,6 +289,16 @@ def _normalise(data: dict[str, Any]) -> dict[str, Any]:
     return data
 
 
+def _camera_setup(data: Any, where: str) -> CameraSetup:
+    """One entry of a list of camera setups; its errors name the entry."""
+    try:
+        return from_mapping(CameraSetup, data, where)
+    except ConfigError as exc:
+        if str(exc).startswith(where):
+            raise
+        raise ConfigError(f"{where}: {exc}") from None
+
+
 def parse_config(data: Mapping[str, Any], overrides: Sequence[str] = (), where: str = "config") -> BenchConfig:
     """Validate a config mapping (after applying `overrides`): keys, types, ranges and duplicates.
 
@@ -242,7 +309,7 @@ def parse_config(data: Mapping[str, Any], overrides: Sequence[str] = (), where: 
         raise ConfigError(f"{where}: expected a mapping at the top level, got {type(data).__name__}")
     try:
         data = apply_overrides(dict(data), overrides)
-        return from_mapping(BenchConfig, _normalise(data), where)
+        return from_mapping(BenchConfig, _normalise(data, where), where)
     except RecursionError:
         raise ConfigError(f"{where}: nested too deeply") from None
 

@@ -22,11 +22,14 @@ def _modes(modes: dict[str, int]) -> str:
 
 
 def _perception(report: Report) -> list[str]:
-    """The side-by-side table of observations with their pose errors (empty without estimated poses)."""
+    """The side-by-side table of observations with their pose errors (empty without estimated poses): one row
+    per hand x planner x observation label, so the camera setups of one kind (``point_cloud@1view``,
+    ``point_cloud@2views``) are rows of their own, ordered by kind and number of views."""
     if not report.pose_errors and {o for _, _, o in report.by_method} <= {"ground_truth"}:
         return []
     rows = []
-    for (h, p, o), r in report.by_method.items():
+    for (h, p, o), r in sorted(report.by_method.items(), key=lambda item: (
+            *item[0][:2], item[0][2].partition("@")[0], report.views.get(item[0], 0), item[0][2])):
         e = report.pose_errors.get((h, p, o))
         errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}", f"{e.median_translation_mm:.1f} / "
                   f"{e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}", f"{e.share_within_5deg_1cm:.2f}"

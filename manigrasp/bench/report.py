@@ -103,7 +103,10 @@ class PoseErrors:
                    float(np.median(trans)), float(np.percentile(trans, 90)), float(np.median(adds)), within)
 
 
-Method = tuple[str, str, str]  # hand, planner (its label), observation
+# The observation of a method is the trial key's observation label: its kind, with the camera setup's suffix
+# when the run lists several setups (point_cloud@1view, point_cloud@2views: `BenchConfig.camera_labels`),
+# so each setup is a method of its own, side by side with the others.
+Method = tuple[str, str, str]  # hand, planner (its label), observation (its label)
 Group = tuple[str, str, str, str]  # hand, planner, observation, object
 
 # What the all-trials line and the pooled AUCs pool, said wherever they are shown.

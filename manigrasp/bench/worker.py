@@ -149,8 +149,13 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
     result = replace(result, pose_rotation_error_deg=info.rotation_error_deg,
                      pose_translation_error_mm=info.translation_error_mm, pose_add_s_mm=info.add_s_mm,
                      object_pose=PoseRecord.of(plan.object_pose), plan_time_s=plan.planning_time_s)
-    if info.camera is not None:
-        result = replace(result, **info.camera.record())
+    camera = info.camera
+    if camera is None and group.observation != "ground_truth":  # perception failed: the setup still applies
+        from manigrasp.perception.setup import CameraSetup
+
+        camera = group.camera or CameraSetup()
+    if camera is not None:
+        result = replace(result, **camera.record())
     if index < len(plan.candidates):
         candidate = plan.candidates[index]
         width = getattr(candidate, "width", None)
