@@ -51,3 +51,19 @@ def test_no_pairs_no_section() -> None:
         groups = {k: v for k, v in GROUPS.items() if not k[3].endswith("_scan")}
 
     assert markdown_section(FakeReport()) == []  # type: ignore[arg-type]
+
+
+def test_a_gap_of_exactly_ten_points_is_within_whatever_the_float_rounding() -> None:
+    """14 vs 16 of 20 is a 10-point gap (10.000000000000009 in floats), like 17 vs 19: both within."""
+    from manigrasp.bench.report import Rate
+    from manigrasp.bench.twins import twin_rows
+
+    def rate(k: int) -> Rate:
+        return Rate(trials=20, successes=k, success_rate=k / 20, ci_low=0.0, ci_high=1.0, failure_modes={})
+
+    for scan, recipe in ((14, 16), (17, 19), (16, 14)):
+        groups = {("h", "p", "o", "x_scan"): rate(scan), ("h", "p", "o", "x"): rate(recipe)}
+        (row,) = twin_rows(groups)
+        assert row.within, (scan, recipe, row.gap_points)
+    groups = {("h", "p", "o", "x_scan"): rate(13), ("h", "p", "o", "x"): rate(16)}
+    assert not twin_rows(groups)[0].within
