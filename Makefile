@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed-$(subst $(comma),-,$(EXTRAS))
 
 RUN    ?= runs/quick
 
-.PHONY: setup bench test regression lint clean
+.PHONY: setup bench test test-fast regression lint clean
 
 setup: $(STAMP)
 
@@ -33,8 +33,13 @@ regression: setup
 	$(BIN)/manigrasp bench quick --out runs/regression --jobs $(JOBS) --quiet
 	$(BIN)/manigrasp compare runs/regression benchmarks/baselines/quick.json
 
+# The whole suite (what CI runs).
 test: setup
 	$(BIN)/python -m pytest
+
+# Everything but the tests marked slow (every shipped object built and planned, kill -9, Ray, hard time-outs).
+test-fast: setup
+	$(BIN)/python -m pytest -m "not slow"
 
 lint: setup
 	$(BIN)/ruff check manigrasp tests benchmarks

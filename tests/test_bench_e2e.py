@@ -63,6 +63,7 @@ def test_same_config_and_seed_give_identical_rows(tmp_path):
     assert seeds_a.isdisjoint({r["seed"] for r in _rows(tmp_path / "c")})
 
 
+@pytest.mark.slow
 def test_kill_9_then_resume_loses_and_duplicates_nothing(tmp_path):
     config = tmp_path / "c.yaml"
     config.write_text("objects: [004_sugar_box, 005_tomato_soup_can]\nplanners: [antipodal]\n"
@@ -125,6 +126,7 @@ def test_two_workers_give_the_same_rows_as_one(tmp_path):
             == [{k: v for k, v in r.items() if k not in timing} for r in _rows(tmp_path / "two")])
 
 
+@pytest.mark.slow
 def test_ray_executor_runs_the_same_trials(tmp_path):
     ray = pytest.importorskip("ray")
     small = dict(SMALL, objects=["004_sugar_box"], planners=["antipodal"])

@@ -91,6 +91,7 @@ def test_trial_id_is_readable_and_unique():
     assert len({_key(i).trial_id for i in range(100)}) == 100
 
 
+@pytest.mark.slow
 def test_kill_9_loses_nothing_committed_and_resume_completes_the_set(tmp_path):
     """A writer killed mid-run leaves only whole rows; a second writer adds the rest, none twice."""
     db = tmp_path / "results.sqlite"

@@ -14,6 +14,8 @@ import trimesh
 from manigrasp.objects import catalog, recipes
 from manigrasp.objects.asset import ObjectAsset
 
+pytestmark = pytest.mark.slow  # builds (CoACD) and settles every shipped object
+
 TABLE_TOP = 0.0
 
 

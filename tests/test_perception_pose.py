@@ -53,6 +53,7 @@ def test_find_symmetries_of_a_box_and_an_l_shape():
     assert len(find_symmetries(l_shape)) == 0
 
 
+@pytest.mark.slow
 def test_pose_from_one_noisy_view_on_the_shipped_set(assets, database):
     """Rotation < 5 deg and translation < 1 cm (symmetric objects: ADD-S < 5 mm and translation < 1 cm)
     for at least 80 % of (object, view) pairs."""
@@ -73,6 +74,7 @@ def test_pose_from_one_noisy_view_on_the_shipped_set(assets, database):
     assert rate >= 0.8, f"success {rate:.0%}; failed (rot deg, trans mm, ADD-S mm): {failed}"
 
 
+@pytest.mark.slow
 def test_recognition_picks_the_right_model(assets, database):
     """Each shipped object alone on the table, one fixed view: the best-scoring model is the object."""
     wrong = {}

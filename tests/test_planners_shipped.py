@@ -16,6 +16,8 @@ from manigrasp.objects.asset import ObjectAsset
 from manigrasp.planners.nms import suppress
 from tests.test_planners import assert_collision_free
 
+pytestmark = pytest.mark.slow  # plans on every shipped object (the power planner alone ~30 s)
+
 # Objects the 8 cm jaw (7.5 cm with its margin) cannot hold from their resting pose: every horizontal
 # width exceeds it (can 10.2 cm, tuna can 8.5 cm, wood block 8.5 cm) or the only fitting width is the
 # height, whose lower face lies on the table (pudding box: 11 x 8.9 x 3.5 cm). The test certifies it.

@@ -290,6 +290,7 @@ def test_crashing_and_malformed_planners_are_recorded_and_the_run_completes(tmp_
     assert again.ran == 0 and again.already_done == len(FAULTY) + 1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_a_planner_that_sleeps_forever_is_a_timeout_for_its_group(tmp_path, jobs):
     data = dict(ONE, grasps_per_object=2, planners=["faulty_planners:Sleeps", "random"], trial_timeout_s=3)
@@ -302,6 +303,7 @@ def test_a_planner_that_sleeps_forever_is_a_timeout_for_its_group(tmp_path, jobs
     assert {r["status"] for r in rows if r["planner"] == "random"} <= {s.value for s in Status} - {"timeout"}
 
 
+@pytest.mark.slow
 def test_a_trial_that_never_ends_is_a_timeout(tmp_path):
     data = dict(ONE, protocol="faulty_planners:sleeping_protocol", trial_timeout_s=1)
     run_benchmark(parse_config(data), tmp_path / "run", progress=False)
@@ -318,6 +320,7 @@ def _children(pid: int) -> list[int]:
         return []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
 def test_workers_end_with_the_main_process(tmp_path, sig):
     import psutil
@@ -344,6 +347,7 @@ def test_workers_end_with_the_main_process(tmp_path, sig):
     assert not alive
 
 
+@pytest.mark.slow
 def test_ray_records_a_planner_that_crashes_its_worker_and_one_that_hangs(tmp_path):
     ray = pytest.importorskip("ray")
     data = dict(ONE, planners=["faulty_planners:Segfaults", "faulty_planners:Sleeps", "random"], trial_timeout_s=3)
