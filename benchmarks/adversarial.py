@@ -5,7 +5,7 @@ adversarial user must get: bad input is one line on stderr, exit code 2 and no r
 planner or trial that fails, hangs or kills its worker is a recorded status and the run completes;
 a run directory refuses a different experiment, a second process and a lost run.json.
 
-    .venv/bin/python benchmarks/adversarial.py   # 41 attempts, ~8 min on a busy 2-core machine; exit 1 if any BAD
+    .venv/bin/python benchmarks/adversarial.py   # 44 attempts, ~8 min on a busy 2-core machine; exit 1 if any BAD
     ADVERSARIAL_ONLY=ray,record .venv/bin/python benchmarks/adversarial.py   # only attempts naming ray or record
 """
 
@@ -310,6 +310,50 @@ def _ray_sleeps(work: Path) -> str | None:
                  timeout=240)
     found = statuses(work) if proc.returncode == 0 else {}
     return None if found.get("Sleeps") == {"timeout"} else f"exit {proc.returncode}, {found}: {proc.stderr[-300:]}"
+
+
+def _cube(work: Path) -> Path:
+    trimesh.creation.box((0.05, 0.05, 0.05)).export(work / "cube.obj")
+    return work / "cube.obj"
+
+
+def _cache_env(work: Path) -> dict:
+    return dict(ENV, MANIGRASP_CACHE=str(work / "nest" / "cache"))
+
+
+@attempt("object names: objects build --name out of the cache (../.., absolute, 300 chars) or config: nothing written")
+def _names_escape(work: Path) -> str | None:
+    _cube(work)
+    env = _cache_env(work)
+    for name in ("../../escape/evil", str(work / "abs" / "y"), "a" * 300):
+        if problem := one_line(manigrasp(work, "objects", "build", "--mesh", "cube.obj", "--name", name, env=env),
+                               "object name"):
+            return f"--name {name[:30]}: {problem}"
+    (work / "c.yaml").write_text("objects: [{mesh: cube.obj, name: ../../escape/x}]\nplanners: [random]\n")
+    if problem := one_line(manigrasp(work, "bench", "c.yaml", "--out", "run", "--quiet", env=env), "object name"):
+        return f"config: {problem}"
+    written = [p for p in work.rglob("*") if p.is_file() and p.name not in ("cube.obj", "c.yaml")]
+    return f"written: {written[:3]}" if written or (work / "run").exists() else None
+
+
+@attempt("object names: a user mesh named 004_sugar_box or mug is refused")
+def _names_shadow(work: Path) -> str | None:
+    _cube(work)
+    for name in ("004_sugar_box", "mug"):
+        if problem := one_line(manigrasp(work, "objects", "build", "--mesh", "cube.obj", "--name", name,
+                                         env=_cache_env(work)), "is a shipped object's"):
+            return f"{name}: {problem}"
+    return None
+
+
+@attempt("object names: a mesh built as --name part, then plan --object part: the error says how to refer to it")
+def _names_user_object(work: Path) -> str | None:
+    _cube(work)
+    env = _cache_env(work)
+    if (proc := manigrasp(work, "objects", "build", "--mesh", "cube.obj", "--name", "part", env=env)).returncode:
+        return f"build: {proc.stderr[-300:]}"
+    return one_line(manigrasp(work, "plan", "--object", "part", "--hand", "parallel_jaw", "--planner", "random",
+                              "-n", "1", env=env), "name: part}")
 
 
 bad = [name for name, ok, _ in results if not ok]

@@ -90,7 +90,9 @@ def _sources(args: argparse.Namespace) -> list[ObjectSource]:
     if args.mesh:
         from pathlib import Path
 
-        sources.append(ObjectSource(name=args.name or Path(args.mesh).stem, mesh=args.mesh, scale=args.scale,
+        mesh = Path(args.mesh).resolve()
+        sources.append(ObjectSource(name=args.name if args.name is not None else catalog.name_from_path(mesh),
+                                    mesh=str(mesh), scale=args.scale,
                                     mass=args.mass, density=args.density, convex_hull_fallback=args.convex_hull))
     if args.ycb:
         from pathlib import Path

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import tempfile
 import zipfile
 from pathlib import Path
@@ -20,7 +21,48 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from manigrasp.errors import ConfigError
+
 CACHE_FORMAT = 2  # 2: convex meshes are their own exact hull
+
+NAME_MAX = 64
+"""Longest object name: names become file names in the cache."""
+_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
+
+def check_name(name: object) -> str:
+    """`name` if it is a valid object name, else a one-line `ConfigError`.
+
+    An object name is an identifier, as it becomes a file name in the cache: letters,
+    digits, ``_``, ``-`` and ``.``, at most `NAME_MAX` characters, not starting with a dot
+    or a dash (so no ``..``, no ``/``, no absolute path).
+    """
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"object name {name!r}: expected a non-empty string")
+    if len(name) > NAME_MAX:
+        raise ConfigError(f"object name {name[:20]!r}... is {len(name)} characters long; at most {NAME_MAX}")
+    if not _NAME.fullmatch(name):
+        raise ConfigError(f"object name {name!r}: use only letters, digits, '_', '-' and '.', not starting with "
+                          "'.' or '-' (names are file names in the cache)")
+    return name
+
+
+def name_from_path(path: str | Path) -> str:
+    """A valid object name from a mesh file's stem (other characters become ``_``, cut to `NAME_MAX`)."""
+    name = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(path).stem).lstrip(".-")[:NAME_MAX]
+    return name or "mesh"
+
+
+def inside(root: Path, name: str) -> Path:
+    """``root / name``, refused (`ConfigError`) unless it resolves to a direct child of `root`.
+
+    Every cache path goes through here, so no object name can write outside the cache.
+    """
+    root = Path(root).resolve()
+    path = (root / name).resolve()
+    if path.parent != root or not name or "/" in name or "\\" in name:
+        raise ConfigError(f"cache entry {name[:80]!r} would lie outside the cache {root}")
+    return path
 
 
 def mesh_digest(mesh: trimesh.Trimesh) -> str:
@@ -55,7 +97,7 @@ class HullCache:
 
     def path(self, key: str) -> Path:
         """File of the entry `key` (it may not exist)."""
-        return self.root / f"{key}.npz"
+        return inside(self.root, f"{key}.npz")
 
     def get(self, key: str) -> tuple[list[trimesh.Trimesh], dict] | None:
         """The hulls and metadata stored under `key`, or None (missing or corrupted: deleted)."""

@@ -18,11 +18,26 @@ from dataclasses import asdict, dataclass
 from multiprocessing import get_context
 from pathlib import Path
 
+from manigrasp.errors import ConfigError, UnknownNameError
 from manigrasp.objects import recipes, scans
+from manigrasp.objects.cache import NAME_MAX as NAME_MAX
+from manigrasp.objects.cache import check_name, inside
+from manigrasp.objects.cache import name_from_path as name_from_path
 from manigrasp.objects.decompose import DecompositionParams, coacd_version
 from manigrasp.objects.meshio import ycb_mesh_file
 from manigrasp.objects.pipeline import DEFAULT_DENSITY, BuildResult, build_object
 from manigrasp.paths import cache_dir
+
+
+def is_shipped_name(name: str) -> bool:
+    """Whether `name` names a shipped object: a recipe (full name, common name or YCB id) or a scan."""
+    if scans.is_scan(name):
+        return True
+    try:
+        recipes.get(name)
+    except UnknownNameError:
+        return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -49,6 +64,13 @@ class ObjectSource:
     density: float = DEFAULT_DENSITY
     convex_hull_fallback: bool = False
 
+    def __post_init__(self) -> None:
+        check_name(self.name)
+        if self.mesh is not None and is_shipped_name(self.name) and not (
+                scans.is_scan(self.name) and Path(self.mesh) == scans.get(self.name).path):
+            raise ConfigError(f"mesh {self.mesh}: the name {self.name!r} is a shipped object's; give the mesh a name "
+                              "of its own (--name / name:)")
+
 
 def shipped(name: str) -> ObjectSource:
     """The source of a shipped object: a recipe ("025_mug" or "mug") or a real scan
@@ -56,8 +78,30 @@ def shipped(name: str) -> ObjectSource:
     if scans.is_scan(name):
         scan = scans.get(name)
         return ObjectSource(name=scan.name, mesh=str(scan.path), mass=scan.mass_kg)
-    recipe = recipes.get(name)
+    try:
+        recipe = recipes.get(name)
+    except UnknownNameError as exc:
+        raise UnknownNameError(f"{exc}{_user_mesh_hint(name)}") from None
     return ObjectSource(name=recipe.name, recipe=recipe.name, mass=recipe.mass_kg)
+
+
+def _user_mesh_hint(name: str, cache_root: Path | None = None) -> str:
+    """How to refer to a mesh built earlier as `name` (user objects are named by their mesh file)."""
+    try:
+        check_name(name)
+        folders = sorted(((Path(cache_root) if cache_root else cache_dir()) / "objects").glob(f"{name}-*"))
+    except (ConfigError, OSError):
+        return ""
+    for folder in folders:
+        try:
+            meta = json.loads((folder / "meta.json").read_text())
+        except (OSError, ValueError):
+            continue
+        if isinstance(meta, dict) and meta.get("name") == name and "recipe" not in str(meta.get("source", "")):
+            mesh = meta.get("source")
+            return (f"; {name!r} was built from the mesh {mesh}: a mesh is named by its file, e.g. "
+                    f"objects: [{{mesh: {mesh}, name: {name}}}] in a config, or plan --mesh {mesh}")
+    return ""
 
 
 def from_ycb_folder(folder: str | Path, mass: float | None = None) -> ObjectSource:
@@ -101,14 +145,20 @@ def _fingerprint(source: ObjectSource, params: DecompositionParams) -> str:
 
 
 def _marker(name: str, cache_root: Path | None) -> Path:
-    return (Path(cache_root) if cache_root else cache_dir()) / "objects" / f"{name}.built.json"
+    return inside((Path(cache_root) if cache_root else cache_dir()) / "objects", f"{name}.built.json")
 
 
 def _mark_built(source: ObjectSource, params: DecompositionParams, result: BuildResult,
                 cache_root: Path | None) -> None:
     marker = _marker(source.name, cache_root)
+    text = json.dumps({"fingerprint": _fingerprint(source, params), "mjcf": str(result.asset.mjcf_path)})
+    try:
+        if marker.read_text() == text:  # up to date: a built cache is only read (it may be read-only)
+            return
+    except OSError:
+        pass
     tmp = marker.with_suffix(f".{os.getpid()}.tmp")
-    tmp.write_text(json.dumps({"fingerprint": _fingerprint(source, params), "mjcf": str(result.asset.mjcf_path)}))
+    tmp.write_text(text)
     os.replace(tmp, marker)
 
 

@@ -21,7 +21,7 @@ import numpy as np
 import trimesh
 
 from manigrasp.objects.asset import ObjectAsset
-from manigrasp.objects.cache import HullCache, cache_key
+from manigrasp.objects.cache import HullCache, cache_key, check_name, inside, name_from_path
 from manigrasp.objects.decompose import DecompositionParams, coacd_version, coverage, decompose
 from manigrasp.objects.meshio import load_mesh
 from manigrasp.objects.mjcf import object_mjcf
@@ -94,7 +94,7 @@ def build_object(
     params = params or DecompositionParams()
     label = str(source) if not isinstance(source, trimesh.Trimesh) else (name or "mesh")
     mesh = load_mesh(source) if not isinstance(source, trimesh.Trimesh) else source.copy()
-    name = name or Path(str(source)).stem
+    name = check_name(name) if name is not None else name_from_path(str(source))
     if scale != 1.0:
         mesh.apply_scale(scale)
     mesh, report = validate_and_repair(mesh, source=label, convex_hull_fallback=convex_hull_fallback)
@@ -152,7 +152,7 @@ def _export(
     """Write visual mesh, parts, MJCF and meta.json into a folder of their own."""
     fingerprint = json.dumps({"hulls": meta["hull_key"], "mass": props.mass, "friction": friction,
                               "name": name, "meta": meta}, sort_keys=True, default=str)
-    folder = root / f"{name}-{hashlib.sha256(fingerprint.encode()).hexdigest()[:16]}"
+    folder = inside(root, f"{name}-{hashlib.sha256(fingerprint.encode()).hexdigest()[:16]}")
     if not (folder / "meta.json").is_file():
         _write_folder(folder, name, mesh, hulls, props, friction, meta)
     return ObjectAsset(
