@@ -65,7 +65,8 @@ class ObjectEntry:
         base = base or Path.cwd()
         if self.mesh:
             path = (base / self.mesh).resolve()
-            return catalog.ObjectSource(name=self.name or path.stem, mesh=str(path), scale=self.scale,
+            name = self.name if self.name is not None else catalog.name_from_path(path)
+            return catalog.ObjectSource(name=name, mesh=str(path), scale=self.scale,
                                         mass=self.mass, density=self.density)
         if self.ycb:
             return catalog.from_ycb_folder((base / self.ycb).resolve(), mass=self.mass)
