@@ -85,27 +85,28 @@ def test_a_run_with_two_setups_resumes_and_refuses_another_setup_list(tmp_path):
 
 
 def test_the_report_shows_each_setup_in_its_own_row_with_its_views(tmp_path):
-    """The trial ids of two setups stored and read back: two point-cloud rows with 1 and 2 views."""
-    config = parse_config({**BASE, "observation": ["ground_truth", "point_cloud"],
-                           "camera": [{"views": 2}, {"views": 1}]})
+    """The trial ids of two setups stored and read back: two point-cloud rows with 2 and 10 views, in that
+    order (not the labels' alphabetical one), after ground truth."""
+    config = parse_config({**BASE, "observation": ["point_cloud", "ground_truth"],
+                           "camera": [{"views": 10}, {"views": 2}]})
     with ResultsStore(tmp_path / "results.sqlite") as store:
         for g in groups(config):
             views = 0 if g.observation == "ground_truth" else g.camera.views
-            wins = {"ground_truth": 2, "point_cloud@1view": 1, "point_cloud@2views": 2}[g.observation_label]
+            wins = {"ground_truth": 2, "point_cloud@2views": 1, "point_cloud@10views": 2}[g.observation_label]
             for i in range(g.n_grasps):
                 store.add(g.key(i), TrialResult(Status.SUCCESS if i < wins else Status.NO_CONTACT,
                                                 camera_views=views))
         results = list(store.results())
     report = summarize(results)
     assert {o: (r.trials, r.successes) for (_, _, o), r in report.by_method.items()} == {
-        "ground_truth": (4, 4), "point_cloud@1view": (4, 2), "point_cloud@2views": (4, 4)}
-    assert report.views[("parallel_jaw", "antipodal", "point_cloud@2views")] == 2
+        "ground_truth": (4, 4), "point_cloud@2views": (4, 2), "point_cloud@10views": (4, 4)}
+    assert report.views[("parallel_jaw", "antipodal", "point_cloud@10views")] == 10
     assert report_from_json(json.loads(json.dumps(report.to_json()))).views == report.views
     text = write_markdown(report, results, tmp_path, {"config": {}}).read_text()
     table = text[text.index("## Observations side by side"):].split("\n\n")[1].splitlines()
     rows = [line.split(" | ")[2:5] for line in table[2:]]
-    assert rows == [["ground_truth", "-", "1.00 [0.51, 1.00]"], ["point_cloud@1view", "1", "0.50 [0.15, 0.85]"],
-                    ["point_cloud@2views", "2", "1.00 [0.51, 1.00]"]]
+    assert rows == [["ground_truth", "-", "1.00 [0.51, 1.00]"], ["point_cloud@2views", "2", "0.50 [0.15, 0.85]"],
+                    ["point_cloud@10views", "10", "1.00 [0.51, 1.00]"]]
 
 
 def test_a_run_stores_each_setup_with_its_cameras_and_resumes(tmp_path):

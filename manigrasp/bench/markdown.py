@@ -24,12 +24,18 @@ def _modes(modes: dict[str, int]) -> str:
 def _perception(report: Report) -> list[str]:
     """The side-by-side table of observations with their pose errors (empty without estimated poses): one row
     per hand x planner x observation label, so the camera setups of one kind (``point_cloud@1view``,
-    ``point_cloud@2views``) are rows of their own, ordered by kind and number of views."""
+    ``point_cloud@2views``) are rows of their own: ground truth, estimated pose, point cloud, each by views."""
     if not report.pose_errors and {o for _, _, o in report.by_method} <= {"ground_truth"}:
         return []
     rows = []
-    for (h, p, o), r in sorted(report.by_method.items(), key=lambda item: (
-            *item[0][:2], item[0][2].partition("@")[0], report.views.get(item[0], 0), item[0][2])):
+    kinds = ("ground_truth", "estimated_pose", "point_cloud")
+
+    def order(method: tuple[str, str, str]) -> tuple:
+        kind = method[2].partition("@")[0]
+        return (*method[:2], kinds.index(kind) if kind in kinds else len(kinds), kind, report.views.get(method, 0),
+                method[2])
+
+    for (h, p, o), r in sorted(report.by_method.items(), key=lambda item: order(item[0])):
         e = report.pose_errors.get((h, p, o))
         errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}", f"{e.median_translation_mm:.1f} / "
                   f"{e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}", f"{e.share_within_5deg_1cm:.2f}"
