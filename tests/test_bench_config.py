@@ -70,4 +70,8 @@ def test_every_shipped_config_validates():
         config = load_config(path)
         assert groups(config), path.name
     perception = load_config(configs_dir() / "perception.yaml")
-    assert len(groups(perception)) == 5 * 3
+    # ground truth and estimated_pose (first camera only) once, point_cloud under 1, 2 and 3 views
+    assert len(groups(perception)) == 5 * (1 + 1 + 3)
+    assert sorted({(g.observation_label, g.camera.views) for g in groups(perception)}) == [
+        ("estimated_pose@1view", 1), ("ground_truth", 1), ("point_cloud@1view", 1), ("point_cloud@2views", 2),
+        ("point_cloud@3views", 3)]
