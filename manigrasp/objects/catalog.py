@@ -25,7 +25,7 @@ from manigrasp.objects.cache import check_name, inside
 from manigrasp.objects.cache import name_from_path as name_from_path
 from manigrasp.objects.decompose import DecompositionParams, coacd_version
 from manigrasp.objects.meshio import ycb_mesh_file
-from manigrasp.objects.pipeline import DEFAULT_DENSITY, BuildResult, build_object
+from manigrasp.objects.pipeline import DEFAULT_DENSITY, BuildResult, build_object, entry_is_intact
 from manigrasp.paths import cache_dir
 
 
@@ -151,7 +151,8 @@ def _marker(name: str, cache_root: Path | None) -> Path:
 def _mark_built(source: ObjectSource, params: DecompositionParams, result: BuildResult,
                 cache_root: Path | None) -> None:
     marker = _marker(source.name, cache_root)
-    text = json.dumps({"fingerprint": _fingerprint(source, params), "mjcf": str(result.asset.mjcf_path)})
+    folder = result.asset.mjcf_path.parent.name  # relative to the marker's folder: the cache can move
+    text = json.dumps({"fingerprint": _fingerprint(source, params), "folder": folder})
     try:
         if marker.read_text() == text:  # up to date: a built cache is only read (it may be read-only)
             return
@@ -170,8 +171,13 @@ def is_built(name: str, params: DecompositionParams | None = None, cache_root: P
         data = json.loads(marker.read_text())
     except (OSError, ValueError):
         return False
-    return data.get("fingerprint") == _fingerprint(source, params or recipe_params(source.name)) and Path(
-        data.get("mjcf", "")).is_file()
+    if not isinstance(data, dict) or data.get("fingerprint") != _fingerprint(source, params or recipe_params(
+            source.name)):
+        return False
+    try:
+        return entry_is_intact(inside(marker.parent, str(data.get("folder"))))
+    except ConfigError:
+        return False
 
 
 @dataclass(frozen=True)

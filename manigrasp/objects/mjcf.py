@@ -4,8 +4,10 @@ The document's worldbody holds one body, ``object``, with a free joint
 ``object_joint``, an explicit inertial at the centre of mass (the body origin),
 a visual geom ``object_visual`` (class ``object_visual``: group 2, no contact)
 and collision geoms ``object_part_NNN`` (class ``object_collision``: group 3,
-friction from the build options). Mesh files are referenced by absolute path,
-so the document can be attached into any scene from any folder.
+friction from the build options). Mesh files are referenced as given: the
+pipeline gives names relative to the document's folder, which MuJoCo resolves
+against that folder (also once attached into a scene), so an entry of the cache
+can be moved or copied whole.
 """
 
 from __future__ import annotations
@@ -34,8 +36,9 @@ def object_mjcf(
 
     Args:
         name: model name.
-        visual_path: visual mesh file, object frame (origin at the COM) [m].
-        part_paths: convex collision part files, object frame [m].
+        visual_path: visual mesh file, object frame (origin at the COM) [m]; a relative path is
+            resolved by MuJoCo against the folder of the document.
+        part_paths: convex collision part files, object frame [m] (same rule).
         mass: [kg].
         inertia: (3, 3) inertia about the COM in the object frame [kg m^2].
         friction: (sliding, torsional, rolling) coefficients of the parts.
@@ -51,9 +54,9 @@ def object_mjcf(
     ET.SubElement(collision, "geom", type="mesh", group="3", density="0", condim=str(condim),
                   friction=_fmt(friction), rgba="0.4 0.6 0.8 0.5")
     asset = ET.SubElement(root, "asset")
-    ET.SubElement(asset, "mesh", name="object_visual", file=str(Path(visual_path).resolve()))
+    ET.SubElement(asset, "mesh", name="object_visual", file=Path(visual_path).as_posix())
     for i, part in enumerate(part_paths):
-        ET.SubElement(asset, "mesh", name=f"object_part_{i:03d}", file=str(Path(part).resolve()))
+        ET.SubElement(asset, "mesh", name=f"object_part_{i:03d}", file=Path(part).as_posix())
     body = ET.SubElement(ET.SubElement(root, "worldbody"), "body", name="object")
     ET.SubElement(body, "freejoint", name="object_joint")
     ixx, iyy, izz = np.diag(inertia)

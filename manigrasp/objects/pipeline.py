@@ -140,6 +140,12 @@ def _hulls(
     return hulls, meta, False
 
 
+OBJECT_FORMAT = 2
+"""Format of an object folder: 2, mesh files relative to object.xml and every file checksummed
+(`checksums.json`). Part of the folder's name, so folders of older formats are never read."""
+_CHECKSUMS = "checksums.json"
+
+
 def _export(
     name: str,
     mesh: trimesh.Trimesh,
@@ -149,11 +155,14 @@ def _export(
     meta: dict,
     root: Path,
 ) -> ObjectAsset:
-    """Write visual mesh, parts, MJCF and meta.json into a folder of their own."""
+    """Write visual mesh, parts, MJCF and meta.json into a folder of their own.
+
+    An existing folder is used only if every file matches its checksum; else it is rebuilt.
+    """
     fingerprint = json.dumps({"hulls": meta["hull_key"], "mass": props.mass, "friction": friction,
-                              "name": name, "meta": meta}, sort_keys=True, default=str)
+                              "name": name, "meta": meta, "format": OBJECT_FORMAT}, sort_keys=True, default=str)
     folder = inside(root, f"{name}-{hashlib.sha256(fingerprint.encode()).hexdigest()[:16]}")
-    if not (folder / "meta.json").is_file():
+    if not entry_is_intact(folder):
         _write_folder(folder, name, mesh, hulls, props, friction, meta)
     return ObjectAsset(
         name=name,
@@ -168,22 +177,56 @@ def _export(
     )
 
 
+def _file_digest(path: Path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def entry_is_intact(folder: Path) -> bool:
+    """Whether the object folder exists with every file it lists in `checksums.json`, unchanged."""
+    try:
+        listed = json.loads((folder / _CHECKSUMS).read_text())
+        if not isinstance(listed, dict) or not {"object.xml", "meta.json", "visual.obj"} <= set(listed):
+            return False
+        return all(_file_digest(inside(folder, file)) == digest for file, digest in listed.items())
+    except (OSError, ValueError, TypeError):
+        return False
+
+
 def _write_folder(folder: Path, name: str, mesh: trimesh.Trimesh, hulls: list[trimesh.Trimesh],
                   props: MassProperties, friction: tuple[float, ...], meta: dict) -> None:
+    """Write the folder in a temporary folder and move it into place; a damaged folder in the
+    way is moved aside first (another process may have put a good one there meanwhile)."""
     folder.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{folder.name}."))
     try:
         mesh.export(tmp / "visual.obj")
         for i, hull in enumerate(hulls):
             hull.export(tmp / f"part_{i:03d}.obj")
-        parts = [folder / f"part_{i:03d}.obj" for i in range(len(hulls))]
-        xml = object_mjcf(name, folder / "visual.obj", parts, props.mass, props.inertia, friction)
+        parts = [Path(f"part_{i:03d}.obj") for i in range(len(hulls))]
+        xml = object_mjcf(name, Path("visual.obj"), parts, props.mass, props.inertia, friction)
         (tmp / "object.xml").write_text(xml)
         (tmp / "meta.json").write_text(json.dumps(meta, indent=2, default=str))
-        try:
-            os.rename(tmp, folder)
-        except OSError:  # another process finished the same folder first
-            if not (folder / "meta.json").is_file():
-                raise
+        digests = {p.name: _file_digest(p) for p in sorted(tmp.iterdir())}
+        (tmp / _CHECKSUMS).write_text(json.dumps(digests, indent=1))
+        for _ in range(3):
+            try:
+                os.rename(tmp, folder)
+                return
+            except OSError:  # a folder is in the way: someone else's good one, or a damaged one
+                if entry_is_intact(folder):
+                    return
+                _discard(folder)
+        raise OSError(f"cannot replace the damaged cache entry {folder}")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _discard(folder: Path) -> None:
+    """Move a damaged folder aside (one atomic rename), then delete it."""
+    trash = folder.parent / f".{folder.name}.{os.getpid()}.damaged"
+    try:
+        os.rename(folder, trash)
+    except FileNotFoundError:
+        return
+    shutil.rmtree(trash, ignore_errors=True)

@@ -1,0 +1,109 @@
+"""Issue 14, red-team 9 and 8: object folders of the cache are relocatable (mesh files relative to
+object.xml), every file is checksummed (a damaged or edited entry is rebuilt, never read), and a
+built cache is only read."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp.objects import catalog
+from manigrasp.objects.pipeline import build_object, entry_is_intact
+
+MASS = 0.25
+
+
+def _ring() -> trimesh.Trimesh:
+    return trimesh.creation.annulus(0.03, 0.05, 0.02)
+
+
+def _compiled_mass(mjcf: Path) -> float:
+    """Mass of the object attached into an empty scene, as compose.py attaches it (cwd is elsewhere)."""
+    child = mujoco.MjSpec.from_file(str(mjcf))
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_frame().attach_body(child.body("object"), "object/", "")
+    model = spec.compile()
+    return float(model.body_mass[1])
+
+
+def _snapshot(root: Path) -> dict[str, tuple[int, int]]:
+    return {str(p.relative_to(root)): (p.stat().st_ino, p.stat().st_mtime_ns) for p in root.rglob("*")}
+
+
+def test_object_xml_names_its_meshes_relative_to_itself(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    asset = build_object(_ring(), name="ring", mass=MASS, cache_root=tmp_path / "cache").asset
+    files = [m.get("file") for m in ET.parse(asset.mjcf_path).getroot().iter("mesh")]
+    assert files == ["visual.obj"] + [f"part_{i:03d}.obj" for i in range(asset.n_parts)]
+    assert str(tmp_path) not in asset.mjcf_path.read_text()
+
+
+def test_a_moved_cache_works_and_a_copy_reads_its_own_files(tmp_path, monkeypatch):
+    monkeypatch.chdir("/")
+    first = build_object(_ring(), name="ring", mass=MASS, cache_root=tmp_path / "a").asset
+    shutil.move(tmp_path / "a", tmp_path / "b")  # moved: the old place is gone
+    moved = build_object(_ring(), name="ring", mass=MASS, cache_root=tmp_path / "b")
+    assert moved.cached and moved.asset.mjcf_path.parent.name == first.mjcf_path.parent.name
+    assert _compiled_mass(moved.asset.mjcf_path) == pytest.approx(MASS)
+    shutil.copytree(tmp_path / "b", tmp_path / "c")  # copied, then the original is damaged
+    for part in (tmp_path / "b").rglob("part_*.obj"):
+        part.write_text("garbage")
+    copy = build_object(_ring(), name="ring", mass=MASS, cache_root=tmp_path / "c").asset
+    assert _compiled_mass(copy.mjcf_path) == pytest.approx(MASS)  # would fail if it read b's parts
+
+
+@pytest.mark.parametrize("damage", ["garbage_xml", "no_meta", "mass_edited", "part_deleted", "no_checksums"])
+def test_a_damaged_or_edited_entry_is_rebuilt(tmp_path, damage):
+    cache = tmp_path / "cache"
+    asset = build_object(_ring(), name="ring", mass=MASS, cache_root=cache).asset
+    folder = asset.mjcf_path.parent
+    good = {p.name: p.read_bytes() for p in folder.iterdir()}
+    if damage == "garbage_xml":
+        (folder / "object.xml").write_bytes(b"\x00\xffnot xml")
+    elif damage == "no_meta":
+        (folder / "meta.json").unlink()
+    elif damage == "mass_edited":
+        xml = (folder / "object.xml").read_text()
+        assert f'mass="{MASS:.9g}"' in xml
+        (folder / "object.xml").write_text(xml.replace(f'mass="{MASS:.9g}"', 'mass="5"'))
+    elif damage == "part_deleted":
+        (folder / "part_000.obj").unlink()
+    else:
+        (folder / "checksums.json").unlink()
+    assert not entry_is_intact(folder)
+    again = build_object(_ring(), name="ring", mass=MASS, cache_root=cache)
+    assert again.cached  # the hulls were fine: no CoACD, only the folder rewritten
+    assert again.asset.mjcf_path == asset.mjcf_path and entry_is_intact(folder)
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == good
+    assert _compiled_mass(folder / "object.xml") == pytest.approx(MASS)
+    assert [p.name for p in (cache / "objects").iterdir()] == [folder.name]  # nothing left aside
+
+
+def test_a_built_shipped_object_is_only_read(tmp_path):
+    cache = tmp_path / "cache"
+    first = catalog.build(catalog.shipped("004_sugar_box"), cache_root=cache)
+    assert catalog.is_built("004_sugar_box", cache_root=cache)
+    before = _snapshot(cache)
+    again = catalog.build(catalog.shipped("004_sugar_box"), cache_root=cache)
+    assert again.cached and again.asset.mjcf_path == first.asset.mjcf_path
+    assert _snapshot(cache) == before  # no marker or file rewritten: a read-only cache works
+
+
+def test_is_built_follows_a_moved_cache_and_sees_damage(tmp_path):
+    catalog.build(catalog.shipped("004_sugar_box"), cache_root=tmp_path / "a")
+    shutil.move(tmp_path / "a", tmp_path / "b")
+    assert catalog.is_built("004_sugar_box", cache_root=tmp_path / "b")
+    marker = json.loads((tmp_path / "b" / "objects" / "004_sugar_box.built.json").read_text())
+    xml = tmp_path / "b" / "objects" / marker["folder"] / "object.xml"
+    xml.write_text(xml.read_text().replace("mass=", "mass=\"9\" old="))
+    assert not catalog.is_built("004_sugar_box", cache_root=tmp_path / "b")
+    rebuilt = catalog.build(catalog.shipped("004_sugar_box"), cache_root=tmp_path / "b")
+    assert np.isclose(_compiled_mass(rebuilt.asset.mjcf_path), rebuilt.asset.mass)
+    assert catalog.is_built("004_sugar_box", cache_root=tmp_path / "b")
