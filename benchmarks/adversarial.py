@@ -5,7 +5,7 @@ adversarial user must get: bad input is one line on stderr, exit code 2 and no r
 planner or trial that fails, hangs or kills its worker is a recorded status and the run completes;
 a run directory refuses a different experiment, a second process and a lost run.json.
 
-    .venv/bin/python benchmarks/adversarial.py   # 44 attempts, ~8 min on a busy 2-core machine; exit 1 if any BAD
+    .venv/bin/python benchmarks/adversarial.py   # 46 attempts, ~8 min on a busy 2-core machine; exit 1 if any BAD
     ADVERSARIAL_ONLY=ray,record .venv/bin/python benchmarks/adversarial.py   # only attempts naming ray or record
 """
 
@@ -354,6 +354,41 @@ def _names_user_object(work: Path) -> str | None:
         return f"build: {proc.stderr[-300:]}"
     return one_line(manigrasp(work, "plan", "--object", "part", "--hand", "parallel_jaw", "--planner", "random",
                               "-n", "1", env=env), "name: part}")
+
+
+@attempt("object cache: a 330k-face mesh is refused with the bound before CoACD")
+def _cache_faces(work: Path) -> str | None:
+    trimesh.creation.icosphere(subdivisions=7, radius=0.05).export(work / "ball.ply")
+    start = time.monotonic()
+    proc = manigrasp(work, "objects", "build", "--mesh", "ball.ply", env=_cache_env(work))
+    seconds = time.monotonic() - start
+    if proc.returncode != 1 or "more than the 250000" not in proc.stderr or "Traceback" in proc.stderr:
+        return f"exit {proc.returncode}: {proc.stderr[-300:]!r}"
+    return None if seconds < 60 else f"took {seconds:.0f} s"
+
+
+@attempt("object cache: moved, then garbage object.xml, missing meta.json, edited mass: plan works")
+def _cache_moved_damaged(work: Path) -> str | None:
+    env = dict(ENV, MANIGRASP_CACHE=str(work / "a"))
+    if (proc := manigrasp(work, "objects", "build", "004_sugar_box", env=env)).returncode:
+        return f"build: {proc.stderr[-300:]}"
+    (work / "a").rename(work / "b")
+    env = dict(ENV, MANIGRASP_CACHE=str(work / "b"))
+    plan = ["plan", "--object", "004_sugar_box", "--hand", "parallel_jaw", "--planner", "random", "-n", "1"]
+    folder = next((work / "b" / "objects").glob("004_sugar_box-*"))
+    for damage in ("moved", "garbage object.xml", "no meta.json", "mass edited"):
+        if damage == "garbage object.xml":
+            (folder / "object.xml").write_bytes(b"\x00garbage")
+        elif damage == "no meta.json":
+            (folder / "meta.json").unlink()
+        elif damage == "mass edited":
+            xml = (folder / "object.xml").read_text()
+            (folder / "object.xml").write_text(xml.replace('mass="', 'mass="9'))
+        if (proc := manigrasp(work, *plan, env=env)).returncode:
+            return f"{damage}: exit {proc.returncode}: {proc.stderr[-300:]}"
+        if damage == "mass edited" and 'mass="9' in (folder / "object.xml").read_text():
+            return "the edited mass was kept"
+    return None
 
 
 bad = [name for name, ok, _ in results if not ok]

@@ -107,3 +107,23 @@ def test_is_built_follows_a_moved_cache_and_sees_damage(tmp_path):
     rebuilt = catalog.build(catalog.shipped("004_sugar_box"), cache_root=tmp_path / "b")
     assert np.isclose(_compiled_mass(rebuilt.asset.mjcf_path), rebuilt.asset.mass)
     assert catalog.is_built("004_sugar_box", cache_root=tmp_path / "b")
+
+
+def test_a_mesh_over_the_face_bound_is_refused_before_coacd(tmp_path, monkeypatch, capsys):
+    import coacd
+
+    from manigrasp.cli import main
+    from manigrasp.errors import MeshError
+    from manigrasp.objects.pipeline import MAX_FACES
+
+    monkeypatch.setenv("MANIGRASP_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(coacd, "run_coacd", lambda *a, **k: pytest.fail("CoACD called on an oversized mesh"))
+    sphere = trimesh.creation.icosphere(subdivisions=7, radius=0.05)  # 327680 faces
+    assert len(sphere.faces) > MAX_FACES
+    with pytest.raises(MeshError, match=f"327680 faces, more than the {MAX_FACES}"):
+        build_object(sphere, name="ball", mass=MASS)
+    sphere.export(tmp_path / "ball.ply")
+    assert main(["objects", "build", "--mesh", str(tmp_path / "ball.ply")]) == 1
+    err = capsys.readouterr().err
+    assert f"ball: FAILED: {tmp_path / 'ball.ply'}: 327680 faces, more than the {MAX_FACES}" in err
+    assert not list((tmp_path / "cache").rglob("*.obj"))

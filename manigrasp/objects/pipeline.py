@@ -1,6 +1,6 @@
 """From a mesh (file, recipe or array) to an `ObjectAsset` ready to simulate.
 
-Steps: read -> scale -> validate and repair -> centre of mass at the origin ->
+Steps: read -> bound the face count (`MAX_FACES`) -> scale -> validate and repair -> centre of mass at the origin ->
 mass and inertia -> convex decomposition (cached) -> files and MJCF in the
 cache folder. Every repair is recorded in the asset's metadata.
 """
@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from manigrasp.errors import MeshError
 from manigrasp.objects.asset import ObjectAsset
 from manigrasp.objects.cache import HullCache, cache_key, check_name, inside, name_from_path
 from manigrasp.objects.decompose import DecompositionParams, coacd_version, coverage, decompose
@@ -30,6 +31,9 @@ from manigrasp.paths import cache_dir
 
 DEFAULT_DENSITY = 500.0  # [kg/m^3], YCB-like solids without a known mass
 DEFAULT_FRICTION = (0.5, 0.005, 0.0001)  # sliding, torsional [m], rolling [m]
+MAX_FACES = 250_000
+"""Largest mesh built (faces): CoACD's time and memory grow with the face count (a 2-million-face
+mesh ran 5 min to 11.5 GB and aborted); a YCB google_16k mesh has ~32k faces."""
 
 
 @dataclass(frozen=True)
@@ -95,6 +99,10 @@ def build_object(
     label = str(source) if not isinstance(source, trimesh.Trimesh) else (name or "mesh")
     mesh = load_mesh(source) if not isinstance(source, trimesh.Trimesh) else source.copy()
     name = check_name(name) if name is not None else name_from_path(str(source))
+    if len(mesh.faces) > MAX_FACES:
+        raise MeshError(f"{label}: {len(mesh.faces)} faces, more than the {MAX_FACES} manigrasp builds (CoACD's "
+                        "time and memory grow with them); simplify it first, e.g. open3d's "
+                        "simplify_quadric_decimation or Blender's Decimate, to ~50000 faces")
     if scale != 1.0:
         mesh.apply_scale(scale)
     mesh, report = validate_and_repair(mesh, source=label, convex_hull_fallback=convex_hull_fallback)
