@@ -179,7 +179,7 @@ def run_benchmark(
         if problem:
             print(f"manigrasp: {problem}; the trials run and are stored without recordings", file=sys.stderr)
             settings = None
-        _prebuild_objects(all_groups, jobs)
+        _prebuild_objects(all_groups, jobs, progress)
         store, done = _open_store(run_dir)
         todo = {id(g): [i for i in range(g.n_grasps) if g.key(i).trial_id not in done] for g in all_groups}
         pending = [g for g in all_groups if todo[id(g)]]
@@ -244,12 +244,24 @@ def _add(store: ResultsStore, key: TrialKey, result: TrialResult) -> bool:
                              "far are kept, and re-running the same command resumes from there") from None
 
 
-def _prebuild_objects(all_groups: list[Group], jobs: int) -> None:
-    """Build (or load from cache) every object once, in parallel, before workers need them."""
+def _prebuild_objects(all_groups: list[Group], jobs: int, progress: bool = False) -> None:
+    """Build (or load from cache) every object once, in parallel, before workers need them; with
+    `progress`, say which object is being built and how it went (a cold cache builds for minutes)."""
     from manigrasp.objects import catalog
 
     sources = list({g.object_source.name: g.object_source for g in all_groups}.values())
-    failed = [o for o in catalog.build_many(sources, jobs=jobs) if o.error]
+    started: set[str] = set()
+
+    def start(source: catalog.ObjectSource) -> None:
+        started.add(source.name)
+        print(f"object {source.name}: building...", file=sys.stderr, flush=True)
+
+    def done(outcome: catalog.BuildOutcome) -> None:
+        if outcome.name in started:  # shipped objects known built say nothing
+            print(f"object {catalog.summary(outcome)}", file=sys.stderr, flush=True)
+
+    outcomes = catalog.build_many(sources, jobs=jobs, on_start=start if progress else None, on_done=done)
+    failed = [o for o in outcomes if o.error]
     if failed:
         raise ConfigError("; ".join(f"object {o.name}: {o.error}" for o in failed))
 
