@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
+
+import numpy as np
 
 from manigrasp.cli.output import format_table, print_json
 from manigrasp.errors import ConfigError
@@ -69,8 +72,9 @@ def _show(args: argparse.Namespace) -> int:
     asset = catalog.build(source).asset
     info = {
         "name": asset.name, "ycb_id": recipe.ycb_id, "common_name": recipe.common_name,
-        "extents_m": asset.extents, "mass_kg": asset.mass, "volume_m3": asset.volume,
-        "inertia_kg_m2": asset.inertia, "n_hulls": asset.n_parts, "mjcf": str(asset.mjcf_path),
+        "extents_m": rounded(asset.extents), "mass_kg": rounded(asset.mass), "volume_m3": rounded(asset.volume),
+        "inertia_kg_m2": rounded(asset.inertia, noise=1e-9 * float(np.max(np.abs(asset.inertia)))),
+        "n_hulls": asset.n_parts, "mjcf": str(asset.mjcf_path),
         "visual_mesh": str(asset.visual_path), "source": recipe.source, "notes": recipe.notes,
         "metadata": asset.metadata,
     }
@@ -78,11 +82,22 @@ def _show(args: argparse.Namespace) -> int:
         print_json(info)
         return 0
     for key, value in info.items():
-        if key != "metadata":
-            print(f"{key:14s} {value}")
+        if key == "inertia_kg_m2":
+            print(f"{key:14s} " + "\n".ljust(16).join(" ".join(f"{v:>12.6g}" for v in row) for row in value))
+        elif key != "metadata":
+            print(f"{key:14s} {' '.join(f'{v:g}' for v in value) if isinstance(value, list) else value}")
     print(f"{'repairs':14s} {asset.metadata.get('repairs') or 'none'}")
     print(f"{'coverage':14s} {asset.metadata.get('coverage'):.3f} (hull union volume / mesh volume)")
     return 0
+
+
+def rounded(value: Any, digits: int = 6, noise: float = 0.0) -> Any:
+    """`value` (a number or array) as plain floats or nested lists of `digits` significant digits;
+    entries no larger than `noise` in magnitude (round-off, e.g. 1e-21 off-diagonal inertia) are 0."""
+    array = np.asarray(value, dtype=float)
+    cleaned = np.where(np.abs(array) <= noise, 0.0, array)
+    out = np.vectorize(lambda v: float(f"{v:.{digits}g}") + 0.0, otypes=[float])(cleaned)  # + 0.0: no -0.0
+    return out.tolist() if array.ndim else float(out)
 
 
 def _sources(args: argparse.Namespace) -> list[ObjectSource]:
@@ -119,9 +134,7 @@ def _build(args: argparse.Namespace) -> int:
         if outcome.error:
             bar.write(f"{outcome.name}: FAILED: {outcome.error}", file=sys.stderr)
         else:
-            r = outcome.result
-            bar.write(f"{outcome.name}: {r.asset.n_parts} hulls, coverage {r.asset.metadata['coverage']:.2f}, "
-                      f"{r.seconds:.1f} s, {'cached' if r.cached else 'built'}")
+            bar.write(catalog.summary(outcome))
 
     outcomes = catalog.build_many(sources, jobs=max(1, args.jobs), on_done=done)
     bar.close()

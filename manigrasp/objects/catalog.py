@@ -189,6 +189,18 @@ class BuildOutcome:
     error: str | None
 
 
+def summary(outcome: BuildOutcome) -> str:
+    """One line on a built (or failed) object: hulls, coverage, time, cached, and what repair tools
+    warned of (MeshFix's "could not fix everything"), e.g. ``mug: 24 hulls, coverage 1.12, 0.3 s, cached``."""
+    if outcome.error or outcome.result is None:
+        return f"{outcome.name}: FAILED: {outcome.error}"
+    r = outcome.result
+    line = (f"{outcome.name}: {r.asset.n_parts} hulls, coverage {r.asset.metadata['coverage']:.2f}, "
+            f"{r.seconds:.1f} s, {'cached' if r.cached else 'built'}")
+    warnings = r.asset.metadata.get("warnings") or []
+    return line + (f"; {'; '.join(warnings)}" if warnings else "")
+
+
 def _build_one(source: ObjectSource, params: DecompositionParams | None, cache_root: Path | None) -> BuildOutcome:
     from manigrasp.errors import ManigraspError
 
@@ -204,15 +216,17 @@ def build_many(
     params: DecompositionParams | None = None,
     cache_root: Path | None = None,
     on_done: Callable[[BuildOutcome], None] | None = None,
+    on_start: Callable[[ObjectSource], None] | None = None,
 ) -> list[BuildOutcome]:
     """Build `sources` with `jobs` worker processes; outcomes in input order.
 
     A failing object does not stop the others: its outcome carries the error.
-    `on_done` is called in the parent as each object finishes (progress bars).
+    `on_done` is called in the parent as each object finishes (progress bars);
+    `on_start` as each object not known to be built starts (or is queued, with jobs > 1).
     `params` None means each object's own defaults (see `build`).
     """
     outcomes: dict[str, BuildOutcome] = {}
-    for outcome in _iter_builds(sources, jobs, params, cache_root):
+    for outcome in _iter_builds(sources, jobs, params, cache_root, on_start):
         outcomes[outcome.name] = outcome
         if on_done is not None:
             on_done(outcome)
@@ -220,15 +234,20 @@ def build_many(
 
 
 def _iter_builds(sources: Sequence[ObjectSource], jobs: int, params: DecompositionParams | None,
-                 cache_root: Path | None) -> Iterator[BuildOutcome]:
+                 cache_root: Path | None, on_start: Callable[[ObjectSource], None] | None = None,
+                 ) -> Iterator[BuildOutcome]:
     """Shipped objects already in the cache load inline (no pool to start); the rest go to the pool."""
     cached = [s for s in sources if s.recipe is not None and is_built(s.recipe, params, cache_root)]
     rest = [s for s in sources if s not in cached]
     for source in (cached + rest if jobs <= 1 or len(rest) <= 1 else cached):
+        if on_start is not None and source not in cached:
+            on_start(source)
         yield _build_one(source, params, cache_root)
     if jobs <= 1 or len(rest) <= 1:
         return
     with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
+        for source in rest if on_start is not None else ():
+            on_start(source)
         futures = [pool.submit(_build_one, s, params, cache_root) for s in rest]
         for future in as_completed(futures):
             yield future.result()

@@ -116,6 +116,7 @@ def build_object(
         "source": (metadata or {}).get("source", label),
         "scale": scale,
         "repairs": report.repairs,
+        "warnings": report.warnings,
         "pieces": report.pieces,
         "n_hulls": len(hulls),
         "coverage": hull_meta["coverage"],

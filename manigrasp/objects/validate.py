@@ -9,6 +9,11 @@ suggestion). Every change is appended to `MeshReport.repairs`.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,6 +33,8 @@ class MeshReport:
     repairs: list[str] = field(default_factory=list)
     watertight: bool = False
     pieces: int = 1
+    warnings: list[str] = field(default_factory=list)
+    """What repair tools printed (MeshFix's "could not fix everything"), one line each."""
 
 
 def validate_and_repair(
@@ -109,7 +116,7 @@ def _close(
         holes_before = _boundary_edges(mesh)
         trimesh.repair.fill_holes(mesh)
         if not mesh.is_watertight:
-            mesh = _meshfix(mesh)
+            mesh = _meshfix(mesh, report)
         if mesh.is_watertight:
             report.repairs.append(f"closed holes ({holes_before} open edges)")
         elif convex_hull_fallback:
@@ -127,16 +134,37 @@ def _close(
     return mesh
 
 
-def _meshfix(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+def _meshfix(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
     """Manifold reconstruction by MeshFix (fills holes of any shape, removes
-    self-intersections); returns `mesh` unchanged if MeshFix gives nothing."""
+    self-intersections); returns `mesh` unchanged if MeshFix gives nothing.
+    What MeshFix prints on stderr goes to `report.warnings` (prefixed "MeshFix: ")."""
     import pymeshfix
 
-    vertices, faces = pymeshfix.clean_from_arrays(
-        np.ascontiguousarray(mesh.vertices, dtype=np.float64), np.ascontiguousarray(mesh.faces, dtype=np.int32))
+    with _captured_stderr() as printed:
+        vertices, faces = pymeshfix.clean_from_arrays(
+            np.ascontiguousarray(mesh.vertices, dtype=np.float64), np.ascontiguousarray(mesh.faces, dtype=np.int32))
+    lines = [line.strip() for line in printed[0].splitlines() if line.strip()]
+    report.warnings.extend(f"MeshFix: {line.removeprefix('MeshFix ')}" for line in dict.fromkeys(lines))
     if len(faces) == 0:
         return mesh
     return trimesh.Trimesh(vertices, faces, process=True)
+
+
+@contextlib.contextmanager
+def _captured_stderr() -> Iterator[list[str]]:
+    """What C code writes to file descriptor 2 inside the block (the list's one item, set on exit)."""
+    out = [""]
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield out
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            out[0] = tmp.read().decode(errors="replace")
 
 
 def _boundary_edges(mesh: trimesh.Trimesh) -> int:
