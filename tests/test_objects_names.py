@@ -78,6 +78,17 @@ def test_config_mesh_named_by_an_odd_file_stem_gets_a_valid_name(tmp_path):
     assert ObjectEntry(mesh="my part.stl").source(tmp_path).name == "my_part"
 
 
+def test_a_mesh_file_named_like_a_shipped_object_gets_its_own_name_by_default(tmp_path, isolated_cache, capsys):
+    assert catalog.default_mesh_name("/a/mug.stl") == "mug_mesh"
+    assert catalog.default_mesh_name("/a/part.stl") == "part"
+    assert ObjectEntry(mesh="004_sugar_box.obj").source(tmp_path).name == "004_sugar_box_mesh"
+    mug = tmp_path / "mug.obj"
+    trimesh.creation.box((0.05, 0.05, 0.05)).export(mug)
+    assert main(["objects", "build", "--mesh", str(mug)]) == 0
+    assert "mug_mesh: 1 hulls" in capsys.readouterr().out
+    assert main(["plan", "--mesh", str(mug), "--hand", "parallel_jaw", "--planner", "random", "-n", "1"]) == 0
+
+
 @pytest.mark.parametrize("name", ["004_sugar_box", "mug", "025", "003_cracker_box_scan"])
 def test_a_user_mesh_may_not_take_a_shipped_name(tmp_path, cube, isolated_cache, capsys, name):
     with pytest.raises(ConfigError, match="shipped object"):

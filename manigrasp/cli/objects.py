@@ -35,7 +35,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("names", nargs="*", metavar="NAME", help="shipped object names")
     p.add_argument("--all", action="store_true", help="build every shipped object")
     p.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, GLB/GLTF) to build")
-    p.add_argument("--name", help="name of the --mesh object (default: file stem)")
+    p.add_argument("--name", help="name of the --mesh object: letters, digits, _-. (at most 64), not a shipped "
+                   "object's (default: the file stem, + _mesh if shipped); later runs name the mesh by its file")
     p.add_argument("--scale", type=float, default=1.0, help="scale the --mesh vertices (0.001: mm to m)")
     p.add_argument("--mass", type=float, help="mass of the --mesh object [kg] (default: from --density)")
     p.add_argument("--density", type=float, default=500.0, help="density [kg/m^3] when no mass is given")
@@ -106,7 +107,7 @@ def _sources(args: argparse.Namespace) -> list[ObjectSource]:
         from pathlib import Path
 
         mesh = Path(args.mesh).resolve()
-        sources.append(ObjectSource(name=args.name if args.name is not None else catalog.name_from_path(mesh),
+        sources.append(ObjectSource(name=args.name if args.name is not None else catalog.default_mesh_name(mesh),
                                     mesh=str(mesh), scale=args.scale,
                                     mass=args.mass, density=args.density, convex_hull_fallback=args.convex_hull))
     if args.ycb:

@@ -29,6 +29,13 @@ from manigrasp.objects.pipeline import DEFAULT_DENSITY, BuildResult, build_objec
 from manigrasp.paths import cache_dir
 
 
+def default_mesh_name(path: str | Path) -> str:
+    """The name of a mesh given none: its file stem made a valid name (`name_from_path`), with
+    ``_mesh`` appended if that is a shipped object's name (``mug.stl`` is ``mug_mesh``)."""
+    name = name_from_path(path)
+    return f"{name[:NAME_MAX - 5]}_mesh" if is_shipped_name(name) else name
+
+
 def is_shipped_name(name: str) -> bool:
     """Whether `name` names a shipped object: a recipe (full name, common name or YCB id) or a scan."""
     if scans.is_scan(name):
