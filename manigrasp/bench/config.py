@@ -65,7 +65,7 @@ class ObjectEntry:
         base = base or Path.cwd()
         if self.mesh:
             path = (base / self.mesh).resolve()
-            name = self.name if self.name is not None else catalog.name_from_path(path)
+            name = self.name if self.name is not None else catalog.default_mesh_name(path)
             return catalog.ObjectSource(name=name, mesh=str(path), scale=self.scale,
                                         mass=self.mass, density=self.density)
         if self.ycb:

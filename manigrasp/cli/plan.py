@@ -43,9 +43,7 @@ def _asset(args: argparse.Namespace):  # noqa: ANN202 (ObjectAsset; imported laz
 
     if args.object:
         return catalog.build(catalog.shipped(args.object)).asset
-    from pathlib import Path
-
-    source = catalog.ObjectSource(name=Path(args.mesh).stem, mesh=args.mesh, scale=args.scale)
+    source = catalog.ObjectSource(name=catalog.default_mesh_name(args.mesh), mesh=args.mesh, scale=args.scale)
     return catalog.build(source).asset
 
 
