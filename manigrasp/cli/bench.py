@@ -38,7 +38,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                "or crashes its worker is a recorded status, and the run goes on.")
     p.__class__ = _IntermixedParser
     p.add_argument("config",
-                   help="a YAML config file, or the name of a shipped one (quick, standard, dexterous, perception)")
+                   help="a YAML config file, or the name of a shipped one "
+                        "(quick, standard, dexterous, perception, scans)")
     p.add_argument("overrides", nargs="*", metavar="key=value",
                    help="config overrides, anywhere on the line, dotted for nested keys (grasps_per_object=5 "
                         "scene.timestep=0.001); a list field takes one value or a list (objects=mug, "
