@@ -335,7 +335,7 @@ def check_grasp(grasp: Grasp) -> str | None:
     return None
 
 
-def grasp_matrix(grasp: Grasp) -> np.ndarray:
+def grasp_tcp_pose(grasp: Grasp) -> np.ndarray:
     """(4, 4) TCP pose of a grasp that passed `check_grasp` (a (7,) pos+quat becomes a matrix)."""
     from manigrasp.sim.transforms import pose_matrix
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from manigrasp.errors import SimulationError
 from manigrasp.protocol.base import Grasp, as_grasp
-from manigrasp.protocol.execution import Abort, GraspParams, TrialRun, check_grasp, grasp_matrix
+from manigrasp.protocol.execution import Abort, GraspParams, TrialRun, check_grasp, grasp_tcp_pose
 from manigrasp.protocol.metrics import planned_metrics
 from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
@@ -61,7 +61,7 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
         else:
             rest = np.asarray(object_pose, float)
         run.last_phase = "settle"
-        pose = grasp_matrix(grasp)
+        pose = grasp_tcp_pose(grasp)
         center = (rest @ np.append(scene.model.body_ipos[scene.object_body], 1.0))[:3]
         planned = grasp.planned_metrics or planned_metrics(scene, grasp.contacts, grasp.contact_normals, center,
                                                            run.torque_scale, params.metric_edges,
@@ -89,7 +89,7 @@ def _mount_problem(grasp: Grasp) -> str | None:
     from manigrasp.sim.transforms import check_pose
 
     try:
-        check_pose(grasp_matrix(grasp), "grasp pose")
+        check_pose(grasp_tcp_pose(grasp), "grasp pose")
     except ValueError as exc:
         return str(exc)
     return None

@@ -224,12 +224,12 @@ class TrialRecorder:
     # ------------------------------------------------------------- internals
     def _log_plan(self, grasp: Any) -> None:
         from manigrasp.protocol.base import as_grasp
-        from manigrasp.protocol.execution import check_grasp, grasp_matrix
+        from manigrasp.protocol.execution import check_grasp, grasp_tcp_pose
         from manigrasp.protocol.phases import pregrasp_pose
 
         g = as_grasp(grasp)
         problem = check_grasp(g)
-        pose = None if problem else grasp_matrix(g)
+        pose = None if problem else grasp_tcp_pose(g)
         pregrasp = None if pose is None else pregrasp_pose(pose, self.options.pregrasp_offset)
         static.log_planned_grasp(self._stream, pose, pregrasp, np.asarray(g.contacts, float).reshape(-1, 3),
                                  np.asarray(g.contact_normals, float).reshape(-1, 3), self.options.frame_length)
