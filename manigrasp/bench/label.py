@@ -30,6 +30,7 @@ from manigrasp.bench.store import ResultsStore
 from manigrasp.errors import ManigraspError
 from manigrasp.graspsets import GraspSet, ObjectRef, acronym, native
 from manigrasp.protocol.result import PoseRecord, Status
+from manigrasp.runfiles import META_NAME, STORE_NAME
 
 POSE_FIELDS = ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")
 LABEL_COLUMNS = ("status", "trial_id", "seed", "detail", "last_phase", "max_translation_m", "max_rotation_deg",
@@ -109,7 +110,7 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
     run_dir = Path(run_dir)
     config = config or _run_config(run_dir)
     sources = _sources(config, base or config_dir(run_dir))
-    with ResultsStore(run_dir / "results.sqlite") as store:
+    with ResultsStore(run_dir / STORE_NAME) as store:
         rows = list(store.rows())
     by_group: dict[str, list[dict]] = defaultdict(list)
     for row in rows:
@@ -211,7 +212,7 @@ def _run_config(run_dir: Path) -> BenchConfig:
     from manigrasp.bench.config import parse_config
     from manigrasp.bench.rundir import load_meta
 
-    return parse_config(load_meta(run_dir)["config"], where=f"{run_dir}/run.json")
+    return parse_config(load_meta(run_dir)["config"], where=f"{run_dir}/{META_NAME}")
 
 
 def _has_h5py() -> bool:

@@ -9,6 +9,7 @@ from manigrasp.bench.plots import method_label
 from manigrasp.bench.report import POOLED, Report, format_auc, format_planning_time, format_rate
 from manigrasp.bench.store import TrialKey
 from manigrasp.protocol.result import TrialResult
+from manigrasp.runfiles import REPORT_NAME
 
 
 def _table(headers: list[str], rows: list[list[str]]) -> str:
@@ -114,6 +115,6 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         _table(["hand", "planner", "observation", "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)),
     ]
     parts += [f"## {title}\n\n![{title}]({path.name})" for title, path in images.items()]
-    out = run_dir / "report.md"
+    out = run_dir / REPORT_NAME
     out.write_text("\n\n".join(parts) + "\n")
     return out

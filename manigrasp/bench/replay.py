@@ -23,6 +23,7 @@ import numpy as np
 from manigrasp.bench.store import ResultsStore
 from manigrasp.errors import ManigraspError
 from manigrasp.protocol.result import PoseRecord, Status, TrialResult
+from manigrasp.runfiles import META_NAME, RECORDINGS_DIR, STORE_NAME
 
 POSE_FIELDS = ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")
 OBJECT_POSE_TOLERANCE = 1e-6  # [m] / quaternion units: a re-settled object farther than this from the stored pose
@@ -79,10 +80,10 @@ def stored_trials(run_dir: Path, base: Path | None = None) -> dict[str, StoredTr
 
     run_dir = Path(run_dir)
     base = base or config_dir(run_dir)
-    config = parse_config(load_meta(run_dir)["config"], where=f"{run_dir}/run.json")
-    store_path = run_dir / "results.sqlite"
+    config = parse_config(load_meta(run_dir)["config"], where=f"{run_dir}/{META_NAME}")
+    store_path = run_dir / STORE_NAME
     if not store_path.is_file():
-        raise ReplayError(f"{run_dir} has no results.sqlite: nothing to replay")
+        raise ReplayError(f"{run_dir} has no {STORE_NAME}: nothing to replay")
     with ResultsStore(store_path) as store:
         results = {key.trial_id: result for key, result in store.results()}
     out = {}
@@ -172,7 +173,7 @@ def record_trials(run_dir: Path, which: str | Iterable[str] = "failures", base: 
         missing = [t for t in chosen if t not in trials]
         if missing:
             raise ReplayError(f"no trial {missing[0]!r} in {run_dir}")
-    folder = Path(directory) if directory is not None else Path(run_dir) / "recordings"
+    folder = Path(directory) if directory is not None else Path(run_dir) / RECORDINGS_DIR
     replays, skipped = [], []
     for trial_id in sorted(chosen):
         target = folder / trial_file_name(trial_id)

@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from manigrasp.bench.stats import AucEstimate, auc_with_interval, wilson_interval
-from manigrasp.bench.store import STORE_NAME, ResultsStore, TrialKey
+from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.runfiles import STORE_NAME
 
 # Metrics whose power to predict physical success is reported (column, higher-is-better sign).
 PREDICTORS = {

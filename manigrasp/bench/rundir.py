@@ -26,6 +26,7 @@ from manigrasp import __version__
 from manigrasp.bench.config import BenchConfig
 from manigrasp.config import to_mapping
 from manigrasp.errors import ConfigError
+from manigrasp.runfiles import META_NAME, RECORDINGS_DIR, STORE_NAME
 
 KEY_PACKAGES = ("mujoco", "numpy", "scipy", "trimesh", "coacd", "manifold3d", "robosuite", "dm-env",
                 "rerun-sdk", "pymeshfix", "embreex")
@@ -131,7 +132,7 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
     """
     if run_dir.exists() and not run_dir.is_dir():
         raise ConfigError(f"--out {run_dir} is a file, not a run directory")
-    meta_path = run_dir / "run.json"
+    meta_path = run_dir / META_NAME
     resolved = json.loads(json.dumps(to_mapping(config), default=str))
     ident = identity(config, base)
     if meta_path.exists() or meta_path.is_symlink():
@@ -151,7 +152,7 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
         existing.setdefault("resumed", []).append(datetime.now(UTC).isoformat())
         _write_json(meta_path, existing)
         return existing
-    stray = [p.name for p in (run_dir / "results.sqlite", run_dir / "recordings") if p.exists()]
+    stray = [p.name for p in (run_dir / STORE_NAME, run_dir / RECORDINGS_DIR) if p.exists()]
     if stray:
         raise ConfigError(f"{run_dir} holds {' and '.join(stray)} but no run.json, so the config that made them is "
                           "unknown; use another --out (or restore run.json)")
@@ -180,7 +181,7 @@ def _write_json(path: Path, data: dict) -> None:
 
 def read_meta(run_dir: Path) -> dict:
     """The run.json of `run_dir` as a mapping; `ConfigError` if it is missing, unreadable or not a JSON object."""
-    path = Path(run_dir) / "run.json"
+    path = Path(run_dir) / META_NAME
     try:
         meta = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:

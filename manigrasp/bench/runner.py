@@ -32,6 +32,7 @@ from manigrasp.bench.worker import Plan, plan_group, run_trial
 from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.record.policy import RecordPolicy, RecordSettings, recording_problem
+from manigrasp.runfiles import STORE_NAME
 
 EXECUTORS = ("local", "ray")
 
@@ -228,7 +229,7 @@ def _record_stored(run_dir: Path, policy: RecordPolicy, done: set[str], base: Pa
 def _open_store(run_dir: Path) -> tuple[ResultsStore, set[str]]:
     """The run's store and the ids it holds; `ConfigError` for a file that is not a readable store."""
     try:
-        store = ResultsStore(run_dir / "results.sqlite")
+        store = ResultsStore(run_dir / STORE_NAME)
         return store, store.done_ids()
     except sqlite3.DatabaseError as exc:
         raise ConfigError(f"{run_dir / 'results.sqlite'} is not a readable results store ({exc}); "

@@ -17,7 +17,6 @@ from pathlib import Path
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import Status, TrialResult
 
-STORE_NAME = "results.sqlite"  # the store's file name in a run directory
 KEY_COLUMNS = ("trial_id", "object", "hand", "planner", "observation", "protocol", "grasp_index")
 
 

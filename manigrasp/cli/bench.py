@@ -94,8 +94,9 @@ def _bench(args: argparse.Namespace) -> int:
     if args.export:
         from manigrasp.bench.export import export
         from manigrasp.bench.store import ResultsStore
+        from manigrasp.runfiles import STORE_NAME
 
-        with ResultsStore(args.out / "results.sqlite") as store:
+        with ResultsStore(args.out / STORE_NAME) as store:
             exported = export(store.rows(), args.out / f"results.{args.export}")
         print(f"exported {exported}", file=sys.stderr)
     from manigrasp.cli.report import print_report

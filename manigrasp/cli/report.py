@@ -140,7 +140,8 @@ def _compare(args: argparse.Namespace) -> int:
 def _export(args: argparse.Namespace) -> int:
     from manigrasp.bench.export import export
     from manigrasp.bench.rundir import load_meta
-    from manigrasp.bench.store import STORE_NAME, ResultsStore
+    from manigrasp.bench.store import ResultsStore
+    from manigrasp.runfiles import STORE_NAME
 
     load_meta(args.run_dir)
     if not (args.run_dir / STORE_NAME).is_file():

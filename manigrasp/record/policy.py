@@ -28,6 +28,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.observer import NullObserver, TrialObserver
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.record.recorder import RecordOptions, TrialRecorder
+from manigrasp.runfiles import RECORDINGS_DIR
 
 POLICIES = ("none", "failures", "successes", "all")
 SUFFIX = ".rrd"
@@ -120,7 +121,7 @@ class RecordSettings:
         policy = policy if isinstance(policy, RecordPolicy) else RecordPolicy.parse(policy)
         if policy.kind == "none" or (policy.kind == "first" and policy.first_n == 0):
             return None
-        return cls(Path(run_dir) / "recordings", policy)
+        return cls(Path(run_dir) / RECORDINGS_DIR, policy)
 
 
 class TrialRecording:
