@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from manigrasp.bench.recordings import select_recordings
 from manigrasp.cli import main
 from manigrasp.errors import ConfigError
 from manigrasp.protocol import Status, TrialResult
@@ -23,7 +24,7 @@ from manigrasp.record.policy import (
     trial_recording,
 )
 from manigrasp.record.readback import summarize
-from manigrasp.record.view import open_viewer, select_recordings
+from manigrasp.record.view import open_viewer
 from tests.test_record import asset, box, drive  # noqa: F401 - fixtures shared with test_record
 
 TRIAL = "box_rec/parallel_jaw/antipodal/ground_truth/standard/0003"

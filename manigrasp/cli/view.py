@@ -21,7 +21,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _view(args: argparse.Namespace) -> int:
-    from manigrasp.record.view import open_viewer, select_recordings
+    from manigrasp.bench.recordings import select_recordings
+    from manigrasp.record.view import open_viewer
 
     paths = select_recordings(args.run_dir, trial=args.trial, status=args.status)
     outcome = open_viewer(paths, display=False if args.print_only else None)
