@@ -25,6 +25,7 @@ import yaml
 from manigrasp.config import apply_overrides, from_mapping
 from manigrasp.errors import ConfigError
 from manigrasp.objects import catalog
+from manigrasp.objects.pipeline import DEFAULT_DENSITY
 from manigrasp.perception.setup import CameraSetup
 from manigrasp.sim.config import SceneConfig
 
@@ -49,7 +50,7 @@ class ObjectEntry:
     ycb: str | None = None
     scale: float = 1.0
     mass: float | None = None
-    density: float = 500.0
+    density: float = DEFAULT_DENSITY
 
     def __post_init__(self) -> None:
         for key in ("scale", "density", "mass"):

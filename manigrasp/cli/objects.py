@@ -12,6 +12,7 @@ from manigrasp.cli.output import format_table, print_json
 from manigrasp.errors import ConfigError
 from manigrasp.objects import catalog, recipes
 from manigrasp.objects.catalog import BuildOutcome, ObjectSource
+from manigrasp.objects.pipeline import DEFAULT_DENSITY
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -39,7 +40,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    "object's (default: the file stem, + _mesh if shipped); later runs name the mesh by its file")
     p.add_argument("--scale", type=float, default=1.0, help="scale the --mesh vertices (0.001: mm to m)")
     p.add_argument("--mass", type=float, help="mass of the --mesh object [kg] (default: from --density)")
-    p.add_argument("--density", type=float, default=500.0, help="density [kg/m^3] when no mass is given")
+    p.add_argument("--density", type=float, default=DEFAULT_DENSITY, help="density [kg/m^3] when no mass is given")
     p.add_argument("--convex-hull", action="store_true",
                    help="accept the convex hull of a mesh whose holes cannot be closed")
     p.add_argument("--ycb", metavar="FOLDER",

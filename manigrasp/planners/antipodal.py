@@ -69,6 +69,7 @@ import trimesh
 from manigrasp.errors import ConfigError, PlannerError
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.hands.base import Hand
+from manigrasp.objects.pipeline import DEFAULT_DENSITY
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.cloud import cloud_pairs, collision_hull, complete, hull_volume
 from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
@@ -174,7 +175,7 @@ class AntipodalPlanner:
     grip_fraction: float = 0.5
     perturbation: float = 1.0
     hold_ref: float = 3.0
-    density: float = 500.0
+    density: float = DEFAULT_DENSITY
     completion: str = "free_space"
     cloud_radius: float = 0.003
     cloud_margin: float = 0.003

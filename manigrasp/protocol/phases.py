@@ -20,6 +20,8 @@ from manigrasp.protocol.metrics import simulated_metrics
 from manigrasp.protocol.result import Status
 from manigrasp.sim import grip_force, read_hand_contacts
 
+CLOSED_SYNERGY = 0.995  # [-] hand synergy (0 open, 1 closed) past which a position-mode close has finished
+
 # One `FingerHold` per scene (its model's gains are edited while a dexterous grasp is held).
 _HOLDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
@@ -115,7 +117,7 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
             touched_at = elapsed
         if touched_at is not None and elapsed - touched_at >= run.n_steps(p.close_settle_s):
             break
-        if grip.mode == "position" and run.scene.hand_synergy() > 0.995:
+        if grip.mode == "position" and run.scene.hand_synergy() > CLOSED_SYNERGY:
             break
     if not p.regulate_grip_after_close:
         run.grip = None
