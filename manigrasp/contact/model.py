@@ -19,6 +19,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from manigrasp.contact.defaults import STANDARD_MU
 from manigrasp.errors import ManigraspError
 
 UNIT_TOLERANCE = 1e-6
@@ -100,7 +101,7 @@ class Contact:
 
     position: np.ndarray
     normal: np.ndarray
-    mu: float = 0.5
+    mu: float = STANDARD_MU
     kind: ContactType = ContactType.HARD_FINGER
     gamma: float = 0.0
     tangent: np.ndarray | None = None

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from manigrasp.contact.defaults import STANDARD_MU, STANDARD_ROLLING_M, STANDARD_TORSION_M
 from manigrasp.errors import MeshError
 from manigrasp.objects.asset import ObjectAsset
 from manigrasp.objects.cache import HullCache, cache_key, check_name, inside, name_from_path
@@ -30,7 +31,7 @@ from manigrasp.objects.validate import validate_and_repair
 from manigrasp.paths import cache_dir
 
 DEFAULT_DENSITY = 500.0  # [kg/m^3], YCB-like solids without a known mass
-DEFAULT_FRICTION = (0.5, 0.005, 0.0001)  # sliding, torsional [m], rolling [m]
+DEFAULT_FRICTION = (STANDARD_MU, STANDARD_TORSION_M, STANDARD_ROLLING_M)  # sliding, torsional [m], rolling [m]
 MAX_FACES = 250_000
 """Largest mesh built (faces): CoACD's time and memory grow with the face count (a 2-million-face
 mesh ran 5 min to 11.5 GB and aborted); a YCB google_16k mesh has ~32k faces."""

@@ -14,10 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from manigrasp.contact import ContactSet, ContactType
+from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
 from manigrasp.grasp import ferrari_canny_batch, min_friction_for_closure_batch
 
-DEFAULT_FRICTION = 0.5  # [-], the standard protocol's hand-object friction
-DEFAULT_TORSION = 0.005  # [m], the standard protocol's torsional friction of hand geoms
 MIN_FRICTION_TOLERANCE = 1e-3  # [-], bisection tolerance of the minimum friction
 
 
@@ -31,8 +30,8 @@ class ContactModel:
         min_friction: also compute the smallest friction for closure (a bisection; costs ~10 epsilon evaluations).
     """
 
-    mu: float = DEFAULT_FRICTION
-    gamma: float = DEFAULT_TORSION
+    mu: float = STANDARD_MU
+    gamma: float = STANDARD_TORSION_M
     min_friction: bool = True
 
 

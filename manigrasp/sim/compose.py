@@ -33,6 +33,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from manigrasp.contact.defaults import STANDARD_ROLLING_M, STANDARD_TORSION_M
 from manigrasp.errors import SimulationError
 from manigrasp.hands import pads
 from manigrasp.hands.base import Hand
@@ -121,7 +122,8 @@ def compose_spec(hand: Hand, frames: HandFrames, obj: ObjectSource | None,
 def _add_table(spec: mujoco.MjSpec, config: SceneConfig) -> None:
     half = np.asarray(config.table_half_extents, float)
     spec.worldbody.add_geom(name=TABLE_GEOM, type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
-                            pos=[0.0, 0.0, -half[2]], friction=[config.table_friction, 0.005, 0.0001],
+                            pos=[0.0, 0.0, -half[2]],
+                            friction=[config.table_friction, STANDARD_TORSION_M, STANDARD_ROLLING_M],
                             rgba=[0.55, 0.45, 0.35, 1.0])
     spec.worldbody.add_light(name="table/light", pos=[0.0, 0.0, 1.5], dir=[0.0, 0.0, -1.0])
 
@@ -193,7 +195,8 @@ def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig) -> None:
             if geom.contype == 0 and geom.conaffinity == 0:
                 continue
             element = pads.is_element(geom.name.removeprefix(HAND_PREFIX))
-            geom.friction = [config.hand_friction, 0.0 if element else config.hand_torsional_friction, 0.0001]
+            torsion = 0.0 if element else config.hand_torsional_friction
+            geom.friction = [config.hand_friction, torsion, STANDARD_ROLLING_M]
             geom.condim = 3 if element else config.hand_condim
             geom.priority = max(int(geom.priority), 1)
 

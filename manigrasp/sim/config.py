@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import mujoco
 
+from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
 from manigrasp.errors import ConfigError
 from manigrasp.hands.pads import PadModel
 
@@ -62,12 +63,12 @@ class SceneConfig:
     cone: str = "elliptic"
     impratio: float = 10.0
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
-    hand_friction: float = 0.5
-    hand_torsional_friction: float = 0.005
+    hand_friction: float = STANDARD_MU
+    hand_torsional_friction: float = STANDARD_TORSION_M
     hand_condim: int = 4
     hand_gravcomp: bool = True
     table_half_extents: tuple[float, float, float] = (0.4, 0.4, 0.02)
-    table_friction: float = 0.5
+    table_friction: float = STANDARD_MU
     open_settle_time: float = 0.5
     pads: str = "rigid"
     pad_modulus: float = 3.4e5

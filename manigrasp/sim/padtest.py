@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from manigrasp.contact.defaults import STANDARD_ROLLING_M
 from manigrasp.hands import pads
 from manigrasp.sim.config import SceneConfig
 
@@ -72,7 +73,7 @@ def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | 
     carrier.add_joint(name="turn", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], damping=[0.0])
     carrier.add_geom(name="pad", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(PAD_HALF), pos=[0, 0, -PAD_HALF[2]],
                      mass=0.1, priority=1, condim=config.hand_condim,
-                     friction=[config.hand_friction, config.hand_torsional_friction, 0.0001],
+                     friction=[config.hand_friction, config.hand_torsional_friction, STANDARD_ROLLING_M],
                      solref=[0.004, 1.0], solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
     if mode == "compliant":
         pads.make_compliant(spec, [("pad", np.array([0.0, 0.0, -1.0]))], config.pad_model(),
