@@ -273,7 +273,10 @@ def test_report_leads_with_one_line_per_planner_and_labels_the_pooled_line(tmp_p
     assert "- **parallel_jaw / antipodal: 16/20 successes, rate 0.80 [0.58, 0.92]**" in head
     assert "- **parallel_jaw / random: 2/20 successes" in head
     assert "Overall" not in text and "**Pooled" not in head
-    assert f"Pooled ({POOLED}, 2 combination(s), so it mixes planners): 18/40" in head
+    assert f"Pooled ({POOLED}, 2 combinations, so it mixes planners): 18/40" in head
+    one = _results({("025_mug", "antipodal"): 18})  # one planner: the pooled line claims no mixing
+    head = write_markdown(summarize(one), one, tmp_path, RUN_META).read_text().split("## Per hand")[0]
+    assert f"Pooled ({POOLED}, one combination, the line above): 18/20" in head and "mixes" not in head
 
 
 def test_report_out_writes_the_report_elsewhere(tmp_path, capsys):

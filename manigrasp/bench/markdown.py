@@ -68,9 +68,10 @@ def lead_lines(report: Report) -> list[str]:
 
 def pooled_line(report: Report) -> str:
     """The all-trials line, saying what it pools."""
-    r = report.overall
-    return (f"Pooled ({POOLED}, {len(report.by_method)} combination(s), so it mixes planners): "
-            f"{r.successes}/{r.trials}, rate {format_rate(r)}")
+    r, n = report.overall, len(report.by_method)
+    what = (f"{n} combinations, so it mixes planners" if len({p for _, p, _ in report.by_method}) > 1
+            else f"{n} combinations of one planner" if n > 1 else "one combination, the line above")
+    return f"Pooled ({POOLED}, {what}): {r.successes}/{r.trials}, rate {format_rate(r)}"
 
 
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
