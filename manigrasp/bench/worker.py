@@ -156,16 +156,10 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
         camera = group.camera or CameraSetup()
     if camera is not None:
         result = replace(result, **camera.record())
-    if index < len(plan.candidates):
+    if index < len(plan.candidates):  # a GraspCandidate with numeric fields (planners.plan validated it)
         candidate = plan.candidates[index]
-        width = getattr(candidate, "width", None)
-        try:
-            width = float(width) if width is not None else math.nan
-            preshape = float(getattr(candidate, "preshape", 0.0) or 0.0)
-        except (TypeError, ValueError):
-            width, preshape = math.nan, math.nan
-        result = replace(result, grasp=PoseRecord.of(getattr(candidate, "pose", np.full((4, 4), np.nan))),
-                         grasp_width_m=width, grasp_preshape=preshape)
+        result = replace(result, grasp=PoseRecord.of(candidate.pose), grasp_preshape=float(candidate.preshape),
+                         grasp_width_m=math.nan if candidate.width is None else float(candidate.width))
     return key, result
 
 
