@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from multiprocessing import get_context
 from multiprocessing.connection import Connection, wait
+from typing import Self
 
 DEFAULT_SETUP_S = 600.0
 """Budget of a task's part before `timed_start` (scene compile, object load) [s]."""
@@ -118,7 +119,30 @@ class _Worker:
         self.conn.close()
 
 
-class Pool:
+class _Queued:
+    """What both pools share: the queue of tasks waiting for a slot, and closing on exit."""
+
+    def __init__(self) -> None:
+        self._queue: deque[Task] = deque()
+
+    def submit(self, task: Task, first: bool = False) -> None:
+        """Queue `task` (at the front with `first`)."""
+        if first:
+            self._queue.appendleft(task)
+        else:
+            self._queue.append(task)
+
+    def close(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class Pool(_Queued):
     """`jobs` worker processes (spawned) running `Task`s under their budgets.
 
     Args:
@@ -127,18 +151,11 @@ class Pool:
     """
 
     def __init__(self, jobs: int, setup_s: float = DEFAULT_SETUP_S) -> None:
+        super().__init__()
         self._context = get_context("spawn")
         self._jobs = max(1, jobs)
         self._setup_s = setup_s
-        self._queue: deque[Task] = deque()
         self._workers: list[_Worker] = []
-
-    def submit(self, task: Task, first: bool = False) -> None:
-        """Queue `task` (at the front with `first`)."""
-        if first:
-            self._queue.appendleft(task)
-        else:
-            self._queue.append(task)
 
     def outcomes(self) -> Iterator[Outcome]:
         """Run the queued tasks (and any submitted meanwhile), yielding each one's `Outcome` as it ends."""
@@ -199,12 +216,6 @@ class Pool:
             w.kill()
         self._workers = []
 
-    def __enter__(self) -> Pool:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
 
 def _death(w: _Worker) -> str:
     w.process.join(2.0)
@@ -217,7 +228,17 @@ def _death(w: _Worker) -> str:
     return f"its worker process exited with code {code} before finishing"
 
 
-class RayPool:
+@dataclass
+class _RayRun:
+    """A task running on Ray: its clock key, its deadline, whether it called `timed_start`."""
+
+    task: Task
+    key: int
+    deadline: float
+    started: bool = False
+
+
+class RayPool(_Queued):
     """The `Pool` interface on a Ray cluster: the same `Task`s, budgets and `Outcome`s.
 
     At most as many tasks run as the cluster has CPUs (the rest wait here, so a task's clock never runs while
@@ -235,21 +256,14 @@ class RayPool:
     POLL_S = 0.5
 
     def __init__(self, ray, slots: int | None = None, setup_s: float = DEFAULT_SETUP_S) -> None:  # noqa: ANN001
+        super().__init__()
         self._ray = ray
         self._slots = max(1, slots or int(ray.cluster_resources().get("CPU", 1)))
         self._setup_s = setup_s
-        self._queue: deque[Task] = deque()
-        self._running: dict = {}  # ObjectRef -> [task, key, deadline, started]
+        self._running: dict[object, _RayRun] = {}  # by ObjectRef
         self._clock = ray.remote(num_cpus=0)(_Clock).remote()
         self._call = ray.remote(max_retries=0)(_ray_call)
         self._keys = 0
-
-    def submit(self, task: Task, first: bool = False) -> None:
-        """Queue `task` (at the front with `first`)."""
-        if first:
-            self._queue.appendleft(task)
-        else:
-            self._queue.append(task)
 
     def outcomes(self) -> Iterator[Outcome]:
         """Run the queued tasks (and any submitted meanwhile), yielding each one's `Outcome` as it ends."""
@@ -259,28 +273,28 @@ class RayPool:
                 task = self._queue.popleft()
                 self._keys += 1
                 ref = self._call.remote(self._clock, self._keys, task.fn, *task.args)
-                self._running[ref] = [task, self._keys, time.monotonic() + self._setup_s + task.budget_s, False]
-            nearest = min(entry[2] for entry in self._running.values()) - time.monotonic()
+                self._running[ref] = _RayRun(task, self._keys, time.monotonic() + self._setup_s + task.budget_s)
+            nearest = min(run.deadline for run in self._running.values()) - time.monotonic()
             ready, _ = ray.wait(list(self._running), num_returns=1, timeout=max(0.0, min(nearest, self.POLL_S)))
             started = set(ray.get(self._clock.take.remote()))
             now = time.monotonic()
-            for entry in self._running.values():
-                if entry[1] in started and not entry[3]:
-                    entry[2], entry[3] = now + entry[0].budget_s, True
+            for run in self._running.values():
+                if run.key in started and not run.started:
+                    run.deadline, run.started = now + run.task.budget_s, True
             for ref in ready:
-                task, _, _, was_started = self._running.pop(ref)
+                run = self._running.pop(ref)
                 try:
-                    yield Outcome(task, "done", ray.get(ref), started=was_started)
+                    yield Outcome(run.task, "done", ray.get(ref), started=run.started)
                 except ray.exceptions.RayTaskError as exc:  # the task raised
-                    yield Outcome(task, "error", detail=_ray_reason(exc), started=was_started)
+                    yield Outcome(run.task, "error", detail=_ray_reason(exc), started=run.started)
                 except ray.exceptions.RayError as exc:  # its worker died
-                    yield Outcome(task, "died", detail=f"its Ray task failed: {_ray_reason(exc)}",
-                                  started=was_started)
-            for ref in [r for r, entry in self._running.items() if now > entry[2]]:
-                task, _, _, was_started = self._running.pop(ref)
+                    yield Outcome(run.task, "died", detail=f"its Ray task failed: {_ray_reason(exc)}",
+                                  started=run.started)
+            for ref in [r for r, run in self._running.items() if now > run.deadline]:
+                run = self._running.pop(ref)
                 ray.cancel(ref, force=True)
-                yield Outcome(task, "timeout", detail=f"overran its {task.budget_s:g} s budget; its Ray task was "
-                                                      "cancelled (worker process ended)", started=was_started)
+                yield Outcome(run.task, "timeout", detail=f"overran its {run.task.budget_s:g} s budget; its Ray task "
+                                                          "was cancelled (worker process ended)", started=run.started)
 
     def close(self) -> None:
         """Cancel what still runs."""
@@ -288,12 +302,6 @@ class RayPool:
             self._ray.cancel(ref, force=True)
         self._running.clear()
         self._ray.kill(self._clock)
-
-    def __enter__(self) -> RayPool:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
 
 class _Clock:
