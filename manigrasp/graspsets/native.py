@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from manigrasp.geometry import pose_from_pos_quat
 from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef
 
 FORMAT = "manigrasp.grasps"
@@ -42,20 +43,6 @@ SUFFIXES = (".json", ".npz")
 _TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "grasps")
 _GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label")
 _OBJECT_KEYS = ("name", "mesh", "scale", "mass")
-
-
-def quat_matrix(position: np.ndarray, quat: np.ndarray) -> np.ndarray:
-    """(n, 4, 4) poses from positions (n, 3) and quaternions (n, 4) (w, x, y, z), NOT normalised
-    (a non-unit quaternion gives a non-rotation, which placing the grasp reports)."""
-    w, x, y, z = np.moveaxis(np.asarray(quat, float), -1, 0)
-    out = np.zeros((len(position), 4, 4))
-    out[:, :3, :3] = np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
-    out[:, :3, 3] = position
-    out[:, 3, 3] = 1.0
-    return out
 
 
 def read(path: str | Path) -> GraspSet:
@@ -110,7 +97,7 @@ def _pose(grasp: dict, where: str) -> np.ndarray:
     if pos.shape != (3,) or quat.shape != (4,):
         raise GraspFileError(f"{where}: position must have 3 numbers and quaternion 4 (w, x, y, z), got "
                              f"shapes {pos.shape} and {quat.shape}")
-    return quat_matrix(pos[None], quat[None])[0]
+    return pose_from_pos_quat(pos[None], quat[None])[0]
 
 
 def _array(value: Any, where: str) -> np.ndarray:
@@ -171,7 +158,7 @@ def _read_npz(path: Path) -> GraspSet:
         if pos.ndim != 2 or pos.shape[1] != 3 or quat.shape != (len(pos), 4):
             raise GraspFileError(f"{path}: 'positions' must be (n, 3) and 'quaternions' (n, 4), got "
                                  f"{pos.shape} and {quat.shape}")
-        poses = quat_matrix(pos, quat)
+        poses = pose_from_pos_quat(pos, quat)
     else:
         raise GraspFileError(f"{path}: missing key 'poses' (n, 4, 4) or 'positions' and 'quaternions'")
     n = len(poses)

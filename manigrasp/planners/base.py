@@ -26,6 +26,7 @@ import numpy as np
 import trimesh
 
 from manigrasp.errors import PlannerError
+from manigrasp.geometry import pose_from_pos_quat
 from manigrasp.hands.base import Hand
 from manigrasp.objects.asset import ObjectAsset
 
@@ -186,12 +187,7 @@ class GraspCandidate:
         if q.shape != (4,) or not np.all(np.isfinite(q)) or abs(np.linalg.norm(q) - 1.0) > UNIT_TOLERANCE:
             raise PlannerError(f"grasp quaternion {q.tolist()} is not a finite unit quaternion (w, x, y, z); "
                                f"its norm is {np.linalg.norm(q):.6g}")
-        w, x, y, z = q
-        pose = np.eye(4)
-        pose[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
-        pose[:3, 3] = pos
+        pose = pose_from_pos_quat(np.asarray(pos, dtype=float).reshape(1, 3), q[None])[0]
         return cls(pose=pose, score=score, **fields)  # type: ignore[arg-type]
 
     @property
