@@ -1,7 +1,8 @@
 """Scan vs recipe, rigid vs compliant pads, side by side: success counts and trials per second.
 
-For each pad model (default: rigid, then compliant; `--modes` adds e.g. `compliant:3e6`, compliant pads
-with a Young's modulus of 3 MPa, `scene.pad_modulus`) one run of the five shipped real YCB scans and their
+For each pad model (default: rigid, then compliant; `--modes` adds e.g. `compliant:E=3e6` (compliant pads
+with a Young's modulus of 3 MPa, `scene.pad_modulus`), `compliant:mu=0.5` (their rubber's friction,
+`scene.pad_friction`) or `compliant:pitch=0.02`) one run of the five shipped real YCB scans and their
 recipe twins (`configs/scans.yaml`, narrowed by the options) goes into OUT/<pads>/; then the
 table prints, per hand x planner x object, successes/trials on the scan and on the recipe under
 each pad model, the gap in points (recipe - scan) and whether it is within 10 points; and per
@@ -10,7 +11,7 @@ pad model the trials per second of the whole run (same objects, same machine, on
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bench_scans                  # parallel_jaw, antipodal
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --hands parallel_jaw panda --planners antipodal random
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --config quick             # any config: speed side by side
-    .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --modes rigid compliant compliant:3e6
+    .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --modes rigid compliant compliant:mu=0.5
 
 Runs resume (a re-run prints the stored results without simulating again; then trials/s is of the
 trials simulated by this invocation, so time a fresh OUT).
@@ -35,10 +36,21 @@ from manigrasp.paths import configs_dir  # noqa: E402
 MODES = ("rigid", "compliant")
 
 
+MODE_KEYS = {"E": "pad_modulus", "mu": "pad_friction", "pitch": "pad_pitch"}
+
+
 def mode_overrides(mode: str) -> list[str]:
-    """Config overrides of a pad mode: "rigid", "compliant" or "compliant:E" (E: Young's modulus [Pa])."""
-    pads, _, modulus = mode.partition(":")
-    return [f"scene.pads={pads}"] + ([f"scene.pad_modulus={float(modulus)}"] if modulus else [])
+    """Config overrides of a pad mode: "rigid", "compliant", or "compliant:" followed by comma-separated
+    settings E=<Young's modulus, Pa>, mu=<pad friction>, pitch=<element pitch, m> (a bare number is E)."""
+    pads, _, rest = mode.partition(":")
+    out = [f"scene.pads={pads}"]
+    for item in filter(None, rest.split(",")):
+        key, eq, value = item.rpartition("=")
+        key = key if eq else "E"
+        if key not in MODE_KEYS:
+            raise SystemExit(f"unknown pad setting {key!r} in mode {mode!r}; available: {', '.join(MODE_KEYS)}")
+        out.append(f"scene.{MODE_KEYS[key]}={float(value)}")
+    return out
 
 
 def _run(config_path: Path, overrides: list[str], out: Path, jobs: int) -> tuple[dict, float, int]:
@@ -60,7 +72,7 @@ def main() -> None:
     parser.add_argument("--objects", nargs="+", default=None, help="objects (default: the config's)")
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--modes", nargs="+", default=list(MODES),
-                        help="pad modes, first is the reference: rigid, compliant, compliant:E (E in Pa)")
+                        help="pad modes, first is the reference: rigid, compliant, compliant:E=..,mu=..,pitch=..")
     args = parser.parse_args()
     modes = args.modes
     path = Path(args.config) if args.config.endswith(".yaml") else configs_dir() / f"{args.config}.yaml"
@@ -70,8 +82,8 @@ def main() -> None:
           f"{platform.processor() or platform.machine()}")
     groups, speed = {}, {}
     for mode in modes:
-        groups[mode], seconds, ran = _run(path, [*common, *mode_overrides(mode)], args.out / mode.replace(":", "_"),
-                                          args.jobs)
+        folder = args.out / mode.replace(":", "_").replace(",", "_")
+        groups[mode], seconds, ran = _run(path, [*common, *mode_overrides(mode)], folder, args.jobs)
         speed[mode] = (ran, seconds)
     print("\n## trials per second (whole run: planning + simulation)")
     for mode, (ran, seconds) in speed.items():
@@ -87,7 +99,7 @@ def main() -> None:
         f"{m + ' scan':>14s} {m + ' recipe':>16s} {'gap':>5s} {'ok':>3s}" for m in modes))
     rows = {mode: {(r.method, r.recipe): r for r in twin_rows(groups[mode])} for mode in modes}
     for key in sorted(set().union(*(rows[m].keys() for m in modes))):
-        (hand, planner, _), recipe = key
+        (hand, planner, *_), recipe = key
         cells = []
         for mode in modes:
             r = rows[mode].get(key)
@@ -96,14 +108,14 @@ def main() -> None:
                          f"{'yes' if r.within else 'no':>3s}")
         print(f"{hand:13s} {planner:10s} {recipe:20s} " + " ".join(cells))
     ref = modes[0]
-    others = sorted({k[3] for k in groups[ref]} - {r for (_, r) in rows[ref]} - {r.scan for r in rows[ref].values()})
+    others = sorted({k[-1] for k in groups[ref]} - {r for (_, r) in rows[ref]} - {r.scan for r in rows[ref].values()})
     if others:
         print("\n## other objects (successes/trials): " + " vs ".join(modes))
         for key, rate in sorted(groups[ref].items()):
-            if key[3] in others:
+            if key[-1] in others:
                 cells = [f"{rate.successes:3d}/{rate.trials:<3d}"] + [
                     "-" if (c := groups[m].get(key)) is None else f"{c.successes:3d}/{c.trials:<3d}" for m in modes[1:]]
-                print(f"{key[0]:13s} {key[1]:10s} {key[3]:20s} " + " ".join(f"{c:>10s}" for c in cells))
+                print(f"{key[0]:13s} {key[1]:10s} {key[-1]:20s} " + " ".join(f"{c:>10s}" for c in cells))
 
 
 if __name__ == "__main__":

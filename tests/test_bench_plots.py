@@ -40,10 +40,10 @@ def _trials(planner: str, outcomes: dict[str, int], objects=("025_mug",)) -> lis
         for mode, count in outcomes.items():
             dropped = mode.startswith("dropped_perturb")
             status = Status.DROPPED_PERTURB if dropped else Status(mode)
-            detail = mode[len("dropped_perturb"):] if dropped else ""  # the direction, "+x"
+            direction = mode[len("dropped_perturb"):] if dropped else ""  # "+x"
             for _ in range(count):
-                r = TrialResult(status, detail=detail, planned=GraspMetrics(2, 1.0, 0.01 * i, 0.3), score=1.0,
-                                plan_time_s=0.5 + 0.1 * objects.index(obj))
+                r = TrialResult(status, perturb_direction=direction, planned=GraspMetrics(2, 1.0, 0.01 * i, 0.3),
+                                score=1.0, plan_time_s=0.5 + 0.1 * objects.index(obj))
                 out.append((TrialKey(obj, "parallel_jaw", planner, "ground_truth", "standard", i), r))
                 i += 1
     return out

@@ -27,7 +27,9 @@ def _results(successes: dict[tuple[str, str], int], n: int = 20) -> list[tuple[T
         for i in range(n):
             ok = i < k
             status = Status.SUCCESS if ok else (Status.DROPPED_PERTURB if i % 2 else Status.NO_CONTACT)
-            result = TrialResult(status, detail="+x" if status is Status.DROPPED_PERTURB else "",
+            dropped = status is Status.DROPPED_PERTURB
+            result = TrialResult(status, detail="+x: object moved 3.0 cm / 0.0 deg in the hand" if dropped else "",
+                                 perturb_direction="+x" if dropped else "",
                                  planned=GraspMetrics(2, float(ok), 0.2 if ok else 0.01, 0.2),
                                  planning_time_s=0.01, score=float(i % 3), seed=i)
             out.append((TrialKey(obj, "parallel_jaw", planner, "ground_truth", "standard", i), result))

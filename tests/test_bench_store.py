@@ -155,3 +155,29 @@ def test_a_garbage_store_or_a_bad_row_is_a_config_error(tmp_path):
     db.close()
     with ResultsStore(path, readonly=True) as store, pytest.raises(ConfigError, match="not a valid row"):
         list(store.results())
+
+
+def test_a_store_written_before_perturb_direction_reads_back_as_it_was_written(tmp_path):
+    """An older store has no perturb_direction column: its rows read back with the direction their detail
+    began with (as the report parsed it then), and its last_phase strings as the same `Phase` values."""
+    import sqlite3
+
+    from manigrasp.protocol.result import Phase
+
+    path = tmp_path / "results.sqlite"
+    dropped = TrialResult(Status.DROPPED_PERTURB, detail="-y: object moved 2.5 cm / 3.0 deg in the hand",
+                          last_phase="lift", perturb_direction="-y")
+    shaken = TrialResult(Status.DROPPED_PERTURB, detail="shake: object moved 4.1 cm / 0.0 deg in the hand",
+                         last_phase="lift")
+    with ResultsStore(path) as store:
+        for i, result in enumerate((dropped, shaken, _result(2))):
+            store.add(_key(i), result)
+    with sqlite3.connect(path) as db:
+        db.execute("ALTER TABLE trials DROP COLUMN perturb_direction")
+    with ResultsStore(path, readonly=True) as old:
+        again = [r for _, r in old.results()]
+    assert again[0] == dropped and again[0].perturb_direction == "-y"
+    assert again[1] == shaken and again[1].perturb_direction == ""
+    assert all(r.last_phase is Phase.LIFT for r in again)
+    with ResultsStore(path) as reopened:  # opened for writing: the column is added, NULL for the old rows
+        assert [r for _, r in reopened.results()] == again

@@ -15,12 +15,13 @@ from manigrasp.hands import load, pads
 from manigrasp.sim import SceneConfig, build_scene
 from manigrasp.sim.padtest import PAD_HALF, bumps, press_pad
 
-MU = SceneConfig().hand_friction
+MU_RIGID = SceneConfig().hand_friction  # the rigid pads and the rest of the hand
+MU_PAD = SceneConfig().pad_friction  # the compliant pads' rubber
 FORCE = 35.0  # [N], the standard protocol's grip (half of parallel_jaw's 70 N)
 
 
-def patch_torque(force: float) -> float:
-    return pads.uniform_patch_torque(MU, force, PAD_HALF[:2])
+def patch_torque(force: float, mu: float = MU_PAD) -> float:
+    return pads.uniform_patch_torque(mu, force, PAD_HALF[:2])
 
 
 def test_uniform_patch_torque_matches_closed_forms() -> None:
@@ -37,12 +38,23 @@ def test_element_stiffnesses_sum_to_the_pad_stiffness() -> None:
                            half=np.array([0.01, 0.015]), thickness=0.006)
     model = pads.PadModel()
     points, area, radius = pads.element_grid(pad, model.pitch)
-    assert len(points) == 3 * 4 and radius == pytest.approx(0.005)  # nodes on a 1 cm grid, rims included
+    assert len(points) == 2 * 3 and radius == pytest.approx(0.005)  # one element per 1 cm cell
     assert area.sum() == pytest.approx(4 * 0.01 * 0.015)
-    np.testing.assert_allclose(np.abs(points[:, :2]).max(axis=0), [0.01, 0.015])  # the outline touches
-    assert area.min() == pytest.approx(area.max() / 4)  # a corner carries a quarter cell
+    np.testing.assert_allclose(np.abs(points[:, :2]).max(axis=0) + radius, [0.01, 0.015])  # they reach the rims
+    np.testing.assert_allclose(area, 1e-4)  # equal cells
     k = pads.element_stiffness(model, area, pad.thickness)
     assert k.sum() == pytest.approx(model.modulus * 6e-4 / 0.006)  # E A / h
+
+
+def test_cell_centres_give_the_patch_mean_radius() -> None:
+    """The midpoint rule: sum A_i r_i / A of the element grid is within 10 % of the uniform patch's mean
+    distance from the centre (what the torsion capacity mu F mean(r) needs), for each hand's pad size."""
+    for half in ((0.01, 0.015), (0.008, 0.008), (0.01, 0.01675)):
+        pad = pads.PadGeometry(center=np.zeros(3), normal=np.array([0, 0, -1.0]), axes=np.eye(3)[:2],
+                               half=np.array(half), thickness=0.006)
+        points, area, _ = pads.element_grid(pad, pads.PadModel().pitch)
+        grid = float(area @ np.hypot(points[:, 0], points[:, 1]) / area.sum())
+        assert 0.9 < grid / pads.uniform_patch_torque(1.0, 1.0, half) < 1.0  # slightly low: r is 0 at the centre
 
 
 @pytest.mark.parametrize("mode", ["compliant", "rigid"])
@@ -53,10 +65,20 @@ def test_pressing_a_flat_face_returns_the_press_force(mode: str) -> None:
 
 def test_compliant_pad_holds_the_uniform_patch_torque_and_rigid_pad_overshoots_it() -> None:
     compliant = press_pad("compliant", FORCE)
-    assert compliant.contacts == 12  # every element of the 3 x 4 grid touches the flat face
+    assert compliant.contacts == 6  # every element of the 2 x 3 grid touches the flat face
     assert compliant.holding_torque == pytest.approx(patch_torque(FORCE), rel=0.15)
     # The rigid box touches at its corners (1.8 cm out) plus soft-finger torsion: about 2x too much.
-    assert press_pad("rigid", FORCE).holding_torque > 1.5 * patch_torque(FORCE)
+    assert press_pad("rigid", FORCE).holding_torque > 1.5 * patch_torque(FORCE, MU_RIGID)
+
+
+def test_the_pad_rubber_friction_is_the_elements_own() -> None:
+    """The surface keeps MuJoCo's default friction 1; the pad has contact priority, so the patch holds
+    in proportion to the pad's own friction (with MuJoCo's max rule of equal priorities both would hold
+    at 1)."""
+    low = press_pad("compliant", FORCE, config=SceneConfig(pad_friction=0.5)).holding_torque
+    high = press_pad("compliant", FORCE, config=SceneConfig(pad_friction=1.0)).holding_torque
+    assert low == pytest.approx(patch_torque(FORCE, 0.5), rel=0.15)
+    assert high / low == pytest.approx(2.0, rel=0.1)
 
 
 def test_compliant_pad_keeps_its_torque_on_1mm_bumps_and_rigid_pad_loses_it() -> None:
@@ -84,7 +106,10 @@ def test_every_parallel_jaw_hand_gets_compliant_pads(hand: str) -> None:
         g = mujoco.mj_name2id(compliant, mujoco.mjtObj.mjOBJ_GEOM, f"hand/{name}")
         assert compliant.geom_contype[g] == 0 and compliant.geom_conaffinity[g] == 0
     assert (compliant.geom_condim[elements] == 3).all()
-    np.testing.assert_allclose(compliant.geom_friction[elements, 0], MU)
+    np.testing.assert_allclose(compliant.geom_friction[elements, 0], MU_PAD)  # the rubber's own friction
+    others = [g for g in range(compliant.ngeom) if g not in elements and compliant.geom_contype[g]
+              and compliant.geom_bodyid[g] != 0 and compliant.geom(g).name.startswith("hand/")]
+    np.testing.assert_allclose(compliant.geom_friction[others, 0], MU_RIGID)  # the rest of the hand keeps 0.5
 
 
 def test_bad_pad_options_are_config_errors() -> None:
@@ -92,18 +117,20 @@ def test_bad_pad_options_are_config_errors() -> None:
         SceneConfig(pads="soft")
     with pytest.raises(ConfigError, match="pad_pitch"):
         SceneConfig(pad_pitch=0.0)
+    with pytest.raises(ConfigError, match="pad_friction"):
+        SceneConfig(pad_friction=-0.1)
 
 
 def test_an_element_pressed_alone_bottoms_out_at_its_travel() -> None:
-    # A 8 mm post under one corner element carries the whole 35 N: the element's spring (a quarter
-    # cell, 1.4e3 N/m) bottoms out at its travel (80 % of the 6 mm pad) and the rigid backing takes
+    # A 8 mm post under one corner element carries the whole 35 N: the element's spring (one 1 cm
+    # cell, 5.7e3 N/m) bottoms out at its travel (80 % of the 6 mm pad) and the rigid backing takes
     # the rest. A soft limit let it sink 2x deeper, past the pad's own thickness.
     from manigrasp.sim.padtest import SURFACE_HALF, pad_rig
 
     n = 81
     grid = np.linspace(-SURFACE_HALF, SURFACE_HALF, n)
     x, y = np.meshgrid(grid, grid, indexing="xy")
-    heights = np.where((np.abs(x - PAD_HALF[0]) < 0.002) & (np.abs(y - PAD_HALF[1]) < 0.002), 0.008, 0.0)
+    heights = np.where((np.abs(x - PAD_HALF[0] / 2) < 0.002) & (np.abs(y - PAD_HALF[1] * 2 / 3) < 0.002), 0.008, 0.0)
     model = pad_rig("compliant", heights)
     data = mujoco.MjData(model)
     while data.time < 0.6:
@@ -115,3 +142,4 @@ def test_an_element_pressed_alone_bottoms_out_at_its_travel() -> None:
     assert compression.max() > 0.95 * travel  # the post's element is bottomed out
     assert compression.max() < travel + 0.0005
     assert np.sort(compression)[-2] < 0.001  # and it is the only one loaded
+

@@ -11,7 +11,8 @@ import pytest
 import trimesh
 
 from manigrasp.objects import build_object
-from manigrasp.protocol import PROTOCOLS, Status, TrialResult, settle_object
+from manigrasp.protocol import PROTOCOLS, GraspParams, Phase, Status, TrialResult, settle_object
+from manigrasp.protocol.execution import Abort, TrialRun
 from manigrasp.protocol.observer import NullObserver, TrialObserver
 from manigrasp.sim import Scene, build_scene
 
@@ -123,3 +124,45 @@ def test_an_invalid_grasp_is_still_started_and_ended(box: tuple) -> None:
                                             object_pose=rest, observer=recorder)
     assert result.status is Status.INVALID_GRASP
     assert recorder.events == [("start", ""), ("end", "")] and recorder.times == []
+
+
+@pytest.mark.parametrize(("name", "params", "after_lift"), [
+    ("lift", {"hold_s": 0.2}, []),
+    ("shake", {"hold_s": 0.2, "shake_cycles": 1}, [("shake", "")]),
+])
+def test_each_protocol_announces_its_phases_in_order_as_phases(box: tuple, name: str, params: dict,
+                                                               after_lift: list) -> None:
+    """`standard` and `six_direction` are checked above; every phase arrives as a `Phase`."""
+    recorder = Recorder()
+    result = _run(box, name, recorder, **params)
+    assert result.status is Status.SUCCESS, result.detail
+    assert recorder.events == [("start", ""), ("pregrasp", ""), ("approach", ""), ("close", ""), ("lift", ""),
+                               ("hold", ""), *after_lift, ("end", "")]
+    assert all(isinstance(phase, Phase) for phase, _ in recorder.events[1:-1])
+    assert result.last_phase is (Phase.SHAKE if name == "shake" else Phase.LIFT)
+
+
+def test_a_phase_owns_the_observer_call_the_watch_and_last_phase(box: tuple) -> None:
+    """Nested phases (the hold in the lift) are told to the observer but only the enclosing one becomes
+    `last_phase`; a phase that raises leaves `last_phase` as it was and is kept in `stopped_in`; each
+    phase's watch is in force inside it only, named by the direction of a nested phase."""
+    scene, rest, pose = box
+    recorder = Recorder()
+    run = TrialRun(scene, GraspParams(), None, observer=recorder)
+    run.reset(pose, rest, 0.0)
+    reference = run.object_in_hand()
+    with run.phase(Phase.LIFT, watch=Status.SLIPPED_LIFT):
+        assert run.watch is not None and run.watch[1:] == (Status.SLIPPED_LIFT, "lift")
+        assert np.array_equal(run.watch[0], reference)  # the object in the hand as the phase began
+        with run.phase(Phase.HOLD):
+            assert run.watch[2] == "lift"
+        with run.phase(Phase.PERTURB, "+y"):
+            assert run.watch[1:] == (Status.SLIPPED_LIFT, "+y")
+        assert run.last_phase == ""  # nested phases passed, the enclosing one not yet
+    assert run.last_phase is Phase.LIFT and run.watch is None
+    with pytest.raises(Abort):
+        with run.phase(Phase.PERTURB, announce=False):
+            with run.phase(Phase.PERTURB, "-z", watch=Status.DROPPED_PERTURB):
+                raise Abort(Status.DROPPED_PERTURB, "pushed out")
+    assert run.last_phase is Phase.LIFT and run.stopped_in == (Phase.PERTURB, "-z") and run.watch is None
+    assert recorder.events == [("lift", ""), ("hold", ""), ("perturb", "+y"), ("perturb", "-z")]

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import trimesh
 
+from manigrasp.bench.report import summarize
+from manigrasp.bench.store import TrialKey
 from manigrasp.objects import build_object
-from manigrasp.protocol import PROTOCOLS, Status, TrialResult, settle_object
+from manigrasp.protocol import PROTOCOLS, Phase, Status, TrialResult, settle_object
 from manigrasp.sim import Scene, build_scene
 
 BOX, MASS = 0.05, 0.3  # [m] cube edge, [kg]
@@ -54,7 +58,7 @@ def test_six_direction_weak_grip_drops_in_the_first_direction(box: tuple) -> Non
     scene = box[0]
     result = _run(box, "six_direction", grip_force=2.0)
     assert result.status is Status.DROPPED_PERTURB, result.detail
-    assert result.detail.startswith("+x")
+    assert result.detail.startswith("+x") and result.perturb_direction == "+x"
     assert result.last_phase == "close"
     assert scene.model.opt.gravity[2] == pytest.approx(-9.81)
 
@@ -62,7 +66,7 @@ def test_six_direction_weak_grip_drops_in_the_first_direction(box: tuple) -> Non
 def test_shake_end_to_end_on_a_box(box: tuple) -> None:
     result = _run(box, "shake")
     assert result.status is Status.SUCCESS, result.detail
-    assert result.last_phase == "perturb"
+    assert result.last_phase is Phase.SHAKE  # its own phase, not "perturb"
     assert result.fingers_in_contact == ("finger1", "finger2")
 
 
@@ -73,4 +77,19 @@ def test_violent_shake_drops_a_box_that_survives_the_lift(box: tuple) -> None:
     result = _run(box, "shake", grip_force=10.0, shake_amplitude=0.05, shake_frequency=5.0, shake_angle_deg=0.0)
     assert result.status is Status.DROPPED_PERTURB, result.detail
     assert result.detail.startswith("shake")
-    assert result.last_phase == "lift"
+    assert result.last_phase is Phase.LIFT
+    assert result.perturb_direction == ""  # a shake has no direction
+
+
+def test_six_direction_failure_names_its_direction_in_a_field_the_report_counts(box: tuple) -> None:
+    """2 N of grip: a 10 m g push along the closing axis (+y) takes the cube off one jaw (+z, into the palm,
+    is held). The trial fails at +y with a detail that names no direction; the direction is the
+    result's field, and the report's failure modes count the trial under it."""
+    result = _run(box, "six_direction", grip_force=2.0, directions=("+z", "+y"), force_s=1.0)
+    assert result.status is Status.DROPPED_PERTURB, result.detail
+    assert result.perturb_direction == "+y" and not result.detail.startswith("+y")
+    assert result.last_phase is Phase.CLOSE  # +z passed, then the closing of +y, not its push
+    key = TrialKey("box", "parallel_jaw", "fixed", "ground_truth", "six_direction", 0)
+    rate = summarize([(key, result)]).overall
+    assert rate.failure_modes == {"dropped_perturb+y": 1}
+    assert summarize([(key, replace(result, perturb_direction=""))]).overall.failure_modes == {"dropped_perturb": 1}

@@ -67,11 +67,8 @@ def planning_call_times(results: list[TrialResult]) -> list[float]:
 
 
 def _mode(result: TrialResult) -> str:
-    """The failure mode: the status, with the direction for `dropped_perturb` ("dropped_perturb+x")."""
-    direction = result.detail.split(":")[0].strip()
-    if result.status is Status.DROPPED_PERTURB and direction:
-        return f"dropped_perturb{direction}" if direction[0] in "+-" else f"dropped_perturb ({direction})"
-    return result.status.value
+    """The failure mode: the status, with its `perturb_direction` for `dropped_perturb` ("dropped_perturb+x")."""
+    return result.status.value + (result.perturb_direction if result.status is Status.DROPPED_PERTURB else "")
 
 
 @dataclass(frozen=True)

@@ -20,10 +20,14 @@ Parameters (`PadModel`) and their source:
   foundation stiffness per area E / h [N/m^3].
 - thickness h: the pad box's own thickness in the hand model (6 mm on
   `parallel_jaw`, 8 mm on `panda`, 2 mm on `robotiq_2f85`).
-- pitch 1 cm: nodes on a 1 cm grid that spans the whole face, rims and corners
-  included (3 x 4 on a 2 x 3 cm pad), each with its trapezoidal share of the
-  area, so the pad's outline touches like the rigid box's. Each element is one
-  extra degree of freedom: a finer grid costs simulation time in proportion.
+- pitch 1 cm: the face is cut into cells of about 1 cm (2 x 3 on a 2 x 3 cm pad)
+  and each cell gets one element at its centre carrying the cell's area, whose
+  ellipsoid spans the cell, so the elements cover the face to its rim. Centred
+  nodes are the midpoint rule of the patch integrals: their torsion capacity
+  mu F mean(r) is 6 % below the uniform patch's on a 2 x 3 cm pad (8 % on 2 x 2), where
+  nodes on the rims and corners (the first version, 3 x 4) put twice the weight
+  at the outline and cost twice the elements. Each element is one extra degree
+  of freedom and up to one contact: the simulation cost grows with their number.
   Each carries k_i = E A_i / h, so the stiffnesses sum to the pad's k = E A / h
   (3.4e4 N/m on `parallel_jaw`, 1 mm compression at the standard 35 N grip:
   enough to conform to millimetre bumps).
@@ -33,11 +37,31 @@ Parameters (`PadModel`) and their source:
 - damping: critical for each element (b_i = 2 sqrt(k_i m_i)).
 - travel: 80 % of h, then the element bottoms out on the rigid backing (a joint
   limit), as rubber does.
-- friction: each element gets the hand's sliding friction (0.5 in the standard
-  protocol) and no torsional friction of its own (condim 3): the patch's
-  torsional resistance comes from sliding friction over its area, integral of
-  mu p r dA (for a 2 x 3 cm pad under uniform pressure, 0.0046 F; the rigid box
-  touching at its corners gives about twice that).
+- friction mu = 1.0 (`PAD_FRICTION`, `SceneConfig.pad_friction`): the pad's own
+  rubber, not the hand's 0.5 (which the rigid pads keep, to reproduce older
+  runs). Gripper pads are silicone or polyurethane rubber: the Robotiq 2F-85's
+  fingertips are a silicone overmould (MuJoCo Menagerie's `robotiq_2f85` models
+  them at 0.6-0.7, a modelling choice), and Guo et al., "Design of parallel-jaw
+  gripper tip surfaces for robust grasping" (ICRA 2017), found Shore A30
+  silicone the most robust pad surface. Dry elastomers grip smooth hard surfaces
+  at mu about 1 and above, because rubber friction is adhesive and hysteretic
+  and grows as the rubber conforms (Roth, Driscoll and Holt, "Frictional
+  properties of rubber", J. Res. NBS 28, 439, 1942; B. N. J. Persson, "Silicone
+  rubber adhesion and sliding friction", Tribology Letters 62, 34, 2016; a
+  skin-equivalent silicone (L7350) measured above 1 dry against polymer
+  coatings in "Experimental investigation of a polymer coating in sliding
+  contact with skin-equivalent silicone rubber in an aqueous environment").
+  No measurement of silicone on printed cardboard was found; 1.0 is the round
+  value of the dry-elastomer range for cardboard, painted metal, glazed ceramic
+  and plastic, a sourced material value, not fitted to the benchmark
+  (`benchmarks/bench_scans.py --modes compliant compliant:mu=0.5` shows what it
+  changes). Elements have no torsional friction of their own
+  (condim 3): the patch's torsional resistance comes from sliding friction over
+  its area, integral of mu p r dA (for a 2 x 3 cm pad under uniform pressure,
+  0.0097 mu F; the rigid box touching at its corners gives about twice that).
+  The hand geoms have contact priority over objects and the table, so MuJoCo
+  uses the element's friction as it is (with equal priorities it would take the
+  larger of the two geoms' values, element by element).
 - element inertia: the spring-mass period must stay well above the 2 ms time
   step, so each joint gets armature k_i (dt / 0.5)^2 (an inertia along the
   joint only: it adds no weight and no hand inertia); each element body has 1 g.
@@ -45,8 +69,9 @@ Parameters (`PadModel`) and their source:
   the springs'), and elements do not collide with each other.
 
 Known limit of the 1 cm grid: a contact strip narrower than the spacing (a pad
-overlapping an object only by its rim, at a slant) is carried by one element,
-a point without torsional resistance, where a real pad has a small patch.
+overlapping an object only by its rim, at a slant, or an object's edge) is
+carried by one or two elements, points without torsional resistance, where a
+real pad has a small patch.
 
 The rigid pad box stays in the model as the backing, without collisions.
 """
@@ -63,6 +88,7 @@ from manigrasp.errors import HandError
 
 ELEMENT_PREFIX = "padel_"  # element bodies, joints and geoms: padel_<pad geom>_<i>_<j>
 ELEMENT_MASS = 0.001  # [kg]
+PAD_FRICTION = 1.0  # sliding friction of the pads' rubber (module docstring: sources)
 STABILITY_FACTOR = 0.5  # element spring-mass frequency times the time step
 # Elements are sibling bodies, which MuJoCo does not filter: contype 2 / conaffinity 1 keeps
 # them from colliding with each other while they still meet everything of contype 1.
@@ -88,6 +114,7 @@ class PadModel:
         travel_fraction: compression at which an element bottoms out, fraction of the thickness [-].
         damping_ratio: of each element's spring-mass pair [-].
         timestep: simulation step the element inertia is sized for [s].
+        friction: sliding friction of the pad's rubber against objects [-].
     """
 
     modulus: float = 3.4e5
@@ -95,9 +122,10 @@ class PadModel:
     travel_fraction: float = 0.8
     damping_ratio: float = 1.0
     timestep: float = 0.002
+    friction: float = PAD_FRICTION
 
     def __post_init__(self) -> None:
-        for key in ("modulus", "pitch", "travel_fraction", "damping_ratio", "timestep"):
+        for key in ("modulus", "pitch", "travel_fraction", "damping_ratio", "timestep", "friction"):
             if not getattr(self, key) > 0:
                 raise HandError(f"PadModel.{key} must be > 0, got {getattr(self, key)}")
 
@@ -135,27 +163,23 @@ def pad_geometry(geom: mujoco.MjsGeom, toward: np.ndarray) -> PadGeometry:
 
 
 def element_grid(pad: PadGeometry, pitch: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Element nodes on the face (n, 3) [m] in the body frame, their areas (n,) [m^2], and the sphere radius [m].
+    """Element nodes on the face (n, 3) [m] in the body frame, their areas (n,) [m^2], and the element radius [m].
 
-    Nodes span the whole face, its edges and corners included (n_i + 1 per axis,
-    n_i = max(1, round(2 half_i / pitch))), each carrying its trapezoidal share of the
-    area (1/4 of a cell at a corner, 1/2 on an edge, 1 inside): so the pad's outline
-    touches like the rigid box's (a strip of object under the pad's rim is still held)
-    and the areas sum to the face's.
+    The face is cut into n_u x n_v equal cells, n_i = max(2, round(2 half_i / pitch)),
+    one node at the centre of each carrying the cell's area (the midpoint rule of the
+    patch integrals), so the areas sum to the face's; the radius is half the smaller
+    cell side, so the elements reach the rims.
     """
-    axes_nodes, axes_weights = [], []
+    axes_nodes, sides = [], []
     for h in pad.half:
-        n = max(1, round(2 * h / pitch))
-        nodes = np.linspace(-h, h, n + 1)
-        weights = np.full(n + 1, 2 * h / n)
-        weights[[0, -1]] /= 2
-        axes_nodes.append(nodes)
-        axes_weights.append(weights)
+        n = max(2, round(2 * h / pitch))
+        side = 2 * h / n
+        axes_nodes.append(-h + side * (np.arange(n) + 0.5))
+        sides.append(side)
     aa, bb = np.meshgrid(*axes_nodes, indexing="ij")
     points = pad.center + aa.reshape(-1, 1) * pad.axes[0] + bb.reshape(-1, 1) * pad.axes[1]
-    area = np.outer(*axes_weights).ravel()
-    spacing = min(float(np.diff(nodes)[0]) for nodes in axes_nodes)
-    return points, area, spacing / 2
+    area = np.full(len(points), sides[0] * sides[1])
+    return points, area, min(sides) / 2
 
 
 def element_stiffness(model: PadModel, area: np.ndarray, thickness: float) -> np.ndarray:
@@ -163,15 +187,13 @@ def element_stiffness(model: PadModel, area: np.ndarray, thickness: float) -> np
     return model.modulus * np.asarray(area, float) / thickness
 
 
-def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], model: PadModel,
-                   friction: float) -> None:
+def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], model: PadModel) -> None:
     """Replace each rigid box pad of `spec` by a grid of spring-loaded contact elements (in place).
 
     Args:
         spec: a hand's spec (not compiled).
         pads: (geom name, direction (3,) in the geom's body frame from the pad toward the object).
-        model: pad parameters.
-        friction: sliding friction of the elements [-].
+        model: pad parameters (`model.friction` is the elements' sliding friction).
     """
     for name, toward in pads:
         geom = spec.geom(name)
@@ -185,12 +207,11 @@ def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], 
         geom.contype, geom.conaffinity = 0, 0
         for i, (point, k) in enumerate(zip(points, stiffness, strict=True)):
             _add_element(body, f"{ELEMENT_PREFIX}{name}_{i:02d}", point - thin * pad.normal, pad,
-                         np.array([radius, radius, thin]), float(k), pad.thickness * model.travel_fraction, model,
-                         friction)
+                         np.array([radius, radius, thin]), float(k), pad.thickness * model.travel_fraction, model)
 
 
 def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeometry, size: np.ndarray,
-                 k: float, travel: float, model: PadModel, friction: float) -> None:
+                 k: float, travel: float, model: PadModel) -> None:
     """One element: an oblate ellipsoid (semi-axes `size`: in the face, in the face, along the
     normal) whose lowest point lies on the pad face, on a slide joint along -normal
     (q = compression [m]) with spring k [N/m]. Flattened so that an object edge pressing on it
@@ -210,7 +231,7 @@ def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeome
                     solref_limit=list(LIMIT_SOLREF), solimp_limit=list(ELEMENT_SOLIMP),
                     frictionloss=0.0, margin=0.0)
     child.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID, size=list(size), condim=3,
-                   friction=[friction, 0.0, 0.0], priority=1, rgba=[0.15, 0.15, 0.15, 1.0],
+                   friction=[model.friction, 0.0, 0.0], priority=1, rgba=[0.15, 0.15, 0.15, 1.0],
                    contype=ELEMENT_CONTYPE, conaffinity=ELEMENT_CONAFFINITY, density=0.0, margin=0.0,
                    solref=[0.004, 1.0], solimp=list(ELEMENT_SOLIMP))
 

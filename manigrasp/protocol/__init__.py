@@ -15,7 +15,7 @@ from manigrasp.protocol import standard as _standard
 from manigrasp.protocol.base import PROTOCOLS, Grasp, Protocol, as_grasp, load, names
 from manigrasp.protocol.execution import GraspParams
 from manigrasp.protocol.lift import LiftParams, LiftProtocol
-from manigrasp.protocol.result import PHASES, GraspMetrics, Status, TrialResult
+from manigrasp.protocol.result import GraspMetrics, Phase, Status, TrialResult
 from manigrasp.protocol.settle import settle_object
 from manigrasp.protocol.shake import ShakeParams, ShakeProtocol
 from manigrasp.protocol.six_direction import SixDirectionParams, SixDirectionProtocol
@@ -24,13 +24,13 @@ from manigrasp.protocol.standard import StandardParams, StandardProtocol
 del _lift, _shake, _six_direction, _standard
 
 __all__ = [
-    "PHASES",
     "PROTOCOLS",
     "Grasp",
     "GraspMetrics",
     "GraspParams",
     "LiftParams",
     "LiftProtocol",
+    "Phase",
     "Protocol",
     "ShakeParams",
     "ShakeProtocol",

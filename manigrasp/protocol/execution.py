@@ -27,7 +27,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +38,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp
 from manigrasp.protocol.metrics import radius_of_gyration
 from manigrasp.protocol.observer import TrialObserver
-from manigrasp.protocol.result import GraspMetrics, Status
+from manigrasp.protocol.result import GraspMetrics, Phase, Status
 from manigrasp.protocol.sampling import Sampler
 from manigrasp.sim import Scene, current_grip_force, read_hand_contacts
 
@@ -175,7 +176,9 @@ class TrialRun:
         self.next_check = self.check_chunk
         self.steps = 0
         self.time0 = 0.0  # simulated time before this run's own steps (settling) [s]
-        self.last_phase = ""
+        self.last_phase: Phase | str = ""  # the last top-level phase passed ("" before any)
+        self.stopped_in: tuple[Phase, str] | None = None  # (phase, detail) in progress when the trial stopped
+        self._depth = 0  # phases in progress (nested: the hold inside the lift)
         self.impedance = self._impedance()
         self.grip: GripController | None = None
         self.in_hand: np.ndarray | None = None  # object-in-TCP pose after closing (the reference)
@@ -209,10 +212,43 @@ class TrialRun:
         return NativeImpedance(self.scene.base, default_gains(self.scene.base, p.impedance_omega,
                                                               p.impedance_omega_rot))
 
-    def phase(self, name: str, detail: str = "") -> None:
-        """Tell the observer that phase `name` begins (`detail`: e.g. the perturbation direction)."""
-        if self.observer is not None:
-            self.observer.on_phase(self.scene, name, detail)
+    @contextmanager
+    def phase(self, phase: Phase, detail: str = "", *, watch: Status | None = None,
+              reference: np.ndarray | None = None, announce: bool = True) -> Iterator[None]:
+        """``with run.phase(Phase.LIFT): ...``: one phase of the trial.
+
+        It tells the observer that the phase begins (unless not `announce`), watches the object in
+        the hand while it runs, and records it: leaving a top-level phase normally makes it
+        `last_phase` (a phase nested in another, such as the hold inside the lift, counts through
+        the enclosing one); leaving on an exception keeps the innermost phase in `stopped_in`.
+
+        Args:
+            phase: the phase.
+            detail: e.g. the perturbation direction ("+x"): told to the observer, and it names the watch.
+            watch: the object moving past the thresholds in the hand relative to `reference` (default:
+                its pose in the hand as the phase begins) ends the trial with this status; None: the
+                enclosing phase's watch goes on (named by `detail` if given). The watch in force before
+                is back when the phase ends.
+            announce: tell the observer (False: a phase whose beginning it does not see).
+        """
+        saved = self.watch
+        if watch is not None:
+            self.watch = (self.object_in_hand() if reference is None else reference, watch, detail or phase.value)
+        elif saved is not None and detail:
+            self.watch = (saved[0], saved[1], detail)
+        if announce and self.observer is not None:
+            self.observer.on_phase(self.scene, phase, detail)
+        self._depth += 1
+        try:
+            yield
+        except BaseException:
+            self.stopped_in = self.stopped_in or (phase, detail)
+            raise
+        finally:
+            self._depth -= 1
+            self.watch = saved
+        if self._depth == 0:
+            self.last_phase = phase
 
     # ------------------------------------------------------------ stepping
     def step(self, n: int, trajectory: Trajectory | None = None) -> None:
@@ -266,7 +302,8 @@ class TrialRun:
         if speed > self.params.max_speed or spin > self.params.max_angular_speed:
             raise Abort(Status.UNSTABLE, f"divergence: a body moves at {speed:.3g} m/s, {spin:.3g} rad/s")
         if self.deadline is not None and self.clock() > self.deadline:
-            raise Abort(Status.TIMEOUT, f"wall-clock deadline exceeded in phase after {self.last_phase or 'start'!r}")
+            passed = str(self.last_phase) or "start"
+            raise Abort(Status.TIMEOUT, f"wall-clock deadline exceeded in phase after {passed!r}")
         if self.in_hand is not None:
             self._track()
 

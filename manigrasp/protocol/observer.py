@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any, Protocol, runtime_checkable
 
-from manigrasp.protocol.result import TrialResult
+from manigrasp.protocol.result import Phase, TrialResult
 
 
 @runtime_checkable
@@ -26,8 +26,9 @@ class TrialObserver(Protocol):
     def on_start(self, scene: Any, grasp: Any, object_pose: Any) -> None:
         """Before the first step: the grasp being executed (a `protocol.Grasp`) and the settled object pose."""
 
-    def on_phase(self, scene: Any, phase: str, detail: str = "") -> None:
-        """A phase begins ("pregrasp", "approach", "close", "lift", "perturb", ...); `detail` e.g. "+x"."""
+    def on_phase(self, scene: Any, phase: Phase, detail: str = "") -> None:
+        """A phase begins (a `Phase`, a str enum: "pregrasp", "approach", "close", "lift", "perturb"...);
+        `detail` e.g. "+x"."""
 
     def on_sample(self, scene: Any) -> None:
         """The state at a sample time (bodies, contacts, forces are readable from `scene`)."""
@@ -44,7 +45,7 @@ class NullObserver:
     def on_start(self, scene: Any, grasp: Any, object_pose: Any) -> None:  # noqa: D102
         pass
 
-    def on_phase(self, scene: Any, phase: str, detail: str = "") -> None:  # noqa: D102
+    def on_phase(self, scene: Any, phase: Phase, detail: str = "") -> None:  # noqa: D102
         pass
 
     def on_sample(self, scene: Any) -> None:  # noqa: D102

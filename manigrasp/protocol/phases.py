@@ -1,10 +1,11 @@
 """The grasp phases every protocol is built from: pre-grasp, approach, close, lift, and the final finger check.
 
-Each is a function of a `TrialRun`; it returns when the phase passed and
-raises `Abort` with the phase's failure status otherwise, and tells the
-run's observer when it begins ("pregrasp", "approach", "close", "lift",
-"hold"). Moving set-points are trajectories (functions of time) that the
-run samples at its control rate. Poses are (4, 4) world matrices [m].
+Each is a function of a `TrialRun` that runs inside ``with run.phase(Phase.X)``
+(which tells the observer, watches the object in the hand and records the
+phase passed); it returns when the phase passed and raises `Abort` with the
+phase's failure status otherwise. Moving set-points are trajectories
+(functions of time) that the run samples at its control rate. Poses are
+(4, 4) world matrices [m].
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 from manigrasp.control import FingerHold, GripController
 from manigrasp.protocol.execution import Abort, Trajectory, TrialRun
 from manigrasp.protocol.metrics import simulated_metrics
-from manigrasp.protocol.result import Status
+from manigrasp.protocol.result import Phase, Status
 from manigrasp.sim import grip_force, read_hand_contacts
 
 CLOSED_SYNERGY = 0.995  # [-] hand synergy (0 open, 1 closed) past which a position-mode close has finished
@@ -51,15 +52,14 @@ def pregrasp_pose(pose: np.ndarray, offset: float) -> np.ndarray:
 def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, preshape: float) -> np.ndarray:
     """Reset with the open hand at the pre-grasp pose of `pose`; any hand contact: `pregrasp_collision`."""
     start = pregrasp_pose(pose, run.params.pregrasp_offset)
-    release_hold(run)
-    run.reset(start, object_pose, preshape)
-    touching = read_hand_contacts(run.scene, "any")
-    if len(touching):
-        other = "the object" if np.isin(touching.other_geom, run.scene.object_geoms).any() else "the table"
-        raise Abort(Status.PREGRASP_COLLISION, f"the open hand at the pre-grasp pose touches {other}")
-    run.hold_target(start)
-    run.phase("pregrasp")
-    run.last_phase = "pregrasp"
+    with run.phase(Phase.PREGRASP):
+        release_hold(run)
+        run.reset(start, object_pose, preshape)
+        touching = read_hand_contacts(run.scene, "any")
+        if len(touching):
+            other = "the object" if np.isin(touching.other_geom, run.scene.object_geoms).any() else "the table"
+            raise Abort(Status.PREGRASP_COLLISION, f"the open hand at the pre-grasp pose touches {other}")
+        run.hold_target(start)
     return start
 
 
@@ -79,13 +79,12 @@ def ramp(start: np.ndarray, delta: np.ndarray, duration: float) -> Trajectory:
 
 def approach(run: TrialRun, start: np.ndarray, goal: np.ndarray) -> None:
     """Move the impedance set-point in a straight line from `start` to `goal`, then settle there."""
-    run.phase("approach")
-    delta = goal[:3, 3] - start[:3, 3]
-    n = max(1, run.n_steps(float(np.linalg.norm(delta)) / run.params.approach_speed))
-    run.step(n, ramp(start, delta, n * run.dt))
-    run.hold_target(goal)
-    run.hold_for(run.params.approach_settle_s)
-    run.last_phase = "approach"
+    with run.phase(Phase.APPROACH):
+        delta = goal[:3, 3] - start[:3, 3]
+        n = max(1, run.n_steps(float(np.linalg.norm(delta)) / run.params.approach_speed))
+        run.step(n, ramp(start, delta, n * run.dt))
+        run.hold_target(goal)
+        run.hold_for(run.params.approach_settle_s)
 
 
 def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = "") -> None:
@@ -100,6 +99,12 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     hand is the reference of all later motion, and (with `metrics`) the grip force and
     simulated-contact metrics are recorded. `detail` goes to the observer's phase call.
     """
+    with run.phase(Phase.CLOSE, detail):
+        _close(run, preshape, metrics)
+
+
+def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
+    """The close phase's work (`close`)."""
     p, hand = run.params, run.scene.hand
     target = p.grip_force if p.grip_force is not None else p.grip_force_fraction * hand.max_grip_force
     grip = GripController(min(target, hand.max_grip_force), hand.max_grip_force, close_speed=p.close_speed,
@@ -107,7 +112,6 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     grip.reset(preshape)
     release_hold(run)
     run.grip = grip
-    run.phase("close", detail)
     chunk, elapsed, touched_at = run.chunk, 0, None
     limit = run.n_steps(p.close_timeout_s)
     while elapsed < limit:
@@ -133,32 +137,31 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     run.in_hand = run.object_in_hand()
     if math.isnan(run.max_translation):  # kept over several closings (six_direction)
         run.max_translation, run.max_rotation = 0.0, 0.0
-    run.last_phase = "close"
 
 
 def lift(run: TrialRun, height: float, speed: float, hold_s: float) -> None:
     """Raise the set-point `height` [m] at `speed` [m/s], hold `hold_s` [s]; slipping: `slipped_lift`.
 
-    The object's weight is fed forward from the start of the lift (`payload_feedforward`).
+    The object's weight is fed forward from the start of the lift (`payload_feedforward`). The
+    object's motion in the hand is watched from its pose there after closing (`TrialRun.in_hand`);
+    the hold at the top is a phase of its own inside the lift.
     """
     scene = run.scene
-    run.phase("lift")
-    start_tcp, start_z = scene.tcp_pose(), float(scene.object_pose()[2, 3])
-    start_tcp[:3, :3] = run.impedance.target[:3, :3]
-    run.watch = (run.in_hand, Status.SLIPPED_LIFT, "lift")
-    n = max(1, run.n_steps(height / speed))
-    run.hold_target(start_tcp, run.payload())
-    run.step(n, ramp(start_tcp, np.array([0.0, 0.0, height]), n * run.dt))
-    end = start_tcp.copy()
-    end[2, 3] += height
-    run.hold_target(end)
-    run.phase("hold")
-    run.hold_for(hold_s)
-    risen = float(scene.object_pose()[2, 3]) - start_z
-    if risen < height - run.params.translation_threshold:
-        raise Abort(Status.SLIPPED_LIFT, f"object left behind: it rose {100 * risen:.1f} cm of {100 * height:.0f}")
-    run.watch = None
-    run.last_phase = "lift"
+    with run.phase(Phase.LIFT, watch=Status.SLIPPED_LIFT, reference=run.in_hand):
+        start_tcp, start_z = scene.tcp_pose(), float(scene.object_pose()[2, 3])
+        start_tcp[:3, :3] = run.impedance.target[:3, :3]
+        n = max(1, run.n_steps(height / speed))
+        run.hold_target(start_tcp, run.payload())
+        run.step(n, ramp(start_tcp, np.array([0.0, 0.0, height]), n * run.dt))
+        end = start_tcp.copy()
+        end[2, 3] += height
+        run.hold_target(end)
+        with run.phase(Phase.HOLD):
+            run.hold_for(hold_s)
+        risen = float(scene.object_pose()[2, 3]) - start_z
+        if risen < height - run.params.translation_threshold:
+            raise Abort(Status.SLIPPED_LIFT,
+                        f"object left behind: it rose {100 * risen:.1f} cm of {100 * height:.0f}")
 
 
 def require_fingers(run: TrialRun, status: Status) -> tuple[str, ...]:

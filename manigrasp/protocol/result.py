@@ -29,7 +29,30 @@ class Status(StrEnum):
     HARNESS_FAULT = "harness_fault"
 
 
-PHASES = ("settle", "pregrasp", "approach", "close", "lift", "perturb")
+class Phase(StrEnum):
+    """A phase of a trial (`manigrasp.protocol.phases`; `TrialRun.phase` runs one).
+
+    The values are what the results store holds in ``last_phase`` and what an observer's
+    `on_phase` receives. `HOLD` runs inside `LIFT` and never ends up as a trial's `last_phase`.
+    """
+
+    SETTLE = "settle"
+    PREGRASP = "pregrasp"
+    APPROACH = "approach"
+    CLOSE = "close"
+    LIFT = "lift"
+    HOLD = "hold"
+    PERTURB = "perturb"
+    SHAKE = "shake"
+
+    @property
+    def grasped(self) -> bool:
+        """Whether the hand has closed on the object when this phase begins (lift, hold, perturb, shake)."""
+        return self in (Phase.LIFT, Phase.HOLD, Phase.PERTURB, Phase.SHAKE)
+
+
+DIRECTIONS = ("+x", "-x", "+y", "-y", "+z", "-z")
+"""Names of the perturbation directions (world axes), as `TrialResult.perturb_direction` holds them."""
 
 
 @dataclass(frozen=True)
@@ -95,9 +118,10 @@ class TrialResult:
 
     Attributes:
         status: success or the failure mode.
-        detail: more about the status: the perturbation direction of a
-            `dropped_perturb` ("+x"...), the message of a planner error.
-        last_phase: the last phase passed ("" if none), one of `PHASES`.
+        detail: more about the status: what moved how far in the hand, the message of a planner error.
+        last_phase: the last phase passed, a `Phase` ("" if none).
+        perturb_direction: the perturbation direction (one of `DIRECTIONS`) in force when a trial failed
+            as `dropped_perturb`; "" otherwise (a failure under `shake`, or after the perturbation ended).
         max_translation_m: largest displacement of the object relative to the hand after closing [m].
         max_rotation_deg: largest rotation of the object relative to the hand after closing [deg].
         fingers_in_contact: finger bodies touching the object at the end.
@@ -131,6 +155,7 @@ class TrialResult:
     status: Status
     detail: str = ""
     last_phase: str = ""
+    perturb_direction: str = ""
     max_translation_m: float = math.nan
     max_rotation_deg: float = math.nan
     fingers_in_contact: tuple[str, ...] = ()
@@ -166,6 +191,7 @@ class TrialResult:
         """A flat dict (metrics prefixed planned_/sim_, poses grasp_/object_) for tables and the results store."""
         row = asdict(self)
         row["status"] = self.status.value
+        row["last_phase"] = str(self.last_phase)
         row["fingers_in_contact"] = ",".join(self.fingers_in_contact)
         for prefix, key in _NESTED:
             for name, value in row.pop(key).items():
@@ -174,8 +200,16 @@ class TrialResult:
 
     @classmethod
     def from_flat(cls, row: dict[str, object]) -> TrialResult:
-        """Inverse of `flat`."""
+        """Inverse of `flat`. A row stored before `perturb_direction` existed (absent or not a string) gets
+        the direction its `detail` began with ("+x: object moved ..."), as it was written then."""
         row = dict(row)
+        phase = str(row.pop("last_phase", "") or "")
+        row["last_phase"] = Phase(phase) if phase in {p.value for p in Phase} else phase
+        direction = row.get("perturb_direction")
+        if not isinstance(direction, str):
+            head = str(row.get("detail") or "").split(":")[0].strip()
+            dropped = row.get("status") == Status.DROPPED_PERTURB.value
+            row["perturb_direction"] = head if dropped and head in DIRECTIONS else ""
         metrics: dict[str, object] = {}
         for prefix, key in _NESTED:
             kind = TrialResult.__dataclass_fields__[key].default_factory  # type: ignore[misc]

@@ -22,7 +22,7 @@ from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import TrialRun
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
 from manigrasp.protocol.phases import require_fingers
-from manigrasp.protocol.result import Status
+from manigrasp.protocol.result import Phase, Status
 
 
 @dataclass(frozen=True)
@@ -59,12 +59,10 @@ def _about(axis: np.ndarray, angle: float) -> np.ndarray:
 
 def shake(run: TrialRun, p: ShakeParams) -> None:
     """Oscillate the set-point along and about its approach axis (module docstring)."""
-    run.phase("shake")
     centre = run.impedance.target.copy()
     axis = centre[:3, 2].copy()
     omega, angle = 2 * math.pi * p.shake_frequency, math.radians(p.shake_angle_deg)
     n = run.n_steps(p.shake_cycles / p.shake_frequency)
-    run.watch = (run.object_in_hand(), Status.DROPPED_PERTURB, "shake")
 
     def trajectory(t: float) -> tuple[np.ndarray, np.ndarray]:
         s, c = math.sin(omega * t), math.cos(omega * t)
@@ -73,10 +71,9 @@ def shake(run: TrialRun, p: ShakeParams) -> None:
         pose[:3, :3] = _about(axis, angle * s) @ centre[:3, :3]
         return pose, np.concatenate([p.shake_amplitude * omega * c * axis, angle * omega * c * axis])
 
-    run.step(n, trajectory)
-    run.hold_target(centre)
-    run.watch = None
-    run.last_phase = "perturb"
+    with run.phase(Phase.SHAKE, watch=Status.DROPPED_PERTURB):
+        run.step(n, trajectory)
+        run.hold_target(centre)
 
 
 @register

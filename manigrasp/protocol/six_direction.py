@@ -22,7 +22,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import GraspParams, TrialRun
 from manigrasp.protocol.phases import close, place_pregrasp, require_fingers
-from manigrasp.protocol.result import Status
+from manigrasp.protocol.result import Phase, Status
 from manigrasp.protocol.standard import DIRECTIONS
 
 STANDARD_GRAVITY = 9.81  # [m/s^2]
@@ -69,13 +69,11 @@ def six_directions(run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Gra
         for i, name in enumerate(p.directions):
             run.reset(pose, rest, grasp.preshape)
             close(run, grasp.preshape, metrics=i == 0, detail=name)
-            run.watch = (run.in_hand, Status.DROPPED_PERTURB, name)
-            run.phase("perturb", name)
-            scene.data.xfrc_applied[scene.object_body, :3] = force * np.asarray(DIRECTIONS[name], float)
-            run.hold_for(p.force_s)
-            scene.data.xfrc_applied[scene.object_body] = 0.0
-            fingers = require_fingers(run, Status.DROPPED_PERTURB)
-        run.last_phase = "perturb"
+            with run.phase(Phase.PERTURB, name, watch=Status.DROPPED_PERTURB, reference=run.in_hand):
+                scene.data.xfrc_applied[scene.object_body, :3] = force * np.asarray(DIRECTIONS[name], float)
+                run.hold_for(p.force_s)
+                scene.data.xfrc_applied[scene.object_body] = 0.0
+                fingers = require_fingers(run, Status.DROPPED_PERTURB)
         return fingers if p.directions else ()
     finally:
         scene.data.xfrc_applied[scene.object_body] = 0.0

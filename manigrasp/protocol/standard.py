@@ -24,9 +24,12 @@ from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import TrialRun
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
 from manigrasp.protocol.phases import require_fingers
-from manigrasp.protocol.result import Status
+from manigrasp.protocol.result import DIRECTIONS as DIRECTION_NAMES
+from manigrasp.protocol.result import Phase, Status
 
-DIRECTIONS = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0), "+z": (0, 0, 1), "-z": (0, 0, -1)}
+DIRECTIONS = dict(zip(DIRECTION_NAMES, ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)),
+                      strict=True))
+"""Each perturbation direction's name and world unit vector."""
 
 
 @dataclass(frozen=True)
@@ -54,21 +57,22 @@ class StandardParams(LiftParams):
 
 
 def perturb(run: TrialRun, multiple: float, seconds: float, directions: tuple[str, ...]) -> None:
-    """Push the object's centre of mass with `multiple` x m g along each direction for `seconds` [s]."""
+    """Push the object's centre of mass with `multiple` x m g along each direction for `seconds` [s].
+
+    One phase: the object's motion in the hand counts from before the first push; each direction is
+    a phase nested in it (the observer hears "perturb" with the direction as it begins).
+    """
     scene = run.scene
     weight = scene.object_mass() * float(np.linalg.norm(scene.model.opt.gravity))
     applied = scene.data.xfrc_applied[scene.object_body]
-    reference = run.object_in_hand()
-    try:
-        for name in directions:
-            run.watch = (reference, Status.DROPPED_PERTURB, name)
-            run.phase("perturb", name)
-            applied[:3] = multiple * weight * np.asarray(DIRECTIONS[name], float)
-            run.hold_for(seconds)
-    finally:
-        applied[:] = 0.0
-    run.watch = None
-    run.last_phase = "perturb"
+    with run.phase(Phase.PERTURB, watch=Status.DROPPED_PERTURB, announce=False):
+        try:
+            for name in directions:
+                with run.phase(Phase.PERTURB, name):
+                    applied[:3] = multiple * weight * np.asarray(DIRECTIONS[name], float)
+                    run.hold_for(seconds)
+        finally:
+            applied[:] = 0.0
 
 
 @register

@@ -13,7 +13,7 @@ from manigrasp.protocol.base import Grasp, as_grasp
 from manigrasp.protocol.execution import Abort, GraspParams, TrialRun, check_grasp, grasp_tcp_pose
 from manigrasp.protocol.metrics import planned_metrics
 from manigrasp.protocol.observer import TrialObserver
-from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
+from manigrasp.protocol.result import GraspMetrics, Phase, Status, TrialResult
 from manigrasp.protocol.settle import settle_object
 from manigrasp.sim import Scene
 
@@ -54,13 +54,12 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     run = TrialRun(scene, params, deadline, clock, observer)
     status, detail, fingers, planned = Status.SUCCESS, "", (), GraspMetrics()
     try:
-        if object_pose is None:
-            run.phase("settle")
-            rest = settle_object(scene, sampler=run.sampler)
-            run.time0 = scene.time
-        else:
-            rest = np.asarray(object_pose, float)
-        run.last_phase = "settle"
+        with run.phase(Phase.SETTLE, announce=object_pose is None):  # a given pose was settled by the caller
+            if object_pose is None:
+                rest = settle_object(scene, sampler=run.sampler)
+                run.time0 = scene.time
+            else:
+                rest = np.asarray(object_pose, float)
         pose = grasp_tcp_pose(grasp)
         center = (rest @ np.append(scene.model.body_ipos[scene.object_body], 1.0))[:3]
         planned = grasp.planned_metrics or planned_metrics(scene, grasp.contacts, grasp.contact_normals, center,
@@ -74,6 +73,7 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
         status, detail = Status.UNSTABLE, str(exc)
     dt = float(scene.model.opt.timestep)
     result = TrialResult(status=status, detail=detail, last_phase=run.last_phase,
+                       perturb_direction=_perturb_direction(run, status),
                        max_translation_m=run.max_translation, max_rotation_deg=run.max_rotation,
                        fingers_in_contact=tuple(fingers), grip_force_n=run.grip_force_n, planned=planned,
                        simulated=run.simulated, planning_time_s=grasp.planning_time_s, sim_steps=run.steps,
@@ -93,6 +93,12 @@ def _mount_problem(grasp: Grasp) -> str | None:
     except ValueError as exc:
         return str(exc)
     return None
+
+
+def _perturb_direction(run: TrialRun, status: Status) -> str:
+    """The direction of the perturbation a `dropped_perturb` trial failed under ("" if none: a shake)."""
+    phase, detail = run.stopped_in or (None, "")
+    return detail if status is Status.DROPPED_PERTURB and phase is Phase.PERTURB else ""
 
 
 def _fingers_now(run: TrialRun) -> tuple[str, ...]:

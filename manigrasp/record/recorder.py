@@ -25,7 +25,7 @@ import rerun as rr
 
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.execution import relative_motion
-from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.protocol.result import Phase, Status, TrialResult
 from manigrasp.record import layout, static
 from manigrasp.record.geometry import body_entity
 from manigrasp.record.streams import open_file_stream, release_streams
@@ -146,7 +146,7 @@ class TrialRecorder:
         self._bodies = np.zeros(0, int)
         self._entities: list[str] = []
         self._is_object_geom = np.zeros(0, bool)
-        self._phase, self._reference = "", None
+        self._grasped, self._reference = False, None
 
     # -------------------------------------------------------------- observer
     @_guarded
@@ -170,13 +170,14 @@ class TrialRecorder:
         stream.log(layout.LOG, rr.TextLog(f"start {self.recording_id}", level="INFO"))
 
     @_guarded
-    def on_phase(self, scene: Any, phase: str, detail: str = "") -> None:  # noqa: D102 - TrialObserver
+    def on_phase(self, scene: Any, phase: Phase, detail: str = "") -> None:  # noqa: D102 - TrialObserver
         if self._stream is None:
             return
+        phase = Phase(phase)
         t = self._clock.stamp(scene.time, sample=False)
-        if self._phase == "close" and phase != "close":  # the grasp is made: motion in the hand counts from here
+        if phase.grasped and not self._grasped:  # the grasp is made: motion in the hand counts from here
             self._reference = _object_in_hand(scene)
-        self._phase = phase
+        self._grasped = phase.grasped
         label = f"{phase} {detail}".strip()
         self._stream.set_time(layout.TIMELINE, duration=t)
         self._stream.log(layout.PHASE, rr.StateChange(state=label))

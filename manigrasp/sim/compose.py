@@ -173,7 +173,7 @@ def hand_spec(hand: Hand, config: SceneConfig) -> mujoco.MjSpec:
     child = hand.build_spec()
     if config.pads == "compliant" and hand.pad_geoms:
         directions = pads.pad_directions(child, hand.pad_geoms, hand.tcp_site)
-        pads.make_compliant(child, directions, config.pad_model(), config.hand_friction)
+        pads.make_compliant(child, directions, config.pad_model())
         for name in hand.pad_backing:
             backing = child.geom(name)
             if backing is None:
@@ -185,8 +185,9 @@ def hand_spec(hand: Hand, config: SceneConfig) -> mujoco.MjSpec:
 def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig) -> None:
     """Hand-object friction, condim and priority on every colliding hand geom; gravcomp.
 
-    Compliant pad elements keep condim 3 (sliding friction only): their patch's torsional
-    resistance comes from sliding friction over its area (`manigrasp.hands.pads`).
+    Compliant pad elements get the pads' rubber friction `config.pad_friction` and condim 3
+    (sliding friction only): their patch's torsional resistance comes from sliding friction
+    over its area (`manigrasp.hands.pads`).
     """
     bodies = [root, *root.find_all(mujoco.mjtObj.mjOBJ_BODY)]
     for body in bodies:
@@ -195,8 +196,10 @@ def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig) -> None:
             if geom.contype == 0 and geom.conaffinity == 0:
                 continue
             element = pads.is_element(geom.name.removeprefix(HAND_PREFIX))
-            torsion = 0.0 if element else config.hand_torsional_friction
-            geom.friction = [config.hand_friction, torsion, STANDARD_ROLLING_M]
+            if element:
+                geom.friction = [config.pad_friction, 0.0, STANDARD_ROLLING_M]
+            else:
+                geom.friction = [config.hand_friction, config.hand_torsional_friction, STANDARD_ROLLING_M]
             geom.condim = 3 if element else config.hand_condim
             geom.priority = max(int(geom.priority), 1)
 

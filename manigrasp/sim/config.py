@@ -13,7 +13,7 @@ import mujoco
 
 from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
 from manigrasp.errors import ConfigError
-from manigrasp.hands.pads import PadModel
+from manigrasp.hands.pads import PAD_FRICTION, PadModel
 
 INTEGRATORS = {
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -53,6 +53,9 @@ class SceneConfig:
             opt-in until its effect on the recipes is explained, see the README).
         pad_modulus: Young's modulus of the compliant pads' rubber [Pa].
         pad_pitch: spacing of the compliant pads' contact elements [m].
+        pad_friction: sliding friction of the compliant pads' rubber against objects [-]
+            (sourced in `manigrasp.hands.pads`); rigid pads and the rest of the hand use
+            `hand_friction`.
         rest: the object's resting orientation before it settles: "file" (as its mesh
             file has it) or "most_stable" (the most probable quasi-static stable pose,
             `manigrasp.objects.poses`).
@@ -73,6 +76,7 @@ class SceneConfig:
     pads: str = "rigid"
     pad_modulus: float = 3.4e5
     pad_pitch: float = 0.01
+    pad_friction: float = PAD_FRICTION
     rest: str = "file"
 
     def __post_init__(self) -> None:
@@ -86,7 +90,8 @@ class SceneConfig:
             raise ConfigError(f"unknown rest {self.rest!r}; available: {', '.join(REST_MODES)}")
         if self.hand_condim not in (1, 3, 4, 6):
             raise ConfigError(f"hand_condim must be 1, 3, 4 or 6, got {self.hand_condim}")
-        positive = {"pad_modulus": self.pad_modulus, "pad_pitch": self.pad_pitch, "timestep": self.timestep,
+        positive = {"pad_modulus": self.pad_modulus, "pad_pitch": self.pad_pitch, "pad_friction": self.pad_friction,
+                    "timestep": self.timestep,
                      "impratio": self.impratio, "table_friction": self.table_friction}
         for key, value in positive.items():
             if not value > 0:
@@ -98,7 +103,8 @@ class SceneConfig:
 
     def pad_model(self) -> PadModel:
         """The compliant pads' parameters (`manigrasp.hands.pads`) of this scene."""
-        return PadModel(modulus=self.pad_modulus, pitch=self.pad_pitch, timestep=self.timestep)
+        return PadModel(modulus=self.pad_modulus, pitch=self.pad_pitch, timestep=self.timestep,
+                        friction=self.pad_friction)
 
     def apply(self, option: mujoco.MjOption | object) -> None:
         """Write the physics options into a spec's or model's `option`."""

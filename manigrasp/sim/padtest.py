@@ -76,8 +76,7 @@ def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | 
                      friction=[config.hand_friction, config.hand_torsional_friction, STANDARD_ROLLING_M],
                      solref=[0.004, 1.0], solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
     if mode == "compliant":
-        pads.make_compliant(spec, [("pad", np.array([0.0, 0.0, -1.0]))], config.pad_model(),
-                            config.hand_friction)
+        pads.make_compliant(spec, [("pad", np.array([0.0, 0.0, -1.0]))], config.pad_model())
     spec.add_actuator(name="press", target="press", trntype=mujoco.mjtTrn.mjTRN_JOINT)
     spec.add_actuator(name="turn", target="turn", trntype=mujoco.mjtTrn.mjTRN_JOINT)
     return spec.compile()
