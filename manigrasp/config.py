@@ -27,6 +27,10 @@ from manigrasp.registry import nearest
 T = TypeVar("T")
 
 
+OMIT_DEFAULT = "omit_default"
+"""Field metadata key: `to_mapping` leaves the field out while it holds its default (a field added later, so
+configs that do not use it keep their run identity and run.json)."""
+
 MAX_DEPTH = 20
 """Deepest nesting accepted in free-form parameter values (lists and mappings)."""
 
@@ -145,9 +149,11 @@ def _plain(value: Any, where: str, depth: int = 0) -> Any:
 
 
 def to_mapping(obj: Any) -> Any:
-    """A dataclass (recursively) as plain dicts, lists and scalars (for run.json)."""
+    """A dataclass (recursively) as plain dicts, lists and scalars (for run.json); a field marked `OMIT_DEFAULT`
+    is left out while it holds its default."""
     if dataclasses.is_dataclass(obj):
-        return {f.name: to_mapping(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        return {f.name: to_mapping(getattr(obj, f.name)) for f in dataclasses.fields(obj)
+                if not (f.metadata.get(OMIT_DEFAULT) and getattr(obj, f.name) == f.default)}
     if isinstance(obj, Mapping):
         return {k: to_mapping(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):

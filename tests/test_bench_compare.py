@@ -25,8 +25,8 @@ def test_compare_flags_a_drop_and_passes_equal_rates():
     assert not compare(same, base).regressions
     flagged = {c.group for c in compare(worse, base).regressions}
     # 22/80 vs 35/80 for the planner: z = -2.15, p = 0.016; the mug alone 5/40 vs 18/40.
-    assert flagged == {POOLED_GROUP, "parallel_jaw/antipodal/ground_truth (objects in both)",
-                       "parallel_jaw/antipodal/ground_truth/025_mug"}
+    assert flagged == {POOLED_GROUP, "parallel_jaw/antipodal/ground_truth/standard (objects in both)",
+                       "parallel_jaw/antipodal/ground_truth/standard/025_mug"}
 
 
 def test_only_groups_in_both_are_compared_and_the_others_are_named():
@@ -38,10 +38,11 @@ def test_only_groups_in_both_are_compared_and_the_others_are_named():
     pooled = verdict.comparisons[0]
     assert pooled.group == POOLED_GROUP and (pooled.new.trials, pooled.base.trials) == (20, 20)
     assert pooled.new.successes == pooled.base.successes == 18
-    assert verdict.only_base == [("parallel_jaw", "antipodal", "ground_truth", "048_hammer")]
-    assert verdict.only_new == [("parallel_jaw", "antipodal", "ground_truth", "011_banana")]
-    assert [c.group for c in verdict.comparisons[1:]] == ["parallel_jaw/antipodal/ground_truth (objects in both)",
-                                                          "parallel_jaw/antipodal/ground_truth/025_mug"]
+    assert verdict.only_base == [("parallel_jaw", "antipodal", "ground_truth", "standard", "048_hammer")]
+    assert verdict.only_new == [("parallel_jaw", "antipodal", "ground_truth", "standard", "011_banana")]
+    assert [c.group for c in verdict.comparisons[1:]] == [
+        "parallel_jaw/antipodal/ground_truth/standard (objects in both)",
+        "parallel_jaw/antipodal/ground_truth/standard/025_mug"]
     assert verdict.comparisons[1].new.trials == 20 and verdict.groups_compared == 1
 
 
@@ -49,7 +50,7 @@ def test_a_run_with_zero_trials_or_no_common_group_cannot_pass():
     base = summarize(_results({("025_mug", "antipodal"): 18}))
     with pytest.raises(ConfigError, match="no trials"):
         compare(summarize([]), base)
-    with pytest.raises(ConfigError, match="no hand/planner/observation/object group is in both.*048_hammer"):
+    with pytest.raises(ConfigError, match="no hand/planner/observation/protocol/object group is in both.*048_hammer"):
         compare(summarize(_results({("048_hammer", "antipodal"): 18})), base)
 
 
@@ -84,7 +85,8 @@ def test_compare_cli_passes_itself_flags_a_drop_and_lists_missing_groups(tmp_pat
     more["groups"].append(dict(payload["groups"][0], object="011_banana"))
     assert _gate(tmp_path, run, more) == 0
     out = capsys.readouterr().out
-    assert "1 group(s) in the baseline only (not compared): parallel_jaw/antipodal/ground_truth/011_banana" in out
+    assert ("1 group(s) in the baseline only (not compared): parallel_jaw/antipodal/ground_truth/standard/011_banana"
+            in out)
 
 
 @pytest.mark.parametrize("broken, message", [

@@ -75,3 +75,54 @@ def test_every_shipped_config_validates():
     assert sorted({(g.observation_label, g.camera.views) for g in groups(perception)}) == [
         ("estimated_pose@1view", 1), ("ground_truth", 1), ("point_cloud@1view", 1), ("point_cloud@2views", 2),
         ("point_cloud@3views", 3)]
+
+
+def test_one_protocol_or_several_side_by_side():
+    one = parse_config({"objects": ["mug"], "protocol": "lift"})
+    assert one.protocol.name == "lift" and one.protocols == () and one.protocol_labels == ("lift",)
+    assert parse_config({"objects": ["mug"]}).protocol_entries[0].name == "standard"  # the default
+    several = parse_config({"objects": ["mug"], "protocols": ["standard", {"name": "six_direction",
+                                                                          "params": {"grip_force": 10.0}}]})
+    assert several.protocol is None and several.protocol_labels == ("standard", "six_direction")
+    assert dict(several.protocol_entries[1].params) == {"grip_force": 10.0}
+    # two parameter sets of one protocol: labelled by what sets them apart
+    forces = parse_config({"objects": ["mug"], "protocols": [{"name": "lift", "params": {"grip_force": 5.0}},
+                                                             {"name": "lift", "params": {"grip_force": 10.0}}]})
+    assert forces.protocol_labels == ("lift[grip_force=5.0]", "lift[grip_force=10.0]")
+    # a one-element list is that protocol, with the same run identity as `protocol:`
+    from manigrasp.config import to_mapping
+
+    listed = parse_config({"objects": ["mug"], "protocols": ["lift"]})
+    assert listed == one and to_mapping(listed) == to_mapping(one)
+    assert "protocols" not in to_mapping(one)  # run.json of one-protocol runs as before (resume, compare)
+
+
+@pytest.mark.parametrize(("data", "overrides", "phrase"), [
+    ({"protocol": "lift", "protocols": ["standard", "six_direction"]}, [],
+     "either 'protocol'.*or 'protocols'.*not both"),
+    ({"protocol": "lift"}, ["protocols=[standard, lift]"], "not both"),
+    ({"protocols": []}, [], "at least one protocol"),
+    ({"protocols": ["lift", "lift"]}, [], "protocol 'lift' with params {} is listed twice"),
+    ({"protocols": [{"name": "lift", "parms": {}}]}, [], "did you mean 'params'"),
+    ({"protocls": ["lift"]}, [], "did you mean 'protocol"),
+])
+def test_protocol_and_protocols_are_refused_together_and_checked(data, overrides, phrase):
+    with pytest.raises(ConfigError, match=phrase):
+        parse_config({"objects": ["mug"], **data}, overrides)
+
+
+def test_rest_stable_k_needs_k_and_leaves_other_configs_identity_alone():
+    from manigrasp.config import to_mapping
+
+    config = parse_config({"objects": ["mug"], "scene": {"rest": "stable_k", "rest_k": 3}})
+    assert (config.scene.rest, config.scene.rest_k, config.scene.rest_index) == ("stable_k", 3, 0)
+    assert to_mapping(config.scene)["rest_k"] == 3
+    plain = to_mapping(parse_config({"objects": ["mug"]}).scene)
+    assert "rest_k" not in plain and "rest_index" not in plain
+    for scene, phrase in (({"rest": "stable_k"}, "needs rest_k"), ({"rest": "stable_k", "rest_k": 0}, "needs rest_k"),
+                          ({"rest": "most_stable", "rest_k": 2}, "stable_k only"),
+                          ({"rest": "stable_k", "rest_k": 2, "rest_index": 2}, r"rest_index must be in 0\.\.1"),
+                          ({"rest": "stable_k", "rest_k": 2.5}, "expected an integer"),
+                          ({"rest": "stable"}, "unknown rest 'stable'; available: file, most_stable, stable_k")):
+        with pytest.raises(ConfigError, match=phrase):
+            parse_config({"objects": ["mug"], "scene": scene})

@@ -38,13 +38,13 @@ def _results(successes: dict[tuple[str, str], int], n: int = 20) -> list[tuple[T
 
 def test_summary_counts_rates_intervals_and_modes():
     report = summarize(_results({("025_mug", "antipodal"): 18, ("025_mug", "random"): 4}))
-    mug = report.groups[("parallel_jaw", "antipodal", "ground_truth", "025_mug")]
+    mug = report.groups[("parallel_jaw", "antipodal", "ground_truth", "standard", "025_mug")]
     assert (mug.trials, mug.successes, mug.success_rate) == (20, 18, 0.9)
     assert mug.ci_low == pytest.approx(0.699, abs=1e-3) and mug.ci_high == pytest.approx(0.972, abs=1e-3)
-    random = report.by_method[("parallel_jaw", "random", "ground_truth")]
+    random = report.by_method[("parallel_jaw", "random", "ground_truth", "standard")]
     assert random.failure_modes == {"dropped_perturb+x": 8, "no_contact": 8}
     assert report.overall.trials == 40 and report.overall.successes == 22
-    antipodal = report.auc[("parallel_jaw", "antipodal", "ground_truth")]
+    antipodal = report.auc[("parallel_jaw", "antipodal", "ground_truth", "standard")]
     assert antipodal["epsilon_l1"].auc == 1.0  # epsilon separates successes perfectly here
     assert antipodal["force_closure"].auc == 1.0 and antipodal["force_closure"].n == 20
     assert 0.3 < antipodal["planner_score"].auc < 0.7  # a score unrelated to the outcome is near chance
@@ -57,7 +57,7 @@ def test_report_json_round_trips_as_strict_json():
     again = report_from_json(json.loads(text))
     assert again.groups == report.groups and again.overall == report.overall
     assert again.by_method == report.by_method
-    random = again.auc[("parallel_jaw", "random", "ground_truth")]["epsilon_l1"]
+    random = again.auc[("parallel_jaw", "random", "ground_truth", "standard")]["epsilon_l1"]
     assert random.undefined == "no successes" and math.isnan(random.auc)
     def same(e):  # NaN != NaN: compare the printed form and counts
         return format_auc(e), e.n, e.successes
@@ -178,9 +178,10 @@ def test_planning_time_is_one_value_per_planning_call(tmp_path):
         for key, r in _results({(obj, "antipodal"): 10}):
             results.append((key, replace(r, plan_time_s=call, planning_time_s=call / 20)))
     report = summarize(results)
-    method = report.by_method[("parallel_jaw", "antipodal", "ground_truth")]
+    method = report.by_method[("parallel_jaw", "antipodal", "ground_truth", "standard")]
     assert method.median_planning_time_s == 3.0 and method.planning_calls == 2
-    assert report.groups[("parallel_jaw", "antipodal", "ground_truth", "048_hammer")].median_planning_time_s == 4.0
+    hammer = report.groups[("parallel_jaw", "antipodal", "ground_truth", "standard", "048_hammer")]
+    assert hammer.median_planning_time_s == 4.0
     text = write_markdown(report, results, tmp_path, RUN_META).read_text()
     assert "median planning_time_s (calls)" in text and "3.000 (2 calls)" in text
 
@@ -204,11 +205,11 @@ def test_pose_errors_are_summarised_per_observation_and_shown_side_by_side(tmp_p
             results.append((TrialKey(obj, "parallel_jaw", "antipodal", "ground_truth", "standard", i),
                             TrialResult(Status.SUCCESS)))
     report = summarize(results)
-    errors = report.pose_errors[("parallel_jaw", "antipodal", "estimated_pose")]
+    errors = report.pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
     assert (errors.objects, errors.median_rotation_deg, errors.median_translation_mm) == (3, 2.0, 4.0)
     assert errors.median_add_s_mm == 4.0
     assert errors.share_within_5deg_1cm == pytest.approx(2 / 3)
-    assert ("parallel_jaw", "antipodal", "ground_truth") not in report.pose_errors
+    assert ("parallel_jaw", "antipodal", "ground_truth", "standard") not in report.pose_errors
     assert report_from_json(json.loads(json.dumps(report.to_json()))).pose_errors == report.pose_errors
     text = write_markdown(report, results, tmp_path, {"config": {}}).read_text()
     assert "Observations side by side" in text and "estimated_pose" in text
@@ -220,8 +221,8 @@ def test_perception_table_shows_the_number_of_camera_views(tmp_path):
                 TrialResult(Status.SUCCESS if i % 2 else Status.NO_CONTACT, camera_views=views))
                for obs, views in (("point_cloud", 2), ("ground_truth", 0)) for i in range(4)]
     report = summarize(results)
-    assert report.views == {("parallel_jaw", "antipodal", "ground_truth"): 0,
-                            ("parallel_jaw", "antipodal", "point_cloud"): 2}
+    assert report.views == {("parallel_jaw", "antipodal", "ground_truth", "standard"): 0,
+                            ("parallel_jaw", "antipodal", "point_cloud", "standard"): 2}
     assert report_from_json(json.loads(json.dumps(report.to_json()))).views == report.views
     text = write_markdown(report, results, tmp_path, {"config": {}}).read_text()
     assert "| camera views |" in text
@@ -255,14 +256,14 @@ def _two_planners() -> list[tuple[TrialKey, TrialResult]]:
 def test_aucs_are_per_planner_and_a_constant_metric_is_undefined_not_chance(tmp_path):
     report = summarize(_two_planners())
     for planner in ("antipodal", "random"):
-        per = report.auc[("parallel_jaw", planner, "ground_truth")]
+        per = report.auc[("parallel_jaw", planner, "ground_truth", "standard")]
         assert per["force_closure"].undefined == "metric constant" and math.isnan(per["force_closure"].auc)
         assert per["planner_score"].undefined == "metric constant" and per["planner_score"].n == 20
     # Pooled, a score constant per planner "predicts" success only by naming the planner (ties count one half).
     pooled = report.auc_pooled["planner_score"]
     assert pooled.auc == pytest.approx((16 * 18 + 0.5 * 2 * 18 + 0.5 * 16 * 4 + 0 * 2 * 4) / (18 * 22))
     # Within antipodal, epsilon rises with the index while successes are the first 16: AUC 0 (a worse ranking).
-    antipodal = report.auc[("parallel_jaw", "antipodal", "ground_truth")]["epsilon_l1"]
+    antipodal = report.auc[("parallel_jaw", "antipodal", "ground_truth", "standard")]["epsilon_l1"]
     assert antipodal.auc == 0.0 and antipodal.low == 0.0 and antipodal.high == 0.0
     text = write_markdown(report, _two_planners(), tmp_path, RUN_META).read_text()
     assert "| parallel_jaw | antipodal | ground_truth | force_closure | 20 (16) | undefined (metric constant) |" in text

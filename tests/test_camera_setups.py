@@ -98,9 +98,9 @@ def test_the_report_shows_each_setup_in_its_own_row_with_its_views(tmp_path):
                                                 camera_views=views))
         results = list(store.results())
     report = summarize(results)
-    assert {o: (r.trials, r.successes) for (_, _, o), r in report.by_method.items()} == {
+    assert {o: (r.trials, r.successes) for (_, _, o, _), r in report.by_method.items()} == {
         "ground_truth": (4, 4), "point_cloud@2views": (4, 2), "point_cloud@10views": (4, 4)}
-    assert report.views[("parallel_jaw", "antipodal", "point_cloud@10views")] == 10
+    assert report.views[("parallel_jaw", "antipodal", "point_cloud@10views", "standard")] == 10
     assert report_from_json(json.loads(json.dumps(report.to_json()))).views == report.views
     text = write_markdown(report, results, tmp_path, {"config": {}}).read_text()
     table = text[text.index("## Observations side by side"):].split("\n\n")[1].splitlines()

@@ -39,3 +39,18 @@ def test_scene_rest_option_chooses_the_starting_pose(tmp_path, rest: str, height
     assert scene.object_rest_pose()[2, 3] == pytest.approx(height, abs=1e-6)
     settled = settle_object(scene)
     assert settled[2, 3] == pytest.approx(height, abs=1e-3)  # it stays where it was put
+
+
+def test_stable_k_scene_rests_in_the_chosen_pose_of_the_object_alone(tmp_path) -> None:
+    """`object_stable_poses` (the object compiled alone, as the benchmark counts poses) ranks the same poses a
+    scene starts from: pose 2 of the tall box lies on a middle face (height 20 mm), and stays there."""
+    from manigrasp.sim.scene import object_stable_poses
+
+    asset = build_object(trimesh.creation.box(EXTENTS), name="tall_box", mass=0.1, cache_root=tmp_path).asset
+    alone = object_stable_poses(asset)
+    assert [round(p.height, 6) for p in alone] == [0.01, 0.01, 0.02, 0.02, 0.05, 0.05]
+    scene = build_scene("parallel_jaw", asset, SceneConfig(rest="stable_k", rest_k=3, rest_index=2))
+    np.testing.assert_allclose(scene.rest.rotation, alone[2].rotation, atol=1e-12)
+    assert scene.rest.probability == pytest.approx(alone[2].probability)
+    assert scene.object_rest_pose()[2, 3] == pytest.approx(0.02, abs=1e-6)
+    assert settle_object(scene)[2, 3] == pytest.approx(0.02, abs=1e-3)

@@ -1,14 +1,16 @@
 """Regression gate: is any success rate significantly lower than a baseline's?
 
-Only groups (hand x planner x observation x object) present on both sides are compared; the ones
-missing on either side are listed. One-sided pooled two-proportion z-tests per group, per hand x planner x
-observation over its groups in both, and over all groups in both pooled. Per-group p-values are
+Only groups (hand x planner x observation x protocol x object) present on both sides are compared; the ones
+missing on either side are listed (a run with several protocols compares, against a baseline of one, the groups
+of that protocol). One-sided pooled two-proportion z-tests per group, per hand x planner x observation x protocol
+over its groups in both, and over all groups in both pooled. Per-group p-values are
 Holm-Bonferroni corrected across groups, per-method ones across methods, so that a config with many groups
 does not fail CI by chance; the all-groups test is uncorrected.
 
 A gate that cannot fail is no gate: anything it cannot judge raises `ConfigError` (exit 2 at the CLI): an
 alpha outside (0, 1), counts that are not counts (successes > trials, NaN, negative), no trials in common,
-and two sides whose protocol, hand or physics (scene) parameters or object definitions differ.
+and two sides whose physics (scene) parameters, or the parameters of a protocol, hand or object present on
+both sides, differ.
 """
 
 from __future__ import annotations
@@ -23,8 +25,9 @@ from manigrasp.bench.stats import ProportionTest, lower_than_baseline, wilson_in
 from manigrasp.errors import ConfigError
 
 POOLED_GROUP = "pooled (groups in both)"
-# Config fields that must be equal on both sides for their success rates to be comparable.
-_SAME = ("protocol", "scene")
+# Config fields that must be equal on both sides for their success rates to be comparable (and every protocol,
+# hand and object present on both sides).
+_SAME = ("scene",)
 # Versions whose difference is worth a note (physics may differ between them).
 _NOTED_VERSIONS = ("manigrasp", "mujoco")
 
@@ -43,7 +46,8 @@ class Comparison:
     """One compared rate: its name, both rates, the test, the corrected p-value, the verdict.
 
     Attributes:
-        group: `POOLED_GROUP`, "hand/planner/observation (objects in both)" or "hand/planner/observation/object".
+        group: `POOLED_GROUP`, "hand/planner/observation/protocol (objects in both)" or
+            "hand/planner/observation/protocol/object".
         kind: "pooled", "method" or "group".
     """
 
@@ -72,7 +76,7 @@ class Verdict:
 
     @property
     def groups_compared(self) -> int:
-        """How many hand x planner x observation x object groups were compared."""
+        """How many hand x planner x observation x protocol x object groups were compared."""
         return sum(c.kind == "group" for c in self.comparisons)
 
 
@@ -116,8 +120,8 @@ def _count(value: object) -> bool:
 def check_comparable(new: Side, base: Side) -> list[str]:
     """Raise `ConfigError` naming what differs when the two runs' physics cannot be compared.
 
-    Protocol (name and params) and scene (physics) must be equal; a hand or object present on both sides
-    must be defined the same way. Returns notes on version differences (not refused).
+    The scene (physics) must be equal; a protocol (by label), hand or object present on both sides must be
+    defined the same way. Returns notes on version differences (not refused).
     """
     configs = [side.meta.get("config") for side in (new, base)]
     for side, config in zip((new, base), configs, strict=True):
@@ -126,6 +130,11 @@ def check_comparable(new: Side, base: Side) -> list[str]:
                               "write a baseline with `manigrasp report RUN_DIR --json > FILE`")
     new_config, base_config = configs
     differ = [d for key in _SAME for d in _differences(new_config.get(key), base_config.get(key), key)]
+    ours, theirs = _protocols(new_config), _protocols(base_config)
+    if len(ours) == len(theirs) == 1:  # one protocol each: it must be the same one
+        differ += _differences(*ours.values(), *theirs.values(), "protocol")
+    for label in sorted(ours.keys() & theirs.keys()) if len(ours) > 1 or len(theirs) > 1 else ():
+        differ += _differences(ours[label], theirs[label], f"protocol {label!r}")
     for key in ("hands", "objects"):
         ours, theirs = _entries(new_config.get(key)), _entries(base_config.get(key))
         for name in sorted(ours.keys() & theirs.keys()):
@@ -135,6 +144,22 @@ def check_comparable(new: Side, base: Side) -> list[str]:
     versions = [side.meta.get("versions") or {} for side in (new, base)]
     return [f"{name} {versions[0].get(name)} here vs {versions[1].get(name)} in the baseline"
             for name in _NOTED_VERSIONS if versions[0].get(name) != versions[1].get(name)]
+
+
+def _protocols(config: dict) -> dict[str, object]:
+    """A recorded config's protocols by label (`BenchConfig.protocol_labels`), as recorded."""
+    from manigrasp.bench.config import NamedEntry, labels
+
+    listed = config.get("protocols")
+    if not isinstance(listed, list) or not listed:
+        single = config.get("protocol")
+        name = single.get("name") if isinstance(single, dict) else None
+        return {str(name): single}
+    try:
+        entries = [NamedEntry(str(p["name"]), dict(p.get("params") or {})) for p in listed]
+        return dict(zip(labels(entries, "protocol"), listed, strict=True))
+    except (KeyError, TypeError, AttributeError, ConfigError) as exc:
+        raise ConfigError(f"a recorded config's protocols are malformed ({exc})") from None
 
 
 def _entries(value: object) -> dict[str, object]:
@@ -178,16 +203,16 @@ def compare(new: Report, base: Report, alpha: float = 0.05) -> Verdict:
     if not new.groups:
         raise ConfigError("nothing to compare: the new run has no trials")
     if not common:
-        raise ConfigError("nothing to compare: no hand/planner/observation/object group is in both the run and "
-                          f"the baseline (run: {_names(only_new)}; baseline: {_names(only_base)})")
+        raise ConfigError("nothing to compare: no hand/planner/observation/protocol/object group is in both the "
+                          f"run and the baseline (run: {_names(only_new)}; baseline: {_names(only_base)})")
     empty = [k for k in common if new.groups[k].trials == 0 or base.groups[k].trials == 0]
     if empty:
         raise ConfigError(f"cannot judge groups with zero trials: {_names(empty)}")
     overall = _test(POOLED_GROUP, _pool([new.groups[k] for k in common]), _pool([base.groups[k] for k in common]))
     out = [Comparison(*overall, overall[3].p_value, overall[3].p_value < alpha, "pooled")]
-    methods = sorted({k[:3] for k in common})
-    tests = [_test("/".join(m) + " (objects in both)", _pool([new.groups[k] for k in common if k[:3] == m]),
-                   _pool([base.groups[k] for k in common if k[:3] == m])) for m in methods]
+    methods = sorted({k[:4] for k in common})
+    tests = [_test("/".join(m) + " (objects in both)", _pool([new.groups[k] for k in common if k[:4] == m]),
+                   _pool([base.groups[k] for k in common if k[:4] == m])) for m in methods]
     out += [Comparison(*t, p, p < alpha, "method") for t, p in zip(tests, _holm([t[3].p_value for t in tests]),
                                                                     strict=True)]
     groups = [_test("/".join(k), new.groups[k], base.groups[k]) for k in common]

@@ -1,11 +1,13 @@
-"""Benchmark configuration: which objects, hands, planners, protocol and how many grasps.
+"""Benchmark configuration: which objects, hands, planners, protocol(s) and how many grasps.
 
 A config is a YAML file (see configs/) validated into a frozen `BenchConfig`.
 Unknown keys are errors naming the nearest valid key; every value is checked
 for its type and range (`manigrasp.config.from_mapping`, then each class's
 `__post_init__`); a duplicate object, hand, planner or camera setup entry is
 refused; a list field takes a single value as a one-element list (and ``camera:``
-a single mapping as one setup). ``key=value`` overrides
+a single mapping as one setup). One protocol is ``protocol:``; several, run side by
+side, are ``protocols:`` (a list of names or {name, params}); giving both is an
+error. ``key=value`` overrides
 (dotted for nested keys) are applied before validation. Every error is one
 `ConfigError` line, raised before anything is written.
 """
@@ -22,7 +24,7 @@ from typing import Any
 
 import yaml
 
-from manigrasp.config import apply_overrides, from_mapping
+from manigrasp.config import OMIT_DEFAULT, apply_overrides, from_mapping
 from manigrasp.errors import ConfigError
 from manigrasp.objects import catalog
 from manigrasp.objects.pipeline import DEFAULT_DENSITY
@@ -106,7 +108,7 @@ class NamedEntry:
         return json.dumps({"name": self.name, "params": dict(self.params)}, sort_keys=True, default=str)
 
 
-def labels(entries: Sequence[NamedEntry]) -> tuple[str, ...]:
+def labels(entries: Sequence[NamedEntry], kind: str = "planner") -> tuple[str, ...]:
     """Distinct readable labels of `entries`: each `NamedEntry.label`, and where two share one, a suffix
     with the parameters that set them apart (``side[lift=0.04]``; a short hash if that is not enough).
 
@@ -116,7 +118,7 @@ def labels(entries: Sequence[NamedEntry]) -> tuple[str, ...]:
     seen: dict[str, int] = {}
     for i, entry in enumerate(entries):
         if entry.identity() in seen:
-            raise ConfigError(f"planner {entry.name!r} with params {dict(entry.params)} is listed twice "
+            raise ConfigError(f"{kind} {entry.name!r} with params {dict(entry.params)} is listed twice "
                               f"(entries {seen[entry.identity()] + 1} and {i + 1})")
         seen[entry.identity()] = i
     out = [e.label for e in entries]
@@ -162,7 +164,13 @@ class BenchConfig:
         hands: hand names (registry names or ``module:attribute``).
         planners: planners with their parameters.
         grasps_per_object: candidates planned (and trials run) per object x hand x planner.
-        protocol: the trial protocol ("standard", "six_direction", "shake", "lift") and its parameters.
+        protocol: the trial protocol ("standard", "six_direction", "shake", "lift") and its parameters
+            (default "standard"); None when `protocols` lists several.
+        protocols: several protocols run side by side (``protocols: [standard, six_direction]``): every group
+            runs under each, with the same planned grasps and trial seeds (a paired comparison, see
+            `manigrasp.bench.trials`), labelled by `protocol_labels` in trial ids and the report. Not given
+            together with `protocol`; a one-element list is that one protocol (the same config and run
+            identity). Left out of run.json when empty, so a one-protocol run's identity is unchanged.
         observation: what planners see, one or several of "ground_truth", "estimated_pose" and
             "point_cloud" (several: every group runs under each, and the report puts them side by side).
         scene: physics and scene parameters.
@@ -179,13 +187,15 @@ class BenchConfig:
     hands: tuple[str, ...] = ("parallel_jaw",)
     planners: tuple[NamedEntry, ...] = (NamedEntry("antipodal"),)
     grasps_per_object: int = 20
-    protocol: NamedEntry = field(default_factory=lambda: NamedEntry("standard"))
+    protocol: NamedEntry | None = None
     observation: tuple[str, ...] = ("ground_truth",)
     scene: SceneConfig = field(default_factory=SceneConfig)
     camera: CameraSetup | tuple[CameraSetup, ...] = field(default_factory=CameraSetup)
     trial_timeout_s: float = 120.0
+    protocols: tuple[NamedEntry, ...] = field(default=(), metadata={OMIT_DEFAULT: True})
 
     def __post_init__(self) -> None:
+        self._resolve_protocols()
         if not self.objects:
             raise ConfigError("config lists no objects")
         if not self.hands or not self.planners:
@@ -210,6 +220,32 @@ class BenchConfig:
             if len(self.camera) == 1:  # one setup, however written: the same config and run identity
                 object.__setattr__(self, "camera", self.camera[0])
         camera_labels(self.camera_setups)  # refuses identical setups
+
+    def _resolve_protocols(self) -> None:
+        """`protocol` or `protocols`, not both; one protocol however written is `protocol` (default standard)."""
+        if self.protocols and self.protocol is not None:
+            raise ConfigError("give either 'protocol' (one protocol) or 'protocols' (a list run side by side), "
+                              "not both")
+        if len(self.protocols) == 1:
+            object.__setattr__(self, "protocol", self.protocols[0])
+            object.__setattr__(self, "protocols", ())
+        elif self.protocol is None and not self.protocols:
+            object.__setattr__(self, "protocol", NamedEntry("standard"))
+        labels(self.protocol_entries, "protocol")  # refuses identical protocol entries
+
+    @property
+    def protocol_entries(self) -> tuple[NamedEntry, ...]:
+        """The protocols every group runs under: `protocol`, or the several of `protocols`."""
+        return self.protocols if self.protocols else (self.protocol,)  # type: ignore[return-value]
+
+    @property
+    def protocol_labels(self) -> tuple[str, ...]:
+        """The protocols' labels in trial ids and tables, aligned with `protocol_entries`: the protocol's name
+        for a config with one (trial ids as before), else `labels` of the entries (``standard``,
+        ``six_direction``; ``standard[grip_force=10.0]`` where two share a name)."""
+        if not self.protocols:
+            return (self.protocol.name,)  # type: ignore[union-attr]
+        return labels(self.protocols, "protocol")
 
     @property
     def planner_labels(self) -> tuple[str, ...]:
@@ -286,8 +322,16 @@ def _normalise(data: dict[str, Any], where: str = "config") -> dict[str, Any]:
         data["objects"] = [{"name": o} if isinstance(o, str) else o for o in data["objects"]]
     if "planners" in data:
         data["planners"] = [{"name": p} if isinstance(p, str) else p for p in data["planners"]]
+    if "protocol" in data and "protocols" in data:
+        raise ConfigError(f"{where}: give either 'protocol' (one protocol) or 'protocols' (a list run side by "
+                          "side), not both")
     if isinstance(data.get("protocol"), str):
         data["protocol"] = {"name": data["protocol"]}
+    if "protocols" in data:
+        listed = data["protocols"] if isinstance(data["protocols"], list) else [data["protocols"]]
+        if not listed:
+            raise ConfigError(f"{where}.protocols: list at least one protocol")
+        data["protocols"] = [{"name": p} if isinstance(p, str) else p for p in listed]
     return data
 
 

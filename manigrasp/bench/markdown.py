@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
+from collections import defaultdict
+from itertools import combinations
 from pathlib import Path
 
 from manigrasp.bench import plots, twins
 from manigrasp.bench.plots import method_label
-from manigrasp.bench.report import POOLED, Report, format_auc, format_planning_time, format_rate
+from manigrasp.bench.report import POOLED, Method, Rate, Report, format_auc, format_planning_time, format_rate
 from manigrasp.bench.store import TrialKey
 from manigrasp.protocol.result import TrialResult
 from manigrasp.runfiles import REPORT_NAME
@@ -22,56 +25,166 @@ def _modes(modes: dict[str, int]) -> str:
     return ", ".join(f"{m} {n}" for m, n in sorted(modes.items(), key=lambda kv: -kv[1])) or "-"
 
 
+def method_headers(report: Report) -> list[str]:
+    """The columns naming a method in tables: hand, planner, observation (and protocol when the run has several)."""
+    return ["hand", "planner", "observation"] + (["protocol"] if len(report.protocols) > 1 else [])
+
+
+def method_cells(report: Report, method: Method) -> list[str]:
+    """A method's cells under `method_headers`."""
+    return list(method[:3]) + ([method[3]] if len(report.protocols) > 1 else [])
+
+
 def _perception(report: Report) -> list[str]:
     """The side-by-side table of observations with their pose errors (empty without estimated poses): one row
     per hand x planner x observation label, so the camera setups of one kind (``point_cloud@1view``,
     ``point_cloud@2views``) are rows of their own: ground truth, estimated pose, point cloud, each by views."""
-    if not report.pose_errors and {o for _, _, o in report.by_method} <= {"ground_truth"}:
+    if not report.pose_errors and {m[2] for m in report.by_method} <= {"ground_truth"}:
         return []
     rows = []
     kinds = ("ground_truth", "estimated_pose", "point_cloud")
 
-    def order(method: tuple[str, str, str]) -> tuple:
+    def order(method: Method) -> tuple:
         kind = method[2].partition("@")[0]
-        return (*method[:2], kinds.index(kind) if kind in kinds else len(kinds), kind, report.views.get(method, 0),
-                method[2])
+        return (*method[:2], method[3], kinds.index(kind) if kind in kinds else len(kinds), kind,
+                report.views.get(method, 0), method[2])
 
-    for (h, p, o), r in sorted(report.by_method.items(), key=lambda item: order(item[0])):
-        e = report.pose_errors.get((h, p, o))
+    for m, r in sorted(report.by_method.items(), key=lambda item: order(item[0])):
+        e = report.pose_errors.get(m)
         errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}", f"{e.median_translation_mm:.1f} / "
                   f"{e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}", f"{e.share_within_5deg_1cm:.2f}"
                   ) if e else ("-", "-", "-", "-")
-        views = report.views.get((h, p, o), 0)
-        rows.append([h, p, o, views or "-", format_rate(r), *errors])
+        views = report.views.get(m, 0)
+        rows.append([*method_cells(report, m), views or "-", format_rate(r), *errors])
     return ["## Observations side by side (perception in the loop)",
-            _table(["hand", "planner", "observation", "camera views", "rate [95% CI]",
+            _table([*method_headers(report), "camera views", "rate [95% CI]",
                     "rotation error deg (median / p90; not meaningful for symmetric objects)",
                     "translation error mm (median / p90)", "ADD-S mm (median)",
                     "share with ADD-S < 5 mm & translation < 1 cm"], rows)]
 
 
 def auc_rows(report: Report) -> list[list[str]]:
-    """AUC table rows per hand x planner x observation x metric, then pooled rows (`all`) if several."""
-    rows = [[h, p, o, metric, f"{e.n} ({e.successes})", format_auc(e)]
-            for (h, p, o), per in report.auc.items() for metric, e in per.items()]
+    """AUC table rows per method (`method_cells`) x metric, then pooled rows (`all`) if several methods."""
+    rows = [[*method_cells(report, m), metric, f"{e.n} ({e.successes})", format_auc(e)]
+            for m, per in report.auc.items() for metric, e in per.items()]
     if len(report.auc) > 1:
-        rows += [["all", "all (pooled)", "all", metric, f"{e.n} ({e.successes})", format_auc(e)]
-                 for metric, e in report.auc_pooled.items()]
+        pooled = ["all", "all (pooled)", "all"] + (["all"] if len(report.protocols) > 1 else [])
+        rows += [[*pooled, metric, f"{e.n} ({e.successes})", format_auc(e)] for metric, e in report.auc_pooled.items()]
     return rows
 
 
 def lead_lines(report: Report) -> list[str]:
-    """One line per hand x planner x observation: the figures a reader should quote."""
-    return [f"{method_label(m)}: {r.successes}/{r.trials} successes, rate {format_rate(r)}"
+    """One line per hand x planner x observation (x protocol): the figures a reader should quote."""
+    return [f"{method_label(m, len(report.protocols) > 1)}: {r.successes}/{r.trials} successes, rate {format_rate(r)}"
             for m, r in report.by_method.items()]
 
 
 def pooled_line(report: Report) -> str:
     """The all-trials line, saying what it pools."""
     r, n = report.overall, len(report.by_method)
-    what = (f"{n} combinations, so it mixes planners" if len({p for _, p, _ in report.by_method}) > 1
+    what = (f"{n} combinations, so it mixes planners" if len({m[1] for m in report.by_method}) > 1
             else f"{n} combinations of one planner" if n > 1 else "one combination, the line above")
     return f"Pooled ({POOLED}, {what}): {r.successes}/{r.trials}, rate {format_rate(r)}"
+
+
+def protocol_rows(report: Report) -> list[list[str]]:
+    """Protocols side by side: per hand x planner x observation (object ``all objects``), then per object, each
+    protocol's successes/trials and rate [95% CI] (columns in `Report.protocols` order)."""
+    per_method: dict[tuple, dict[str, Rate]] = defaultdict(dict)
+    per_object: dict[tuple, dict[str, Rate]] = defaultdict(dict)
+    for m, r in report.by_method.items():
+        per_method[(*m[:3], "all objects")][m[3]] = r
+    for g, r in report.groups.items():
+        per_object[(*g[:3], g[4])][g[3]] = r
+    return [[*key, *(_rate_cell(per.get(p)) for p in report.protocols)]
+            for rates in (per_method, per_object) for key, per in sorted(rates.items())]
+
+
+def _rate_cell(rate: Rate | None) -> str:
+    return "-" if rate is None else f"{rate.successes}/{rate.trials}, {format_rate(rate)}"
+
+
+def paired_rows(report: Report, results: list[tuple[TrialKey, TrialResult]]) -> list[list[str]]:
+    """Per hand x planner x observation and pair of protocols, over the trials run under both (same object,
+    grasp and seed: the paired design of `manigrasp.bench.trials`): pairs, both succeed, only the first, only
+    the second, neither."""
+    outcome: dict[tuple, dict[str, bool]] = defaultdict(dict)
+    for key, result in results:
+        outcome[(key.hand, key.planner, key.observation, key.object, key.grasp_index)][key.protocol] = result.success
+    rows = []
+    for method in sorted({m[:3] for m in report.by_method}):
+        for a, b in combinations(report.protocols, 2):
+            pairs = [(v[a], v[b]) for k, v in outcome.items() if k[:3] == method and a in v and b in v]
+            if pairs:
+                both, first, second = (sum(x and y for x, y in pairs), sum(x and not y for x, y in pairs),
+                                       sum(y and not x for x, y in pairs))
+                rows.append([*method, f"{a} vs {b}", len(pairs), both, first, second,
+                             len(pairs) - both - first - second])
+    return rows
+
+
+def _protocols(report: Report, results: list[tuple[TrialKey, TrialResult]]) -> list[str]:
+    """The "Protocols side by side" section (nothing for a run with one protocol)."""
+    if len(report.protocols) < 2:
+        return []
+    return ["## Protocols side by side",
+            "Every group ran under each protocol with the same planned grasps and trial seeds, so the protocols "
+            "are compared on the very same grasps. Rates with 95 % Wilson intervals.",
+            _table(["hand", "planner", "observation", "object", *report.protocols], protocol_rows(report)),
+            "Paired outcomes (the same grasp under both protocols):",
+            _table(["hand", "planner", "observation", "protocols (first vs second)", "pairs", "both succeed",
+                    "only the first", "only the second", "neither"], paired_rows(report, results))]
+
+
+def rest_rows(results: list[tuple[TrialKey, TrialResult]]) -> list[list[str]]:
+    """One row per object label run in a computed stable pose (``rest: most_stable | stable_k``): the pose's
+    rank, probability, rotation (quaternion w, x, y, z) and height as stored with its trials."""
+    first: dict[str, TrialResult] = {}
+    for key, result in results:
+        if int(_finite_or(result.rest_index, -1)) >= 0:
+            kept = first.get(key.object)
+            if kept is None or (math.isnan(kept.rest_probability) and not math.isnan(result.rest_probability)):
+                first[key.object] = result
+    rows = []
+    for obj, r in sorted(first.items()):
+        pose = r.rest_pose
+        known = not math.isnan(r.rest_probability)
+        rows.append([obj, int(r.rest_index), f"{r.rest_probability:.3f}" if known else "-",
+                     f"({pose.qw:.3f}, {pose.qx:.3f}, {pose.qy:.3f}, {pose.qz:.3f})" if known else "-",
+                     f"{1000 * pose.z_m:.1f}" if known else "-"])
+    return rows
+
+
+def _finite_or(value: float, default: float) -> float:
+    return default if isinstance(value, float) and math.isnan(value) else value
+
+
+def _rests(results: list[tuple[TrialKey, TrialResult]], meta: dict) -> list[str]:
+    """The "Resting poses" section: each object's computed stable pose(s), and which objects have fewer stable
+    poses than ``rest_k`` asks for (they run as many as they have)."""
+    rows = rest_rows(results)
+    if not rows:
+        return []
+    scene = (meta.get("config") or {}).get("scene") or {}
+    k = scene.get("rest_k")
+    text = ("Each object rests in its stable poses (trimesh's quasi-static estimate), the most probable first; "
+            "`<name>@rest<i>` is pose i, a group of its own.")
+    if isinstance(k, int):
+        per_object: dict[str, int] = defaultdict(int)
+        for row in rows:
+            per_object[str(row[0]).rpartition("@rest")[0] or str(row[0])] += 1
+        fewer = [f"{name} ({n})" for name, n in sorted(per_object.items()) if n < k]
+        text += f" rest_k = {k}." + (f" Fewer stable poses than {k}, so as many groups as poses: {', '.join(fewer)}."
+                                     if fewer else "")
+    return ["## Resting poses", text,
+            _table(["object", "pose rank", "probability", "rotation (w, x, y, z)", "height [mm]"], rows)]
+
+
+def _protocol_line(config: dict) -> str:
+    protocols = config.get("protocols")
+    if isinstance(protocols, list) and protocols:
+        return "Protocols " + ", ".join(f"`{p.get('name')}`" for p in protocols if isinstance(p, dict))
+    return f"Protocol `{(config.get('protocol') or {}).get('name')}`"
 
 
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
@@ -86,24 +199,26 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         "How well each analytic metric predicts success": plots.metric_auc(report, run_dir / "metric_auc.png"),
     }
     config = meta.get("config", {})
+    headers = method_headers(report)
     parts = [
         f"# manigrasp report: {config.get('name', run_dir.name)}",
-        f"Protocol `{config.get('protocol', {}).get('name')}`, seed {meta.get('seed')}, "
+        f"{_protocol_line(config)}, seed {meta.get('seed')}, "
         f"manigrasp {meta.get('versions', {}).get('manigrasp')}, mujoco {meta.get('versions', {}).get('mujoco')}, "
         f"commit {meta.get('git_commit') or 'unknown'}, started {meta.get('started')}.",
         "\n".join(f"- **{line}**" for line in lead_lines(report))
         + "\n\nRates with 95 % Wilson intervals. " + pooled_line(report) + ".",
         "## Per hand and planner",
-        _table(["hand", "planner", "observation", "trials", "successes", "rate [95% CI]", "failure modes",
-                "median planning_time_s (calls)"],
-               [[h, p, o, r.trials, r.successes, format_rate(r), _modes(r.failure_modes), format_planning_time(r)]
-                for (h, p, o), r in report.by_method.items()]),
+        _table([*headers, "trials", "successes", "rate [95% CI]", "failure modes", "median planning_time_s (calls)"],
+               [[*method_cells(report, m), r.trials, r.successes, format_rate(r), _modes(r.failure_modes),
+                 format_planning_time(r)] for m, r in report.by_method.items()]),
         "Planning time: the wall time of one planning call, which plans every candidate of one object "
         "(what `manigrasp plan` prints as `planning_time_s`); the median is over the calls.",
+        *_protocols(report, results),
         "## Per object",
-        _table(["hand", "planner", "observation", "object", "trials", "successes", "rate [95% CI]", "failure modes"],
-               [[h, p, o, obj, r.trials, r.successes, format_rate(r), _modes(r.failure_modes)]
-                for (h, p, o, obj), r in report.groups.items()]),
+        _table([*headers, "object", "trials", "successes", "rate [95% CI]", "failure modes"],
+               [[*method_cells(report, g[:4]), g[4], r.trials, r.successes, format_rate(r), _modes(r.failure_modes)]
+                for g, r in report.groups.items()]),
+        *_rests(results, meta),
         *_perception(report),
         *twins.markdown_section(report),
         "## Analytic metrics as predictors of success",
@@ -113,7 +228,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         "group cannot rank its trials: its AUC is undefined, not 0.5."
         + (" Rows `all` pool every trial of every planner: there a metric partly tells planners apart."
            if len(report.auc) > 1 else ""),
-        _table(["hand", "planner", "observation", "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)),
+        _table([*headers, "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)),
     ]
     parts += [f"## {title}\n\n![{title}]({path.name})" for title, path in images.items()]
     out = run_dir / REPORT_NAME

@@ -66,10 +66,16 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def method_label(method: Method) -> str:
-    """"hand / planner" (and " / observation" unless ground truth)."""
-    hand, planner, observation = method
-    return f"{hand} / {planner}" + ("" if observation == "ground_truth" else f" / {observation}")
+def method_label(method: Method, with_protocol: bool = False) -> str:
+    """"hand / planner" (and " / observation" unless ground truth, " / protocol" if `with_protocol`: a run
+    with several protocols)."""
+    hand, planner, observation, protocol = method
+    return (f"{hand} / {planner}" + ("" if observation == "ground_truth" else f" / {observation}")
+            + (f" / {protocol}" if with_protocol else ""))
+
+
+def _several_protocols(report: Report) -> bool:
+    return len(report.protocols) > 1
 
 
 def _errorbars(rates: list[Rate]) -> np.ndarray:
@@ -80,8 +86,9 @@ def _errorbars(rates: list[Rate]) -> np.ndarray:
 def success_by_object(report: Report, path: Path) -> Path:
     """Grouped bars: success rate per object, one bar per method, Wilson 95 % intervals, k/n over each bar."""
     plt = _pyplot()
-    objects = sorted({k[3] for k in report.groups})
+    objects = sorted({k[4] for k in report.groups})
     methods = list(report.by_method)
+    protocols = _several_protocols(report)
     width = 0.8 / max(1, len(methods))
     fig, ax = plt.subplots(figsize=(max(6.0, min(32.0, 0.4 * len(objects) * max(1, len(methods)) + 4)), 4.8))
     x = np.arange(len(objects))
@@ -91,7 +98,7 @@ def success_by_object(report: Report, path: Path) -> Path:
         xs = x[[j for j, _ in present]] + (i - (len(methods) - 1) / 2) * width
         rates = [r for _, r in present]
         ax.bar(xs, [r.success_rate for r in rates], width, yerr=_errorbars(rates), capsize=2,
-               label=method_label(method))
+               label=method_label(method, protocols))
         for xi, r in zip(xs, rates, strict=True):
             ax.text(xi, r.ci_high + 0.02, f"{r.successes}/{r.trials}", ha="center", va="bottom", fontsize=7,
                     rotation=90 if len(methods) > 2 else 0)
@@ -105,7 +112,8 @@ def success_by_object(report: Report, path: Path) -> Path:
 
 
 def success_by_method(report: Report, path: Path) -> Path:
-    """Horizontal bars: success rate per hand x planner, with intervals and k/n."""
+    """Horizontal bars: success rate per hand x planner (x observation x protocol: protocols side by side), with
+    intervals and k/n."""
     plt = _pyplot()
     methods = list(report.by_method)
     rates = [report.by_method[m] for m in methods]
@@ -115,7 +123,7 @@ def success_by_method(report: Report, path: Path) -> Path:
             color=STATUS_COLOURS["success"])
     for yi, r in zip(y, rates, strict=True):
         ax.text(min(r.ci_high + 0.02, 1.0), yi, f"{r.successes}/{r.trials}", va="center", fontsize=8)
-    ax.set_yticks(y, [method_label(m) for m in methods])
+    ax.set_yticks(y, [method_label(m, _several_protocols(report)) for m in methods])
     ax.invert_yaxis()
     ax.set_xlim(0, 1.15)
     ax.set_xticks(np.linspace(0, 1, 6))
@@ -143,7 +151,8 @@ def failure_modes(report: Report, path: Path) -> Path:
                 ax.text(li + si / 2, yi, f"{si:.0%}", ha="center", va="center", fontsize=7,
                         color="white" if mode in ("success", "unstable", "pregrasp_collision") else "black")
         left = left + share
-    ax.set_yticks(y, [f"{method_label(m)}\n(n = {report.by_method[m].trials})" for m in methods])
+    ax.set_yticks(y, [f"{method_label(m, _several_protocols(report))}\n(n = {report.by_method[m].trials})"
+                      for m in methods])
     ax.invert_yaxis()
     ax.set_xlim(0, 1)
     ax.set_xlabel("share of trials")
@@ -156,10 +165,11 @@ def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path) -> P
     plt = _pyplot()
     groups: dict[tuple, list[TrialResult]] = defaultdict(list)
     for key, result in results:
-        groups[(key.hand, key.planner, key.observation, key.object)].append(result)
+        groups[(key.hand, key.planner, key.observation, key.protocol, key.object)].append(result)
+    protocols = len({k[3] for k in groups}) > 1
     by_method: dict[str, list[float]] = defaultdict(list)
-    for (h, p, o, _), group in sorted(groups.items()):
-        by_method[method_label((h, p, o))] += [t for t in planning_call_times(group) if t > 0]
+    for group_key, group in sorted(groups.items()):
+        by_method[method_label(group_key[:4], protocols)] += [t for t in planning_call_times(group) if t > 0]
     by_method = {k: v for k, v in by_method.items() if v}
     fig, ax = plt.subplots(figsize=(7, 1.4 + 0.6 * max(1, len(by_method))))
     if by_method:
@@ -201,7 +211,7 @@ def metric_auc(report: Report, path: Path) -> Path:
         low = np.array([e.low if e is not None and e.defined else np.nan for e in estimates])
         high = np.array([e.high if e is not None and e.defined else np.nan for e in estimates])
         bars = ax.bar(xs, np.nan_to_num(auc), width, yerr=np.vstack([auc - low, high - auc]), capsize=2,
-                      label=method_label(method))
+                      label=method_label(method, _several_protocols(report)))
         for xi, e in zip(xs, estimates, strict=True):
             if e is not None and e.defined:
                 ax.text(xi, e.high + 0.01, f"n={e.n}", ha="center", va="bottom", fontsize=6,

@@ -1,5 +1,9 @@
 """Summaries of a run: success rates with Wilson intervals, failure modes, timing, metric AUCs per planner.
 
+Every figure is per hand x planner x observation x protocol (a "method"; a run lists several protocols side by
+side, `manigrasp.bench.trials`), and per object within it (the object's label: ``<name>@rest<i>`` for resting
+pose i under ``rest: stable_k``).
+
 `summarize` turns the stored trials into a `Report` (plain data, JSON-able);
 `write_markdown` writes ``report.md`` with PNG plots beside it.
 """
@@ -104,11 +108,11 @@ class PoseErrors:
 # The observation of a method is the trial key's observation label: its kind, with the camera setup's suffix
 # when the run lists several setups (point_cloud@1view, point_cloud@2views: `BenchConfig.camera_labels`),
 # so each setup is a method of its own, side by side with the others.
-Method = tuple[str, str, str]  # hand, planner (its label), observation (its label)
-Group = tuple[str, str, str, str]  # hand, planner, observation, object
+Method = tuple[str, str, str, str]  # hand, planner (its label), observation (its label), protocol (its label)
+Group = tuple[str, str, str, str, str]  # hand, planner, observation, protocol, object (its label)
 
 # What the all-trials line and the pooled AUCs pool, said wherever they are shown.
-POOLED = "all trials of every hand x planner x observation"
+POOLED = "all trials of every hand x planner x observation x protocol"
 
 
 @dataclass(frozen=True)
@@ -117,12 +121,12 @@ class Report:
 
     Attributes:
         overall: every trial pooled (`POOLED`): mixes planners, so it is never the lead figure.
-        by_method: per hand x planner x observation: the lead figures.
-        groups: per hand x planner x observation x object.
-        auc: per hand x planner x observation, each metric's AUC for success with its interval.
+        by_method: per hand x planner x observation x protocol: the lead figures.
+        groups: per hand x planner x observation x protocol x object.
+        auc: per hand x planner x observation x protocol, each metric's AUC for success with its interval.
         auc_pooled: the same over every trial pooled (`POOLED`).
-        pose_errors: estimated-pose errors per hand x planner x observation.
-        views: cameras the planner's observation came from, per hand x planner x observation
+        pose_errors: estimated-pose errors per method.
+        views: cameras the planner's observation came from, per method
             (0: no camera, ground truth; the largest if a method's trials differ).
     """
 
@@ -134,21 +138,26 @@ class Report:
     pose_errors: dict[Method, PoseErrors] = field(default_factory=dict)
     views: dict[Method, int] = field(default_factory=dict)
 
+    @property
+    def protocols(self) -> list[str]:
+        """The protocols (labels) of the run's trials, sorted."""
+        return sorted({m[3] for m in self.by_method})
+
     def to_json(self) -> dict:
         """The JSON form printed by ``manigrasp report --json`` (NaN as null)."""
         return _finite({
             "overall": {"pools": POOLED, **asdict(self.overall)},
-            "methods": [{"hand": h, "planner": p, "observation": o, **asdict(r)}
-                        for (h, p, o), r in self.by_method.items()],
-            "groups": [{"hand": h, "planner": p, "observation": o, "object": obj, **asdict(r)}
-                       for (h, p, o, obj), r in self.groups.items()],
-            "auc": [{"hand": h, "planner": p, "observation": o, "metric": m, **asdict(e)}
-                    for (h, p, o), per in self.auc.items() for m, e in per.items()],
+            "methods": [{**_method(m), **asdict(r)} for m, r in self.by_method.items()],
+            "groups": [{**_method(g[:4]), "object": g[4], **asdict(r)} for g, r in self.groups.items()],
+            "auc": [{**_method(k), "metric": m, **asdict(e)} for k, per in self.auc.items() for m, e in per.items()],
             "auc_pooled": [{"pools": POOLED, "metric": m, **asdict(e)} for m, e in self.auc_pooled.items()],
-            "pose_errors": [{"hand": h, "planner": p, "observation": o, **asdict(e)}
-                            for (h, p, o), e in self.pose_errors.items()],
-            "views": [{"hand": h, "planner": p, "observation": o, "views": v} for (h, p, o), v in self.views.items()],
+            "pose_errors": [{**_method(k), **asdict(e)} for k, e in self.pose_errors.items()],
+            "views": [{**_method(k), "views": v} for k, v in self.views.items()],
         })
+
+
+def _method(method: tuple) -> dict[str, str]:
+    return dict(zip(("hand", "planner", "observation", "protocol"), method, strict=True))
 
 
 def _finite(value: object) -> object:
@@ -167,7 +176,16 @@ def _nan(value: object) -> object:
 
 
 def report_from_json(data: dict) -> Report:
-    """Inverse of `Report.to_json` (for baselines committed as JSON); KeyError/TypeError on a malformed one."""
+    """Inverse of `Report.to_json` (for baselines committed as JSON); KeyError/TypeError on a malformed one.
+
+    A report written before trials were keyed by protocol has entries without one: they get the run's protocol
+    (``run.config.protocol.name``; "standard" if the run is not recorded).
+    """
+    default = _recorded_protocol(data)
+
+    def method(d: dict) -> Method:
+        return d["hand"], d["planner"], d["observation"], d.get("protocol", default)
+
     def rate(d: dict) -> Rate:
         return Rate(**{k: _nan(d[k]) for k in Rate.__dataclass_fields__ if k in d})
 
@@ -176,17 +194,26 @@ def report_from_json(data: dict) -> Report:
 
     per_method: dict[Method, dict[str, AucEstimate]] = defaultdict(dict)
     for a in data.get("auc", []):
-        per_method[(a["hand"], a["planner"], a["observation"])][a["metric"]] = auc(a)
+        per_method[method(a)][a["metric"]] = auc(a)
     return Report(
         overall=rate(data["overall"]),
-        by_method={(m["hand"], m["planner"], m["observation"]): rate(m) for m in data.get("methods", [])},
-        groups={(g["hand"], g["planner"], g["observation"], g["object"]): rate(g) for g in data["groups"]},
+        by_method={method(m): rate(m) for m in data.get("methods", [])},
+        groups={(*method(g), g["object"]): rate(g) for g in data["groups"]},
         auc=dict(per_method),
         auc_pooled={a["metric"]: auc(a) for a in data.get("auc_pooled", [])},
-        pose_errors={(e["hand"], e["planner"], e["observation"]): PoseErrors(
-            **{k: e[k] for k in PoseErrors.__dataclass_fields__}) for e in data.get("pose_errors", [])},
-        views={(v["hand"], v["planner"], v["observation"]): int(v["views"]) for v in data.get("views", [])},
+        pose_errors={method(e): PoseErrors(**{k: e[k] for k in PoseErrors.__dataclass_fields__})
+                     for e in data.get("pose_errors", [])},
+        views={method(v): int(v["views"]) for v in data.get("views", [])},
     )
+
+
+def _recorded_protocol(data: dict) -> str:
+    """The protocol name a report's run recorded (``run.config.protocol.name``), else "standard"."""
+    run = data.get("run")
+    config = run.get("config") if isinstance(run, dict) else None
+    protocol = config.get("protocol") if isinstance(config, dict) else None
+    name = protocol.get("name") if isinstance(protocol, dict) else None
+    return name if isinstance(name, str) else "standard"
 
 
 def load_results(run_dir: Path) -> list[tuple[TrialKey, TrialResult]]:
@@ -207,12 +234,13 @@ def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
     by_group: dict[Group, list[TrialResult]] = defaultdict(list)
     by_method: dict[Method, list[TrialResult]] = defaultdict(list)
     for key, result in results:
-        by_group[(key.hand, key.planner, key.observation, key.object)].append(result)
-        by_method[(key.hand, key.planner, key.observation)].append(result)
+        method = (key.hand, key.planner, key.observation, key.protocol)
+        by_group[(*method, key.object)].append(result)
+        by_method[method].append(result)
     plan_times = {k: planning_call_times(v) for k, v in by_group.items()}
     method_times: dict[Method, list[float]] = defaultdict(list)
-    for (h, p, o, _), times in sorted(plan_times.items()):
-        method_times[(h, p, o)] += times
+    for group, times in sorted(plan_times.items()):
+        method_times[group[:4]] += times
     every = [r for _, r in results]
     return Report(
         overall=Rate.of(every, [t for times in method_times.values() for t in times]),
@@ -226,12 +254,12 @@ def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
 
 
 def pose_errors(by_group: dict[Group, list[TrialResult]]) -> dict[Method, PoseErrors]:
-    """Pose-error statistics per hand x planner x observation, over the objects whose pose was estimated."""
+    """Pose-error statistics per method, over the objects whose pose was estimated."""
     per_method: dict[Method, list[tuple[float, float, float]]] = defaultdict(list)
-    for (hand, planner, observation, _), results in sorted(by_group.items()):
+    for group, results in sorted(by_group.items()):
         first = results[0]
         if not math.isnan(first.pose_rotation_error_deg):
-            per_method[(hand, planner, observation)].append(
+            per_method[group[:4]].append(
                 (first.pose_rotation_error_deg, first.pose_translation_error_mm, first.pose_add_s_mm))
     return {k: PoseErrors.of(v) for k, v in per_method.items()}
 

@@ -90,8 +90,9 @@ def validate(config: BenchConfig, base: Path | None = None) -> list[Group]:
         except PlannerError as exc:
             if "building it raised" not in str(exc):  # a planner whose constructor raises is its trials' status
                 raise
-    _check_kind(config.protocol.name, "protocol")
-    _built(f"protocol {config.protocol.name!r}", PROTOCOLS.load, config.protocol.name, **dict(config.protocol.params))
+    for protocol in config.protocol_entries:
+        _check_kind(protocol.name, "protocol")
+        _built(f"protocol {protocol.name!r}", PROTOCOLS.load, protocol.name, **dict(protocol.params))
     return found
 
 

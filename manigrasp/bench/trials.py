@@ -1,4 +1,5 @@
-"""Enumerating a run: groups (object x hand x planner x observation) and their trials, with seeds.
+"""Enumerating a run: groups (object [x resting pose] x hand x planner x observation [x protocol]) and their
+trials, with seeds.
 
 Seeds derive from the run's seed and the identity of the group or trial
 (names, not positions), so adding an object to a config changes no other
@@ -12,12 +13,29 @@ sees the same noisy frame under each, and a second camera only adds to it.
 ``estimated_pose`` uses only the first camera, so a setup whose first camera
 (and noise) equals an earlier setup's adds no ``estimated_pose`` groups: they
 would repeat that setup's trials exactly.
+
+A config with several protocols (``protocols: [standard, six_direction]``) runs
+every group under each, labelled by the protocol in trial ids (a config with one
+protocol keeps the ids it always had). The seed of a group does not depend on its
+protocol either: the planner sees the same observation with the same generator and
+returns the same grasps, and trial i gets the same seed, under every protocol, so
+the protocols are compared on the very same grasps (a paired comparison, which
+separates the protocol's effect from the luck of the draw far better than
+independent samples would).
+
+``rest: stable_k`` (`SceneConfig.rest_k`) runs each object in each of its `rest_k`
+most probable stable poses (`manigrasp.sim.scene.object_stable_poses`; an object
+with fewer runs as many as it has): one group per pose, its object labelled
+``<name>@rest<i>`` (i = 0 the most probable) and its scene's `rest_index` set to i.
+Counting an object's poses builds it (from the cache when built). Each resting
+pose is its own experiment (the object lies differently), so its seed derives
+from that label.
 """
 
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +73,10 @@ class Group:
         camera: the cameras of a perception observation (None: the default `CameraSetup`).
         camera_label: the setup's suffix of the observation's label in trial ids and tables ("" for a
             config with one setup, else ``@2views``...: `manigrasp.bench.config.camera_labels`).
+        protocol_label: the protocol's label in trial ids and tables (`BenchConfig.protocol_labels`;
+            "": the protocol's name).
+        object_label: the object's label in trial ids and tables ("": its name; ``<name>@rest<i>``
+            for resting pose i under ``rest: stable_k``).
     """
 
     object_source: ObjectSource
@@ -69,6 +91,8 @@ class Group:
     label: str = ""
     camera: CameraSetup | None = None
     camera_label: str = ""
+    protocol_label: str = ""
+    object_label: str = ""
 
     @property
     def observation_label(self) -> str:
@@ -82,8 +106,8 @@ class Group:
 
     def key(self, index: int) -> TrialKey:
         """The key of trial `index` of this group."""
-        return TrialKey(self.object_source.name, self.hand, self.planner_label, self.observation_label,
-                        self.protocol.name, index)
+        return TrialKey(self.object_label or self.object_source.name, self.hand, self.planner_label,
+                        self.observation_label, self.protocol_label or self.protocol.name, index)
 
     def trial_seed(self, index: int) -> int:
         """Seed of trial `index` (independent of the planning seed)."""
@@ -95,7 +119,8 @@ class Group:
 
 
 def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
-    """Every group of `config`, in config order (objects, then hands, planners, observations, camera setups).
+    """Every group of `config`, in config order (objects, resting poses, then hands, planners, observations,
+    camera setups, protocols).
 
     Object sources are resolved here, so an unknown object or a missing mesh
     file is an error before any trial runs.
@@ -108,16 +133,53 @@ def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
                               f"and {i + 1}); give each a distinct 'name'")
     labels = config.planner_labels
     setups = observation_setups(config)
+    protocols = list(zip(config.protocol_entries, config.protocol_labels, strict=True))
+    several = len(protocols) > 1
     out = []
     for source in sources:
-        for hand in config.hands:
-            for planner, label in zip(config.planners, labels, strict=True):
-                for observation in config.observation:
-                    seed = stable_seed(config.seed, source.name, hand, label, observation)
-                    out += [Group(source, hand, planner, config.protocol, observation, config.scene,
-                                  config.grasps_per_object, seed, config.trial_timeout_s, label, camera, suffix)
-                            for camera, suffix in setups[observation]]
+        for scene, object_label in rest_scenes(config.scene, source):
+            name = object_label or source.name
+            for hand in config.hands:
+                for planner, label in zip(config.planners, labels, strict=True):
+                    for observation in config.observation:
+                        seed = stable_seed(config.seed, name, hand, label, observation)
+                        out += [Group(source, hand, planner, protocol, observation, scene, config.grasps_per_object,
+                                      seed, config.trial_timeout_s, label, camera, suffix,
+                                      protocol_label if several else "", object_label)
+                                for camera, suffix in setups[observation] for protocol, protocol_label in protocols]
     return out
+
+
+def rest_scenes(scene: SceneConfig, source: ObjectSource) -> list[tuple[SceneConfig, str]]:
+    """The (scene, object label) pairs `source` runs under: `scene` itself with no label, or under
+    ``rest: stable_k`` one per stable pose of the object, up to `rest_k` (module docstring).
+
+    Raises:
+        ConfigError: the object cannot be built, or has no stable pose (no 3-D collision geometry).
+    """
+    if scene.rest != "stable_k":
+        return [(scene, "")]
+    count = min(scene.rest_k or 1, rest_pose_count(source))
+    if count == 0:
+        raise ConfigError(f"object {source.name}: no stable resting pose (its collision geometry has no 3-D hull)")
+    return [(replace(scene, rest_index=i), f"{source.name}{REST_LABEL}{i}") for i in range(count)]
+
+
+REST_LABEL = "@rest"
+"""Between an object's name and its resting pose's rank in the object label of ``rest: stable_k`` groups."""
+
+
+def rest_pose_count(source: ObjectSource) -> int:
+    """How many stable resting poses the object of `source` has (built, or read from the cache)."""
+    from manigrasp.errors import ManigraspError
+    from manigrasp.objects import catalog
+    from manigrasp.sim.scene import object_stable_poses
+
+    try:
+        outcome = catalog.build(source)
+    except ManigraspError as exc:
+        raise ConfigError(f"object {source.name}: {exc}") from exc
+    return len(object_stable_poses(outcome.asset))
 
 
 def observation_setups(config: BenchConfig) -> dict[str, list[tuple[CameraSetup | None, str]]]:

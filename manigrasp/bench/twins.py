@@ -2,7 +2,8 @@
 
 A scan is paired with its twin by name: object ``<stem>_scan`` (the shipped scans,
 `manigrasp.objects.scans`, or a user's mesh named that way) with object ``<stem>``
-in the same hand x planner x observation. The same physical object should get the
+in the same hand x planner x observation (x protocol), and in the same resting pose
+(``<stem>_scan@rest1`` with ``<stem>@rest1``). The same physical object should get the
 same verdict whatever the mesh's fidelity; the gap between the two rates says how
 far it does not.
 """
@@ -23,12 +24,12 @@ class TwinRow:
     """One scan and its recipe twin under one hand x planner x observation.
 
     Attributes:
-        method: (hand, planner, observation).
+        method: (hand, planner, observation[, protocol]): the group key without the object.
         scan, recipe: object names.
         scan_rate, recipe_rate: their success rates with Wilson intervals.
     """
 
-    method: tuple[str, str, str]
+    method: tuple[str, ...]
     scan: str
     recipe: str
     scan_rate: Rate
@@ -50,16 +51,17 @@ class TwinRow:
         return self.scan_rate.ci_low <= self.recipe_rate.ci_high and self.recipe_rate.ci_low <= self.scan_rate.ci_high
 
 
-def twin_rows(groups: Mapping[tuple[str, str, str, str], Rate]) -> list[TwinRow]:
-    """Every scan/recipe pair in `groups` ((hand, planner, observation, object) -> Rate), sorted."""
+def twin_rows(groups: Mapping[tuple[str, ...], Rate]) -> list[TwinRow]:
+    """Every scan/recipe pair in `groups` ((hand, planner, observation[, protocol], object) -> Rate), sorted."""
     rows = []
-    for (hand, planner, observation, obj), rate in sorted(groups.items()):
-        if not obj.endswith(SCAN_SUFFIX):
+    for (*method, obj), rate in sorted(groups.items()):
+        name, at, rest = obj.partition("@")
+        if not name.endswith(SCAN_SUFFIX):
             continue
-        twin = obj[: -len(SCAN_SUFFIX)]
-        twin_rate = groups.get((hand, planner, observation, twin))
+        twin = name[: -len(SCAN_SUFFIX)] + at + rest
+        twin_rate = groups.get((*method, twin))
         if twin_rate is not None:
-            rows.append(TwinRow((hand, planner, observation), obj, twin, rate, twin_rate))
+            rows.append(TwinRow(tuple(method), obj, twin, rate, twin_rate))
     return rows
 
 
@@ -68,12 +70,15 @@ def markdown_section(report: Report) -> list[str]:
     rows = twin_rows(report.groups)
     if not rows:
         return []
-    header = ["hand", "planner", "observation", "object (recipe twin)", "scan: successes/trials",
+    protocols = len({r.method[3:] for r in rows}) > 1  # a run with several protocols: say which
+    header = ["hand", "planner", "observation", *(["protocol"] if protocols else []), "object (recipe twin)",
+              "scan: successes/trials",
               "scan rate [95% CI]", "recipe: successes/trials", "recipe rate [95% CI]", "gap [points]",
               f"within {GAP_POINTS:g} points"]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:
-        cells = [*r.method, r.recipe, f"{r.scan_rate.successes}/{r.scan_rate.trials}", format_rate(r.scan_rate),
+        cells = [*r.method[:4 if protocols else 3], r.recipe, f"{r.scan_rate.successes}/{r.scan_rate.trials}",
+                 format_rate(r.scan_rate),
                  f"{r.recipe_rate.successes}/{r.recipe_rate.trials}", format_rate(r.recipe_rate),
                  f"{r.gap_points:+.0f}", "yes" if r.within else "no"]
         lines.append("| " + " | ".join(cells) + " |")

@@ -160,7 +160,18 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
         candidate = plan.candidates[index]
         result = replace(result, grasp=PoseRecord.of(candidate.pose), grasp_preshape=float(candidate.preshape),
                          grasp_width_m=math.nan if candidate.width is None else float(candidate.width))
-    return key, result
+    return key, replace(result, **_rest_record(group, plan))
+
+
+def _rest_record(group: Group, plan: Plan) -> dict:
+    """The trial's resting-pose fields (`TrialResult.rest_*`): the rank always, the probability and pose once the
+    group's scene was built (a plan that failed may have failed building it)."""
+    stable = group.scene.rest != "file"
+    out: dict = {"rest_index": group.scene.rest_index if stable else -1}
+    if plan.error is None:
+        rest = scene_for(group).rest
+        out.update(rest_probability=rest.probability if stable else math.nan, rest_pose=PoseRecord.of(rest.matrix()))
+    return out
 
 
 def as_stored(pose: np.ndarray) -> np.ndarray:

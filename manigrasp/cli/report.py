@@ -85,26 +85,25 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
 
 
 def _print_tables(report) -> None:
-    from manigrasp.bench.markdown import auc_rows, lead_lines, pooled_line
+    from manigrasp.bench.markdown import auc_rows, lead_lines, method_cells, method_headers, pooled_line
     from manigrasp.bench.report import format_planning_time, format_rate
 
-    rows = [[h, p, o, obj, r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes)]
-            for (h, p, o, obj), r in report.groups.items()]
-    print(format_table(["hand", "planner", "observation", "object", "trials", "successes", "rate [95% CI]",
-                        "top failure modes"], rows))
+    headers = method_headers(report)
+    rows = [[*method_cells(report, g[:4]), g[4], r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes)]
+            for g, r in report.groups.items()]
+    print(format_table([*headers, "object", "trials", "successes", "rate [95% CI]", "top failure modes"], rows))
     print()
-    print(format_table(["hand", "planner", "observation", "trials", "successes", "rate [95% CI]",
+    print(format_table([*headers, "trials", "successes", "rate [95% CI]",
                         "top failure modes", "median planning_time_s (calls)"],
-                       [[h, p, o, r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes),
-                         format_planning_time(r)] for (h, p, o), r in report.by_method.items()]))
-    for (h, p, o), e in report.pose_errors.items():
-        print(f"pose errors {h}/{p}/{o}: rotation median {e.median_rotation_deg:.1f} deg "
+                       [[*method_cells(report, m), r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes),
+                         format_planning_time(r)] for m, r in report.by_method.items()]))
+    for m, e in report.pose_errors.items():
+        print(f"pose errors {'/'.join(method_cells(report, m))}: rotation median {e.median_rotation_deg:.1f} deg "
               f"(p90 {e.p90_rotation_deg:.1f}), translation median {e.median_translation_mm:.1f} mm "
               f"(p90 {e.p90_translation_mm:.1f}), {e.share_within_5deg_1cm:.0%} of {e.objects} objects "
               "with ADD-S < 5 mm and translation < 1 cm")
     print("\nEach metric's ROC AUC for success [95% bootstrap CI]; n: simulated trials with a value (successes)")
-    print(format_table(["hand", "planner", "observation", "metric", "n (successes)", "AUC [95% CI]"],
-                       auc_rows(report)))
+    print(format_table([*headers, "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)))
     print()
     for line in lead_lines(report):
         print(line)

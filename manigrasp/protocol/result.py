@@ -109,7 +109,8 @@ class PoseRecord:
 
 
 # Nested records of a trial, flattened as <prefix>_<field> columns.
-_NESTED = (("planned", "planned"), ("sim", "simulated"), ("grasp", "grasp"), ("object", "object_pose"))
+_NESTED = (("planned", "planned"), ("sim", "simulated"), ("grasp", "grasp"), ("object", "object_pose"),
+           ("rest", "rest_pose"))
 
 
 @dataclass(frozen=True)
@@ -150,6 +151,11 @@ class TrialResult:
             cameras of a perception observation (`manigrasp.perception.setup.CameraSetup.record`: number, first
             camera's azimuth [deg], elevation [deg], distance [m], the depth noise's standard deviation at
             that distance [m]); 0 and NaN for ground truth.
+        rest_index, rest_probability, rest_pose: the resting pose the object was placed in before it settled
+            (`manigrasp.sim.config.SceneConfig.rest`): its rank among the object's stable poses (0: the most
+            probable; -1: the orientation of its file), its quasi-static probability (NaN for the file's),
+            and the pose itself (``rest_*`` columns: rotation as a quaternion, height of the object frame
+            above the table as z [m], at x = y = 0).
     """
 
     status: Status
@@ -181,6 +187,9 @@ class TrialResult:
     camera_elevation_deg: float = math.nan
     camera_distance_m: float = math.nan
     camera_noise_sigma_m: float = math.nan
+    rest_index: int = -1
+    rest_probability: float = math.nan
+    rest_pose: PoseRecord = field(default_factory=PoseRecord)
 
     @property
     def success(self) -> bool:

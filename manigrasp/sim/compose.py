@@ -119,6 +119,13 @@ def compose_spec(hand: Hand, frames: HandFrames, obj: ObjectSource | None,
     return spec
 
 
+def object_spec(obj: ObjectSource) -> mujoco.MjSpec:
+    """A spec holding the object alone, attached as in a scene (no table, no hand)."""
+    spec = mujoco.MjSpec()
+    _attach_object(spec, obj)
+    return spec
+
+
 def _add_table(spec: mujoco.MjSpec, config: SceneConfig) -> None:
     half = np.asarray(config.table_half_extents, float)
     spec.worldbody.add_geom(name=TABLE_GEOM, type=mujoco.mjtGeom.mjGEOM_BOX, size=half,

@@ -7,10 +7,11 @@ the object resting on a table whose top is the plane z = 0.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 
+from manigrasp.config import OMIT_DEFAULT
 from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
 from manigrasp.errors import ConfigError
 from manigrasp.hands.pads import PAD_FRICTION, PadModel
@@ -22,7 +23,9 @@ INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
 }
 PAD_MODES = ("compliant", "rigid")
-REST_MODES = ("file", "most_stable")
+REST_MODES = ("file", "most_stable", "stable_k")
+MAX_REST_K = 64
+"""Upper bound of `SceneConfig.rest_k` (each resting pose is a group of trials)."""
 CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
@@ -57,8 +60,15 @@ class SceneConfig:
             (sourced in `manigrasp.hands.pads`); rigid pads and the rest of the hand use
             `hand_friction`.
         rest: the object's resting orientation before it settles: "file" (as its mesh
-            file has it) or "most_stable" (the most probable quasi-static stable pose,
-            `manigrasp.objects.poses`).
+            file has it), "most_stable" (the most probable quasi-static stable pose,
+            `manigrasp.objects.poses`) or "stable_k" (the `rest_k` most probable poses, each
+            a group of its own: `manigrasp.bench.trials` sets `rest_index` per group).
+        rest_k: how many stable poses "stable_k" runs (required with it, refused otherwise); an
+            object with fewer stable poses runs as many as it has.
+        rest_index: the stable pose of this scene, by rank (0: the most probable); above 0 only
+            with "stable_k", below `rest_k`. Set per group by the benchmark's enumeration.
+        rest_k and rest_index are left out of run.json while at their defaults, so a config
+            that does not use them keeps its run identity and compares with older baselines.
     """
 
     timestep: float = 0.002
@@ -78,6 +88,8 @@ class SceneConfig:
     pad_pitch: float = 0.01
     pad_friction: float = PAD_FRICTION
     rest: str = "file"
+    rest_k: int | None = field(default=None, metadata={OMIT_DEFAULT: True})
+    rest_index: int = field(default=0, metadata={OMIT_DEFAULT: True})
 
     def __post_init__(self) -> None:
         if self.integrator not in INTEGRATORS:
@@ -88,6 +100,7 @@ class SceneConfig:
             raise ConfigError(f"unknown pads {self.pads!r}; available: {', '.join(PAD_MODES)}")
         if self.rest not in REST_MODES:
             raise ConfigError(f"unknown rest {self.rest!r}; available: {', '.join(REST_MODES)}")
+        self._check_rest_k()
         if self.hand_condim not in (1, 3, 4, 6):
             raise ConfigError(f"hand_condim must be 1, 3, 4 or 6, got {self.hand_condim}")
         positive = {"pad_modulus": self.pad_modulus, "pad_pitch": self.pad_pitch, "pad_friction": self.pad_friction,
@@ -100,6 +113,17 @@ class SceneConfig:
             raise ConfigError("hand_friction and open_settle_time must be >= 0")
         if len(self.gravity) != 3 or len(self.table_half_extents) != 3 or min(self.table_half_extents) <= 0:
             raise ConfigError("gravity and table_half_extents must have 3 components (extents > 0)")
+
+    def _check_rest_k(self) -> None:
+        if self.rest == "stable_k":
+            if self.rest_k is None or not 1 <= self.rest_k <= MAX_REST_K:
+                raise ConfigError(f"rest: stable_k needs rest_k, the number of stable poses to run, in 1..{MAX_REST_K}"
+                                  f" (got {self.rest_k})")
+            if not 0 <= self.rest_index < self.rest_k:
+                raise ConfigError(f"rest_index must be in 0..{self.rest_k - 1} (rest_k {self.rest_k}), "
+                                  f"got {self.rest_index}")
+        elif self.rest_k is not None or self.rest_index != 0:
+            raise ConfigError(f"rest_k and rest_index apply to rest: stable_k only (rest is {self.rest!r})")
 
     def pad_model(self) -> PadModel:
         """The compliant pads' parameters (`manigrasp.hands.pads`) of this scene."""

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from manigrasp.errors import SimulationError
+from manigrasp.errors import MeshError, SimulationError
 from manigrasp.hands.base import Hand
 from manigrasp.objects.poses import RestPose, stable_poses
 from manigrasp.sim.compose import (
@@ -30,6 +30,7 @@ from manigrasp.sim.compose import (
     compose_spec,
     measure_hand,
     name_to_id,
+    object_spec,
 )
 from manigrasp.sim.config import SceneConfig
 from manigrasp.sim.transforms import check_pose, mat_to_quat, pose_matrix, quat_to_mat
@@ -161,23 +162,17 @@ class Scene:
 
     def _object_points(self) -> np.ndarray:
         """(n, 3) points of the object's collision geoms in the object frame [m] (mesh vertices, box corners)."""
-        m, out = self.model, [np.zeros((0, 3))]
-        for g in self.object_geoms:
-            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
-                mesh = m.geom_dataid[g]
-                pts = m.mesh_vert[m.mesh_vertadr[mesh]:m.mesh_vertadr[mesh] + m.mesh_vertnum[mesh]]
-            else:
-                center, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-                corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
-                pts = center + corners * half
-            out.append(pts @ quat_to_mat(m.geom_quat[g]).T + m.geom_pos[g])
-        return np.concatenate(out)
+        return collision_points(self.model, self.object_geoms)
 
     def _rest_pose(self) -> RestPose:
         """The object's resting orientation and height, as `config.rest` chooses."""
         points = self._object_points()
-        if self.config.rest == "most_stable" and len(points) >= 4:
-            return stable_poses(points)[0]
+        if self.config.rest in ("most_stable", "stable_k") and len(points) >= 4:
+            poses = stable_poses(points)
+            if self.config.rest_index >= len(poses):
+                raise SimulationError(f"rest_index {self.config.rest_index}: the object has only {len(poses)} "
+                                      "stable poses")
+            return poses[self.config.rest_index]
         height = -float(points[:, 2].min()) if len(points) else 0.0
         return RestPose(rotation=np.eye(3), height=height, probability=1.0)
 
@@ -286,6 +281,35 @@ class Scene:
         """True if positions, velocities and accelerations are all finite."""
         d = self.data
         return bool(np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all() and np.isfinite(d.qacc).all())
+
+
+def collision_points(model: mujoco.MjModel, geoms: np.ndarray) -> np.ndarray:
+    """(n, 3) points of `geoms` in their body's frame [m]: mesh vertices, or the corners of a primitive's box."""
+    out = [np.zeros((0, 3))]
+    for g in geoms:
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            mesh = model.geom_dataid[g]
+            pts = model.mesh_vert[model.mesh_vertadr[mesh]:model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
+        else:
+            center, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+            corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+            pts = center + corners * half
+        out.append(pts @ quat_to_mat(model.geom_quat[g]).T + model.geom_pos[g])
+    return np.concatenate(out)
+
+
+def object_stable_poses(obj: ObjectSource) -> list[RestPose]:
+    """The stable poses of an object (`manigrasp.objects.poses.stable_poses`, most probable first) from the
+    same collision geometry a scene uses, compiling the object's MJCF alone (no hand, no table); [] if its
+    geometry has no 3-D hull. ``rest: stable_k`` runs the first `rest_k` of them."""
+    model = compile_spec(object_spec(obj), "object")
+    body = name_to_id(model, _BODY, OBJECT_BODY, "body")
+    geoms = np.flatnonzero((model.geom_bodyid == body) & ((model.geom_contype != 0) | (model.geom_conaffinity != 0)))
+    points = collision_points(model, geoms)
+    try:
+        return stable_poses(points) if len(points) >= 4 else []
+    except MeshError:
+        return []
 
 
 def build_scene(hand: Hand | str, obj: ObjectSource | None = None, config: SceneConfig | None = None) -> Scene:
