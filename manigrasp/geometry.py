@@ -24,3 +24,56 @@ def pose_from_pos_quat(position: np.ndarray, quat: np.ndarray) -> np.ndarray:
     out[:, :3, 3] = position
     out[:, 3, 3] = 1.0
     return out
+
+
+RIGID_TOLERANCE = 1e-5
+"""The one tolerance of "is this a rigid transform / a unit quaternion" [-]: the largest entry of
+|R^T R - I| of a pose's rotation block, of |last row - (0, 0, 0, 1)|, and of ||q|| - 1 for a quaternion.
+Every layer (planners, grasp files, the protocol, the scene, the controllers, cameras) checks with it,
+so a pose one layer accepts is never refused by the next. 1e-5 accepts rotations written with 6
+decimals (a typical text grasp file) and refuses anything visibly sheared."""
+
+
+def rigid_defect(pose: np.ndarray) -> str | None:
+    """Why `pose` is not a finite (4, 4) rigid transform within `RIGID_TOLERANCE`, or None: a predicate
+    to follow the pose's name ("grasp pose " + defect), e.g. "contains NaN or inf"."""
+    pose = np.asarray(pose, dtype=float)
+    if pose.shape != (4, 4):
+        return f"has shape {pose.shape}, not (4, 4)"
+    if not np.all(np.isfinite(pose)):
+        return "contains NaN or inf"
+    if np.max(np.abs(pose[3] - (0.0, 0.0, 0.0, 1.0))) > RIGID_TOLERANCE:
+        return f"has last row {pose[3].tolist()}, not [0, 0, 0, 1]"
+    rot = pose[:3, :3]
+    off = float(np.max(np.abs(rot.T @ rot - np.eye(3))))
+    if off > RIGID_TOLERANCE or np.linalg.det(rot) <= 0:
+        return (f"has a rotation block that is not a rotation (|R^T R - I| up to {off:.2g}, det "
+                f"{np.linalg.det(rot):.6g}; a proper rotation has det +1 and |R^T R - I| <= {RIGID_TOLERANCE:g})")
+    return None
+
+
+def is_rigid(pose: np.ndarray) -> bool:
+    """True if `pose` is a finite (4, 4) rigid transform within `RIGID_TOLERANCE`."""
+    return rigid_defect(pose) is None
+
+
+def check_rigid(pose: np.ndarray, name: str = "pose") -> np.ndarray:
+    """`pose` as a float (4, 4) array; raises ValueError naming `name` if it is not rigid (`rigid_defect`)."""
+    defect = rigid_defect(pose)
+    if defect is not None:
+        raise ValueError(f"{name} {defect}")
+    return np.asarray(pose, dtype=float)
+
+
+def quaternion_defect(quat: np.ndarray) -> str | None:
+    """Why `quat` (4,) is not a finite unit quaternion within `RIGID_TOLERANCE`, or None (a predicate, as
+    `rigid_defect`'s)."""
+    q = np.asarray(quat, dtype=float)
+    if q.shape != (4,):
+        return f"has shape {q.shape}, not (4,) (w, x, y, z)"
+    if not np.all(np.isfinite(q)):
+        return "contains NaN or inf"
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > RIGID_TOLERANCE:
+        return f"is not a unit quaternion (norm {norm:.6g}; allowed 1 +- {RIGID_TOLERANCE:g})"
+    return None

@@ -236,8 +236,7 @@ def test_a_harness_bug_is_harness_fault_with_its_traceback(tmp_path):
 def test_a_pose_just_off_a_rotation_is_invalid_grasp_not_an_exception(tmp_path):
     from manigrasp.objects import build_object
     from manigrasp.protocol import PROTOCOLS, settle_object
-    from manigrasp.protocol.base import Grasp
-    from manigrasp.protocol.execution import check_grasp
+    from manigrasp.protocol.grasp import Grasp, check_grasp
     from manigrasp.sim import build_scene
 
     asset = build_object(trimesh.creation.box((0.05,) * 3), name="box_rel", mass=0.3, cache_root=tmp_path).asset
@@ -245,8 +244,8 @@ def test_a_pose_just_off_a_rotation_is_invalid_grasp_not_an_exception(tmp_path):
     rest = settle_object(scene)
     pose = np.diag([1.0, -1.0, -1.0, 1.0])
     pose[:3, 3] = rest[:3, 3]
-    pose[0, 1] += 5e-6  # passes check_grasp's tolerance, not the scene's
-    assert check_grasp(Grasp(pose)) is None
+    pose[0, 1] += 2e-5  # beyond the one rigidity tolerance (geometry.RIGID_TOLERANCE): refused before the scene
+    assert "rotation" in check_grasp(Grasp(pose))
     result = PROTOCOLS.load("lift").run(scene, pose, np.random.default_rng(0), object_pose=rest)
     assert result.status is Status.INVALID_GRASP and "rotation" in result.detail
     from types import SimpleNamespace

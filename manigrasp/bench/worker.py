@@ -195,7 +195,7 @@ def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, 
         detail = f"planner returned {len(plan.candidates)} of {group.n_grasps} requested candidates"
         return key, TrialResult(Status.PLANNER_ERROR, detail=detail, planning_time_s=planning_time, seed=seed)
     from manigrasp.protocol import PROTOCOLS
-    from manigrasp.protocol.base import as_grasp
+    from manigrasp.protocol.grasp import as_grasp
 
     start = time.perf_counter()
     try:

@@ -15,10 +15,10 @@ from typing import Literal
 import numpy as np
 
 from manigrasp.errors import ManigraspError
+from manigrasp.geometry import rigid_defect
 
 Frame = Literal["object", "mesh"]
 FRAMES: tuple[str, ...] = ("object", "mesh")
-ROTATION_TOLERANCE = 1e-4  # allowed deviation of R^T R from the identity (as `planners.run.candidate_defect`)
 
 
 class GraspFileError(ManigraspError, ValueError):
@@ -112,15 +112,10 @@ class GraspSet:
 
 
 def rotation_defect(pose: np.ndarray) -> str | None:
-    """Why the (4, 4) `pose` is not a finite rigid transform, or None."""
-    if not np.all(np.isfinite(pose)):
-        return "its pose contains NaN or inf"
-    rot = pose[:3, :3]
-    if not np.allclose(pose[3], [0.0, 0.0, 0.0, 1.0]):
-        return f"its pose's last row is {pose[3].tolist()}, not [0, 0, 0, 1]"
-    if not np.allclose(rot.T @ rot, np.eye(3), atol=ROTATION_TOLERANCE) or np.linalg.det(rot) < 0:
-        return "its pose's rotation block is not a rotation (not orthonormal with det +1)"
-    return None
+    """Why the (4, 4) `pose` is not a finite rigid transform (`manigrasp.geometry.rigid_defect`, the tolerance
+    every layer uses), or None."""
+    defect = rigid_defect(pose)
+    return None if defect is None else f"its pose {defect}"
 
 
 def placement_defect(grasps: GraspSet, index: int, hand_name: str, hand_kind: str, max_width: float,

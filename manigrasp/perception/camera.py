@@ -29,6 +29,7 @@ import mujoco
 import numpy as np
 
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import rigid_defect
 
 VISIBLE_GROUPS = (1, 1, 1, 0, 0, 0)  # geom groups MuJoCo's renderer shows by default: table, hand, object visual
 BACKENDS = ("auto", "raycast", "gl")
@@ -89,9 +90,9 @@ class Camera:
         pose = np.array(self.pose, float)
         if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
             raise ConfigError(f"camera pose must be a finite (4, 4) matrix, got shape {pose.shape}")
-        rot = pose[:3, :3]
-        if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6) or np.linalg.det(rot) < 0:
-            raise ConfigError("camera pose has a rotation block that is not a proper rotation")
+        defect = rigid_defect(pose)
+        if defect is not None:
+            raise ConfigError(f"camera pose {defect}")
         pose.setflags(write=False)
         object.__setattr__(self, "pose", pose)
 

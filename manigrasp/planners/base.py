@@ -26,13 +26,12 @@ import numpy as np
 import trimesh
 
 from manigrasp.errors import PlannerError
-from manigrasp.geometry import pose_from_pos_quat
+from manigrasp.geometry import pose_from_pos_quat, quaternion_defect
 from manigrasp.hands.base import Hand
 from manigrasp.objects.asset import ObjectAsset
 
 ObservationKind = Literal["mesh", "points"]
 PREGRASP_OFFSET = 0.10  # [m], DESIGN.md: the open hand 10 cm back along the approach axis
-UNIT_TOLERANCE = 1e-6  # allowed deviation of a quaternion's norm / a rotation's orthonormality
 
 
 def _readonly(array: object) -> np.ndarray:
@@ -153,6 +152,12 @@ class GraspCandidate:
         invalid: why this grasp cannot be executed ("" if it can): a grasp read from a file that
             cannot be placed (wrong hand, NaN, not a rotation). It is passed through unchecked and
             its trial is recorded as `invalid_grasp` with this detail, never dropped.
+        joints: (2, hand.n_actuators) the grasp's own hand path of a dexterous hand, in actuator
+            command units (joint angles [rad] of position servos, in `Hand.actuators` order): row 0
+            the pre-shape (the command at the pre-grasp and while approaching), row 1 the squeeze
+            target (the command at synergy 1, past contact). The protocol drives
+            ctrl(s) = (1 - s) joints[0] + s joints[1] from s = `preshape`. None: the hand's own
+            open/closed synergy. Parallel hands take None.
     """
 
     pose: np.ndarray
@@ -168,10 +173,13 @@ class GraspCandidate:
     planner: str = ""
     planning_time_s: float = 0.0
     invalid: str = ""
+    joints: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         set_(self, "pose", _readonly(self.pose))
+        if self.joints is not None:
+            set_(self, "joints", _readonly(self.joints))
         for name in ("contacts", "contact_normals"):
             set_(self, name, _readonly(np.asarray(getattr(self, name), dtype=float).reshape(-1, 3)))
         set_(self, "score", float(self.score))
@@ -181,12 +189,13 @@ class GraspCandidate:
         """A candidate from a TCP position (3,) [m] and a unit quaternion (4,) (w, x, y, z).
 
         Raises:
-            PlannerError: if `quat` is not a finite unit quaternion (within 1e-6).
+            PlannerError: if `quat` is not a finite unit quaternion (within `geometry.RIGID_TOLERANCE`).
         """
         q = np.asarray(quat, dtype=float)
-        if q.shape != (4,) or not np.all(np.isfinite(q)) or abs(np.linalg.norm(q) - 1.0) > UNIT_TOLERANCE:
-            raise PlannerError(f"grasp quaternion {q.tolist()} is not a finite unit quaternion (w, x, y, z); "
-                               f"its norm is {np.linalg.norm(q):.6g}")
+        defect = quaternion_defect(q)
+        if defect is not None:
+            raise PlannerError(f"grasp quaternion {q.tolist()} is not a finite unit quaternion (w, x, y, z): "
+                               f"it {defect}")
         pose = pose_from_pos_quat(np.asarray(pos, dtype=float).reshape(1, 3), q[None])[0]
         return cls(pose=pose, score=score, **fields)  # type: ignore[arg-type]
 

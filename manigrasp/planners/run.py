@@ -17,8 +17,9 @@ from numbers import Real
 import numpy as np
 
 from manigrasp.errors import PlannerError
+from manigrasp.geometry import rigid_defect
 from manigrasp.hands.base import Hand
-from manigrasp.planners.base import UNIT_TOLERANCE, GraspCandidate, Observation, Planner
+from manigrasp.planners.base import GraspCandidate, Observation, Planner
 
 
 @dataclass(frozen=True)
@@ -70,15 +71,16 @@ def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np
     except (Exception, SystemExit) as exc:  # a planner's failure (even sys.exit) is reported, never swallowed
         raise PlannerError(f"planner {name!r} raised {type(exc).__name__}: {exc}") from exc
     elapsed = time.perf_counter() - start
-    candidates = validate_candidates(returned, name, n)
+    candidates = validate_candidates(returned, name, n, hand)
     order = sorted(range(len(candidates)), key=lambda i: -candidates[i].score)
     ranked = tuple(dataclasses.replace(candidates[i], planner=candidates[i].planner or name,
                                        planning_time_s=elapsed) for i in order)
     return PlanResult(planner=name, candidates=ranked, planning_time_s=elapsed)
 
 
-def validate_candidates(returned: object, name: str, n: int) -> list[GraspCandidate]:
-    """`returned` as a list of valid candidates, else a `PlannerError` naming the first defect."""
+def validate_candidates(returned: object, name: str, n: int, hand: Hand | None = None) -> list[GraspCandidate]:
+    """`returned` as a list of valid candidates (for `hand`, if given), else a `PlannerError` naming the
+    first defect."""
     if not isinstance(returned, Sequence) or isinstance(returned, str | bytes):
         raise PlannerError(f"planner {name!r} returned {type(returned).__name__}, not a list of GraspCandidate")
     if len(returned) > n:
@@ -87,15 +89,19 @@ def validate_candidates(returned: object, name: str, n: int) -> list[GraspCandid
         if not isinstance(candidate, GraspCandidate):
             raise PlannerError(f"planner {name!r}: candidate {i} is a {type(candidate).__name__}, "
                                "not a GraspCandidate")
-        defect = candidate_defect(candidate)
+        defect = candidate_defect(candidate, hand)
         if defect:
             raise PlannerError(f"planner {name!r}: candidate {i} is invalid: {defect}")
     return list(returned)
 
 
-def candidate_defect(candidate: GraspCandidate) -> str | None:
+def candidate_defect(candidate: GraspCandidate, hand: Hand | None = None) -> str | None:
     """What is wrong with `candidate` (a sentence), or None if it is valid (or declared `invalid`:
-    then its trial is `invalid_grasp`; only its score must rank)."""
+    then its trial is `invalid_grasp`; only its score must rank).
+
+    The pose must be rigid within `manigrasp.geometry.RIGID_TOLERANCE` (the protocol's own check);
+    `joints`, if given, a finite (2, n_actuators) array for a dexterous `hand` (`protocol.grasp.joints_defect`;
+    whether they lie in the actuators' ranges is the protocol's check, on the compiled scene)."""
     for key in ("score", "preshape", "pregrasp_offset", "width"):
         value = getattr(candidate, key)
         if not (value is None and key == "width") and (isinstance(value, bool) or not isinstance(value, Real)):
@@ -106,16 +112,9 @@ def candidate_defect(candidate: GraspCandidate) -> str | None:
             return f"{key} is a {type(value).__name__}, not a numeric array"
     if candidate.invalid:
         return None if np.isfinite(candidate.score) else f"score is {candidate.score}"
-    pose = candidate.pose
-    if pose.shape != (4, 4):
-        return f"pose has shape {pose.shape}, not (4, 4)"
-    if not np.all(np.isfinite(pose)):
-        return "pose contains NaN or inf"
-    if not np.allclose(pose[3], [0.0, 0.0, 0.0, 1.0]):
-        return f"pose's last row is {pose[3].tolist()}, not [0, 0, 0, 1]"
-    rot = pose[:3, :3]
-    if not np.allclose(rot.T @ rot, np.eye(3), atol=100 * UNIT_TOLERANCE) or np.linalg.det(rot) < 0:
-        return "pose's rotation block is not a rotation (its quaternion would not be unit)"
+    defect = rigid_defect(candidate.pose)
+    if defect is not None:
+        return f"pose {defect}"
     if not np.isfinite(candidate.score):
         return f"score is {candidate.score}"
     if candidate.width is not None and not (np.isfinite(candidate.width) and candidate.width >= 0):
@@ -128,4 +127,8 @@ def candidate_defect(candidate: GraspCandidate) -> str | None:
         return "contacts contain NaN or inf"
     if not np.isfinite(candidate.pregrasp_offset) or candidate.pregrasp_offset < 0:
         return f"pregrasp_offset is {candidate.pregrasp_offset}"
+    if candidate.joints is not None:
+        from manigrasp.protocol.grasp import joints_defect
+
+        return joints_defect(candidate.joints, hand)
     return None

@@ -12,8 +12,9 @@ from manigrasp.protocol import lift as _lift
 from manigrasp.protocol import shake as _shake
 from manigrasp.protocol import six_direction as _six_direction
 from manigrasp.protocol import standard as _standard
-from manigrasp.protocol.base import PROTOCOLS, Grasp, Protocol, as_grasp, load, names
+from manigrasp.protocol.base import PROTOCOLS, Protocol, load, names
 from manigrasp.protocol.execution import GraspParams
+from manigrasp.protocol.grasp import Grasp, as_grasp
 from manigrasp.protocol.lift import LiftParams, LiftProtocol
 from manigrasp.protocol.result import GraspMetrics, Phase, Status, TrialResult
 from manigrasp.protocol.settle import settle_object

@@ -1,4 +1,4 @@
-"""What a protocol is, the grasp it executes, and the registry of protocols.
+"""What a protocol is and the registry of protocols (the grasp it executes: `manigrasp.protocol.grasp`).
 
 A protocol runs one grasp in a compiled `manigrasp.sim.Scene` and returns one
 `TrialResult`; it never raises for a fault of the trial (a NaN pose, a
@@ -15,64 +15,20 @@ arguments (`manigrasp.config.from_mapping`): a misspelled key is a
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
 from typing import Any, ClassVar, Generic, TypeVar
 
 import numpy as np
 
 from manigrasp.config import from_mapping
+from manigrasp.protocol.execution import TrialRun
+from manigrasp.protocol.grasp import Grasp
 from manigrasp.protocol.observer import TrialObserver
-from manigrasp.protocol.result import GraspMetrics, TrialResult
+from manigrasp.protocol.result import TrialResult
+from manigrasp.protocol.trial import execute
 from manigrasp.registry import Registry
 from manigrasp.sim import Scene
 
 P = TypeVar("P")
-
-
-@dataclass(frozen=True, eq=False)
-class Grasp:
-    """The part of a planned grasp a protocol executes (a `GraspCandidate` converts to it).
-
-    Nothing is validated here: a non-finite or non-rigid pose must reach the
-    protocol, which records it as `invalid_grasp`.
-
-    Attributes:
-        pose: (4, 4) TCP pose in the world (z approach, y closing) [m].
-        preshape: hand synergy of the open pre-shape in [0, 1] (0 = fully open).
-        width: planned jaw opening at contact [m], or None (informational).
-        contacts: (k, 3) planned contact points in the world [m].
-        contact_normals: (k, 3) unit normals at `contacts`, pointing into the object.
-        planning_time_s: the planner's time for this grasp [s] (NaN: unknown).
-        planned_metrics: the metrics of `contacts` if already computed (the harness scores a
-            whole plan at once with `protocol.metrics.planned_metrics_batch`); None: computed here.
-        invalid: why the grasp cannot be executed, as its planner declared ("": it may be); the
-            trial is then `invalid_grasp` with this detail.
-    """
-
-    pose: np.ndarray
-    preshape: float = 0.0
-    width: float | None = None
-    contacts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    contact_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    planning_time_s: float = float("nan")
-    planned_metrics: GraspMetrics | None = None
-    invalid: str = ""
-
-
-def as_grasp(grasp: Any) -> Grasp:
-    """A `Grasp` from a `Grasp`, a `manigrasp.planners.GraspCandidate` (or anything with a
-    ``pose`` attribute and optionally its other fields), or a bare (4, 4) TCP pose."""
-    if isinstance(grasp, Grasp):
-        return grasp
-    if not hasattr(grasp, "pose"):
-        return Grasp(pose=np.asarray(grasp, dtype=float))
-    contacts = np.asarray(getattr(grasp, "contacts", np.zeros((0, 3))), float).reshape(-1, 3)
-    normals = np.asarray(getattr(grasp, "contact_normals", np.zeros((0, 3))), float).reshape(-1, 3)
-    timing = getattr(grasp, "planning_time_s", float("nan"))
-    return Grasp(pose=np.asarray(grasp.pose, dtype=float), preshape=float(getattr(grasp, "preshape", 0.0) or 0.0),
-                 width=getattr(grasp, "width", None), contacts=contacts, contact_normals=normals,
-                 planning_time_s=float(timing) if timing is not None else float("nan"),
-                 invalid=str(getattr(grasp, "invalid", "") or ""))
 
 
 class Protocol(ABC, Generic[P]):
@@ -109,13 +65,11 @@ class Protocol(ABC, Generic[P]):
                 samples every `sample_period_s` of simulated time, end), or None; the
                 result is the same with or without one (wall time aside).
         """
-        from manigrasp.protocol.trial import execute
-
         return execute(scene, grasp, self.params, self.body, deadline, object_pose, seed, observer=observer)
 
     @abstractmethod
-    def body(self, run: Any, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
-        """The protocol's phases on a reset `run` (`execution.TrialRun`): grasp pose (4, 4), settled object
+    def body(self, run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
+        """The protocol's phases on a reset `run`: grasp pose (4, 4), settled object
         pose (4, 4), the grasp. Returns the finger bodies touching at the end on success; raises
         `execution.Abort` with the failure status otherwise."""
 

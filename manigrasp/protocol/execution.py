@@ -35,7 +35,7 @@ import numpy as np
 
 from manigrasp.control import GripController, NativeImpedance, default_gains
 from manigrasp.errors import ConfigError
-from manigrasp.protocol.base import Grasp
+from manigrasp.protocol.grasp import Grasp
 from manigrasp.protocol.metrics import radius_of_gyration
 from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.result import GraspMetrics, Phase, Status
@@ -187,6 +187,15 @@ class TrialRun:
         self.grip_force_n = math.nan
         self.simulated = GraspMetrics()
         self.torque_scale = params.torque_scale or radius_of_gyration(scene)
+        self.joints: np.ndarray | None = None  # (2, n_act) the grasp's own hand path, None: the hand's
+        self.pregrasp_offset = params.pregrasp_offset  # [m] where the open hand starts, back along the approach
+
+    def use_grasp(self, grasp: Grasp) -> None:
+        """Execute `grasp` (checked by `check_grasp`): its hand path (`Grasp.joints`, else the hand's own)
+        from the next `reset` on, and its pre-grasp offset (else the protocol's)."""
+        self.joints = None if grasp.joints is None else np.array(grasp.joints, dtype=float)
+        if grasp.pregrasp_offset is not None:
+            self.pregrasp_offset = float(grasp.pregrasp_offset)
 
     @property
     def sim_time(self) -> float:
@@ -194,12 +203,17 @@ class TrialRun:
         return self.time0 + self.steps * self.dt
 
     def reset(self, mount: np.ndarray, object_pose: np.ndarray, synergy: float) -> None:
-        """Reset the scene (hand open at `mount`, object at `object_pose`) and the controllers.
+        """Reset the scene (hand open at `mount` on the grasp's hand path at `synergy`, object at
+        `object_pose`) and the controllers.
 
         The impedance gains are designed from the hand's inertia at the reset state, so a trial
         does not depend on what the scene did before it. The scene's clock keeps running across
         the resets of one trial (`sim_time`), so observers see one time line.
         """
+        if self.joints is None:
+            self.scene.set_hand_path()
+        else:
+            self.scene.set_hand_path(self.joints[0], self.joints[1])
         self.scene.reset(mount=mount, object_pose=object_pose, synergy=synergy)
         self.scene.data.time = self.sim_time
         self.impedance = self._impedance()
@@ -345,36 +359,3 @@ class TrialRun:
         if self.params.payload_feedforward:
             out[:3] = -self.scene.object_mass() * self.scene.model.opt.gravity
         return out
-
-
-def check_grasp(grasp: Grasp) -> str | None:
-    """Why `grasp` cannot be executed (declared invalid, a non-finite or non-rigid pose, a bad pre-shape),
-    or None."""
-    if grasp.invalid:
-        return grasp.invalid
-    pose = np.asarray(grasp.pose, float)
-    if pose.shape == (7,):
-        if not np.isfinite(pose).all():
-            return "grasp pose (pos, quat) is not finite"
-        if abs(np.linalg.norm(pose[3:]) - 1.0) > 1e-3:
-            return f"grasp quaternion is not a unit quaternion (norm {np.linalg.norm(pose[3:]):.4g})"
-        return None
-    if pose.shape != (4, 4):
-        return f"grasp pose must be (4, 4) or (7,) (pos, quat), got shape {pose.shape}"
-    if not np.isfinite(pose).all():
-        return "grasp pose is not finite"
-    rot = pose[:3, :3]
-    if not np.allclose(pose[3], [0, 0, 0, 1]) or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-5) \
-            or np.linalg.det(rot) < 0:
-        return "grasp pose is not a rigid transform (rotation block not orthonormal with det +1)"
-    if not (np.isfinite(grasp.preshape) and 0.0 <= grasp.preshape <= 1.0):
-        return f"pre-shape must be in [0, 1], got {grasp.preshape}"
-    return None
-
-
-def grasp_tcp_pose(grasp: Grasp) -> np.ndarray:
-    """(4, 4) TCP pose of a grasp that passed `check_grasp` (a (7,) pos+quat becomes a matrix)."""
-    from manigrasp.sim.transforms import pose_matrix
-
-    pose = np.asarray(grasp.pose, float)
-    return pose_matrix(pose[:3], pose[3:]) if pose.shape == (7,) else pose.copy()

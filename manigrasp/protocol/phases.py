@@ -51,7 +51,7 @@ def pregrasp_pose(pose: np.ndarray, offset: float) -> np.ndarray:
 
 def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, preshape: float) -> np.ndarray:
     """Reset with the open hand at the pre-grasp pose of `pose`; any hand contact: `pregrasp_collision`."""
-    start = pregrasp_pose(pose, run.params.pregrasp_offset)
+    start = pregrasp_pose(pose, run.pregrasp_offset)
     with run.phase(Phase.PREGRASP):
         release_hold(run)
         run.reset(start, object_pose, preshape)

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from manigrasp.errors import SimulationError
-from manigrasp.protocol.base import Grasp, as_grasp
-from manigrasp.protocol.execution import Abort, GraspParams, TrialRun, check_grasp, grasp_tcp_pose
+from manigrasp.protocol.execution import Abort, GraspParams, TrialRun
+from manigrasp.protocol.grasp import Grasp, as_grasp, check_grasp, grasp_tcp_pose
 from manigrasp.protocol.metrics import planned_metrics
 from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.result import GraspMetrics, Phase, Status, TrialResult
@@ -27,8 +27,9 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
             observer: TrialObserver | None = None) -> TrialResult:
     """Run `body` as one trial and turn its outcome, or its `Abort`, into a `TrialResult`.
 
-    An invalid grasp (non-finite pose, non-rigid rotation, non-unit quaternion,
-    pre-shape outside [0, 1]) is `invalid_grasp` before anything is simulated;
+    An invalid grasp (`grasp.check_grasp`: non-finite pose, non-rigid rotation, non-unit quaternion,
+    pre-shape outside [0, 1], joints that do not fit the hand) is `invalid_grasp` before anything is
+    simulated; the grasp's own hand path (`Grasp.joints`) is the scene's during the trial only;
     a `SimulationError` inside the trial is `unstable`.
 
     `observer` (or None) gets `on_start` first (with the given object pose, or, when the
@@ -44,7 +45,7 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     if observer is not None:
         dropped = scene.object_rest_pose() if object_pose is None else np.asarray(object_pose, float)
         observer.on_start(scene, grasp, dropped)
-    problem = check_grasp(grasp) or _mount_problem(grasp)
+    problem = check_grasp(grasp, scene.hand, scene.hand_ctrlrange())
     if problem is not None:
         result = TrialResult(Status.INVALID_GRASP, detail=problem, planning_time_s=grasp.planning_time_s,
                              wall_time_s=time.perf_counter() - start, seed=seed)
@@ -52,6 +53,7 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
             observer.on_end(scene, result)
         return result
     run = TrialRun(scene, params, deadline, clock, observer)
+    run.use_grasp(grasp)
     status, detail, fingers, planned = Status.SUCCESS, "", (), GraspMetrics()
     try:
         with run.phase(Phase.SETTLE, announce=object_pose is None):  # a given pose was settled by the caller
@@ -71,6 +73,8 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
         fingers = _fingers_now(run)
     except SimulationError as exc:
         status, detail = Status.UNSTABLE, str(exc)
+    finally:
+        scene.set_hand_path()  # the hand's own path for whatever uses the scene next
     dt = float(scene.model.opt.timestep)
     result = TrialResult(status=status, detail=detail, last_phase=run.last_phase,
                        perturb_direction=_perturb_direction(run, status),
@@ -81,18 +85,6 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     if observer is not None:
         observer.on_end(scene, result)
     return result
-
-
-def _mount_problem(grasp: Grasp) -> str | None:
-    """Why the scene would refuse the grasp's pose as the hand's mount (its rigid-transform tolerance is
-    tighter than `check_grasp`'s), or None: the trial is then `invalid_grasp` instead of an exception."""
-    from manigrasp.sim.transforms import check_pose
-
-    try:
-        check_pose(grasp_tcp_pose(grasp), "grasp pose")
-    except ValueError as exc:
-        return str(exc)
-    return None
 
 
 def _perturb_direction(run: TrialRun, status: Status) -> str:

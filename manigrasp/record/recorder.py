@@ -224,8 +224,7 @@ class TrialRecorder:
 
     # ------------------------------------------------------------- internals
     def _log_plan(self, grasp: Any) -> None:
-        from manigrasp.protocol.base import as_grasp
-        from manigrasp.protocol.execution import check_grasp, grasp_tcp_pose
+        from manigrasp.protocol.grasp import as_grasp, check_grasp, grasp_tcp_pose
         from manigrasp.protocol.phases import pregrasp_pose
 
         g = as_grasp(grasp)

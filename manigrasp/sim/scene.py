@@ -35,6 +35,8 @@ from manigrasp.sim.compose import (
 from manigrasp.sim.config import SceneConfig
 from manigrasp.sim.transforms import check_pose, mat_to_quat, pose_matrix, quat_to_mat
 
+SPAN_EPSILON = 1e-12  # an actuator whose open and closed commands differ by less does not move along a hand path
+
 _BODY, _SITE, _JOINT, _ACT, _GEOM = (mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtObj.mjOBJ_JOINT,
                                      mujoco.mjtObj.mjOBJ_ACTUATOR, mujoco.mjtObj.mjOBJ_GEOM)
 
@@ -123,6 +125,7 @@ class Scene:
         self.rest = self._rest_pose()
         self.object_rest_height = self.rest.height
         self.mount = np.eye(4)
+        self.set_hand_path()
         self.reset()
 
     # ----------------------------------------------------------------- ids
@@ -184,7 +187,7 @@ class Scene:
         Args:
             mount: (4, 4) TCP pose at zero base joints (default: the current mount).
             object_pose: (4, 4) object pose (default: resting on the table at x = y = 0).
-            synergy: hand command in [0, 1] (0 open); the joints start at the open shape.
+            synergy: hand command in [0, 1] (0 open) along `hand_path`; the joints start at the open shape.
 
         The base motors and servos are off afterwards until a controller commands or engages them.
         """
@@ -227,18 +230,52 @@ class Scene:
         dof = self.model.jnt_dofadr[self.model.body_jntadr[self.object_body]]
         self.data.qvel[dof:dof + 6] = 0.0
 
+    @property
+    def hand_path(self) -> tuple[np.ndarray, np.ndarray]:
+        """(open (n_act,), closed (n_act,)) actuator commands at synergy 0 and 1 (read-only copies)."""
+        return self._path[0].copy(), self._path[1].copy()
+
+    def set_hand_path(self, open_ctrl: np.ndarray | None = None, closed_ctrl: np.ndarray | None = None) -> None:
+        """The straight line of hand commands the synergy drives: ctrl(s) = (1 - s) open + s closed.
+
+        A grasp with its own joint configuration sets its pre-shape and squeeze rows (n_act,) here; no
+        arguments (or None): the hand's own `open_ctrl` / `closed_ctrl`. It stays until set again (the
+        protocol sets it at every reset of a trial and gives the hand's own back at its end).
+        """
+        n = self.hand.n_actuators
+        path = (self.hand.open_ctrl if open_ctrl is None else open_ctrl,
+                self.hand.closed_ctrl if closed_ctrl is None else closed_ctrl)
+        rows = [np.array(row, dtype=float) for row in path]
+        if any(r.shape != (n,) or not np.all(np.isfinite(r)) for r in rows):
+            raise ValueError(f"a hand path needs two finite rows of {n} actuator commands, got shapes "
+                             f"{rows[0].shape}, {rows[1].shape}")
+        for row in rows:
+            row.setflags(write=False)
+        self._path = (rows[0], rows[1])
+
+    def hand_ctrlrange(self) -> np.ndarray:
+        """(n_act, 2) [lower, upper] command range of the hand actuators (NaN where not limited)."""
+        acts = self.hand_actuators
+        limited = self.model.actuator_ctrllimited[acts].astype(bool)
+        return np.where(limited[:, None], self.model.actuator_ctrlrange[acts], np.nan)
+
     def set_synergy(self, s: float) -> None:
-        """Hand actuator commands of synergy `s` in [0, 1] (0 open, 1 closed)."""
-        self.data.ctrl[self.hand_actuators] = self.hand.synergy_ctrl(s)
+        """Hand actuator commands of synergy `s` in [0, 1] (0 open, 1 closed) along `hand_path`."""
+        s = float(np.clip(s, 0.0, 1.0))
+        self.data.ctrl[self.hand_actuators] = (1.0 - s) * self._path[0] + s * self._path[1]
 
     def hand_synergy(self) -> float:
-        """Where the fingers are, as a synergy in [0, 1]: the mean over hand actuators of
-        (length - open) / (closed - open) of their transmission, clipped (an estimate:
-        a blocked finger stays below its command)."""
+        """Where the fingers are along `hand_path`, as a synergy in [0, 1]: the mean over hand actuators
+        of (length - open) / (closed - open) of their transmission, clipped (an estimate: a blocked
+        finger stays below its command). An actuator whose open and closed commands are equal (a fixed
+        pre-shape joint) counts as 1: left out, the estimate drops and the grip loop's `lead` ceiling
+        (command <= estimate + lead) stalls the Fourier and Inspire hands short of contact."""
+        open_ctrl, closed_ctrl = self._path
+        span = closed_ctrl - open_ctrl
+        moving = np.abs(span) > SPAN_EPSILON
         length = self.data.actuator_length[self.hand_actuators]
-        span = self.hand.closed_ctrl - self.hand.open_ctrl
-        safe = np.where(np.abs(span) > 1e-12, span, 1.0)
-        frac = np.where(np.abs(span) > 1e-12, (length - self.hand.open_ctrl) / safe, 1.0)
+        frac = np.ones(len(span))
+        frac[moving] = (length[moving] - open_ctrl[moving]) / span[moving]
         return float(np.clip(frac, 0.0, 1.0).mean())
 
     def forward(self) -> None:

@@ -9,6 +9,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from manigrasp.geometry import check_rigid
+
 
 def pose_matrix(pos: np.ndarray, quat: np.ndarray | None = None) -> np.ndarray:
     """(4, 4) pose from `pos` (3,) [m] and unit `quat` (4,) (w, x, y, z), identity if None."""
@@ -42,14 +44,9 @@ def pos_quat(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_pose(pose: np.ndarray, name: str = "pose") -> np.ndarray:
-    """`pose` as a float (4, 4) array; raises ValueError if it is not a finite rigid transform."""
-    pose = np.asarray(pose, float)
-    if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
-        raise ValueError(f"{name} must be a finite (4, 4) matrix, got shape {pose.shape}")
-    rot = pose[:3, :3]
-    if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6) or np.linalg.det(rot) < 0:
-        raise ValueError(f"{name} has a rotation block that is not a proper rotation")
-    return pose
+    """`pose` as a float (4, 4) array; raises ValueError if it is not a finite rigid transform
+    (`manigrasp.geometry.check_rigid`, the one tolerance every layer uses)."""
+    return check_rigid(pose, name)
 
 
 def rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
