@@ -33,8 +33,9 @@ import numpy as np
 from manigrasp.objects import catalog, recipes
 from manigrasp.perception.camera import gl_available, render_depth
 from manigrasp.perception.models import ModelDatabase
-from manigrasp.perception.pipeline import CameraConfig, perceive, tabletop
+from manigrasp.perception.pipeline import CameraConfig, perceive
 from manigrasp.planners.base import resting_pose
+from manigrasp.sim import build_tabletop
 
 VIEWS = ((0.0, 35.0), (120.0, 50.0), (240.0, 60.0), (300.0, 40.0))
 
@@ -53,7 +54,7 @@ def main() -> None:
     stages: dict[str, list[float]] = {}
     successes = []
     for i, name in enumerate(names):
-        scene = tabletop(assets[name])
+        scene = build_tabletop(assets[name])
         for v, (azimuth, elevation) in enumerate(VIEWS[:args.views]):
             rng = np.random.default_rng([i, v])
             pose = resting_pose(assets[name])
@@ -61,8 +62,7 @@ def main() -> None:
             pose[:2, :2] = [[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]]
             scene.place(pose)
             camera = CameraConfig(azimuth_deg=azimuth, elevation_deg=elevation).camera(pose[:2, 3])
-            result = perceive(scene.model, scene.data, scene.object_geoms, camera, database, rng,
-                              object_name=name, true_pose=pose)
+            result = perceive(scene, camera, database, rng, object_name=name, true_pose=pose)
             for key, value in result.timings.items():
                 stages.setdefault(key, []).append(value)
             if gl[0]:

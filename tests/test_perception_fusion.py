@@ -15,9 +15,9 @@ from manigrasp.errors import ConfigError
 from manigrasp.objects import build_object
 from manigrasp.perception.fusion import observe_views
 from manigrasp.perception.noise import NOISELESS
-from manigrasp.perception.pipeline import tabletop
 from manigrasp.perception.setup import CameraSetup
 from manigrasp.planners.free_space import FREE, OCCUPIED, UNKNOWN, FreeSpace
+from manigrasp.sim import build_tabletop
 from tests.test_planners import BOX
 
 pytest.importorskip("open3d")
@@ -26,7 +26,7 @@ pytest.importorskip("open3d")
 @pytest.fixture(scope="module")
 def box_table():
     asset = build_object(trimesh.creation.box(BOX), name="planner_test_box", mass=0.2).asset
-    table = tabletop(asset)
+    table = build_tabletop(asset)
     pose = np.eye(4)
     pose[2, 3] = BOX[2] / 2
     table.place(pose)
@@ -34,8 +34,7 @@ def box_table():
 
 
 def fused(table, setup: CameraSetup, seed: int = 0):
-    return observe_views(table.model, table.data, table.object_geoms, setup.cameras(np.zeros(2)), setup.noise,
-                         view_rngs(seed, "box", setup.views))
+    return observe_views(table, setup.cameras(np.zeros(2)), view_rngs(seed, "box", setup.views), setup.perception())
 
 
 def test_camera_setup_spreads_views_and_validates():

@@ -11,9 +11,10 @@ pytest.importorskip("open3d")
 
 from manigrasp.objects import catalog, recipes  # noqa: E402
 from manigrasp.perception.models import ModelDatabase, find_symmetries  # noqa: E402
-from manigrasp.perception.pipeline import CameraConfig, perceive, tabletop  # noqa: E402
+from manigrasp.perception.pipeline import CameraConfig, PerceptionConfig, perceive  # noqa: E402
 from manigrasp.perception.registration import evaluate  # noqa: E402
 from manigrasp.planners.base import resting_pose  # noqa: E402
+from manigrasp.sim import build_tabletop  # noqa: E402
 
 VIEWS = ((0.0, 35.0), (120.0, 50.0), (240.0, 60.0))  # (azimuth, elevation) [deg], distance 0.55 m, 320 x 240
 RECOGNITION_VIEW = (30.0, 50.0)
@@ -59,14 +60,13 @@ def test_pose_from_one_noisy_view_on_the_shipped_set(assets, database):
     for at least 80 % of (object, view) pairs."""
     outcomes = {}
     for i, name in enumerate(recipes.names()):
-        scene = tabletop(assets[name])
+        table = build_tabletop(assets[name])
         for v, (azimuth, elevation) in enumerate(VIEWS):
             rng = np.random.default_rng([i, v])
             pose = _true_pose(assets[name], rng)
-            scene.place(pose)
+            table.place(pose)
             camera = CameraConfig(azimuth_deg=azimuth, elevation_deg=elevation).camera(pose[:2, 3])
-            result = perceive(scene.model, scene.data, scene.object_geoms, camera, database, rng,
-                              object_name=name, true_pose=pose)
+            result = perceive(table, camera, database, rng, object_name=name, true_pose=pose)
             outcomes[name, v] = result.errors
     rate = np.mean([e.success for e in outcomes.values()])
     failed = {k: (round(e.rotation_deg, 1), round(e.translation_mm, 1), round(e.add_s_mm, 1))
@@ -79,12 +79,12 @@ def test_recognition_picks_the_right_model(assets, database):
     """Each shipped object alone on the table, one fixed view: the best-scoring model is the object."""
     wrong = {}
     for i, name in enumerate(recipes.names()):
-        scene = tabletop(assets[name])
+        table = build_tabletop(assets[name])
         pose = resting_pose(assets[name])
-        scene.place(pose)
+        table.place(pose)
         camera = CameraConfig(azimuth_deg=RECOGNITION_VIEW[0], elevation_deg=RECOGNITION_VIEW[1]).camera([0, 0])
-        result = perceive(scene.model, scene.data, scene.object_geoms, camera, database,
-                          np.random.default_rng(100 + i), true_pose=pose, restarts=3)
+        result = perceive(table, camera, database, np.random.default_rng(100 + i), PerceptionConfig(restarts=3),
+                          true_pose=pose)
         if result.recognized_as != name:
             wrong[name] = (result.recognized_as, round(result.estimate.score, 2))
     assert not wrong, f"misrecognised (as, score): {wrong}"

@@ -101,17 +101,15 @@ def observe_with_info(kind: str, asset, object_pose: np.ndarray, scene=None, see
     if not isinstance(setup, CameraSetup):
         raise ConfigError(f"camera must be a CameraSetup, got {type(setup).__name__}")
     scene.forward()
-    geoms = np.flatnonzero(scene.model.geom_bodyid == scene.object_body)
     cameras = setup.cameras(object_pose[:2, 3], table_height)
     rngs = view_rngs(seed, asset.name, setup.views)
     try:
         if kind == "point_cloud":
-            return _point_cloud(scene, geoms, cameras, setup, rngs, table_height)
+            return _point_cloud(scene, cameras, setup, rngs, table_height)
         from manigrasp.perception.pipeline import perceive
 
-        result = perceive(scene.model, scene.data, geoms, cameras[0], _database(asset), rngs[0],
-                          object_name=asset.name, true_pose=object_pose, noise=setup.noise,
-                          backend=setup.backend, table_height=table_height)
+        result = perceive(scene, cameras[0], _database(asset), rngs[0], setup.perception(table_height),
+                          object_name=asset.name, true_pose=object_pose)
     except PerceptionError:
         raise
     except ManigraspError as exc:  # a failure on this view (object not in view...): the group's result
@@ -124,13 +122,12 @@ def observe_with_info(kind: str, asset, object_pose: np.ndarray, scene=None, see
     return Observation.from_asset(asset, result.estimate.pose, table_height), info
 
 
-def _point_cloud(scene, geoms: np.ndarray, cameras: tuple, setup, rngs: list, table_height: float):
+def _point_cloud(scene, cameras: tuple, setup, rngs: list, table_height: float):
     """The fused cloud of every camera with its depth views (module docstring)."""
     from manigrasp.perception.fusion import observe_views
     from manigrasp.planners.free_space import ViewedObservation
 
-    fused = observe_views(scene.model, scene.data, geoms, cameras, setup.noise, rngs, setup.backend,
-                          table_height)
+    fused = observe_views(scene, cameras, rngs, setup.perception(table_height))
     pose = np.eye(4)
     pose[:3, 3] = fused.cloud.points.mean(axis=0)
     observation = ViewedObservation(object_pose=pose, points=fused.cloud.points, normals=fused.cloud.normals,

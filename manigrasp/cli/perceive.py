@@ -29,7 +29,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_perceive)
 
 
-def _camera(text: str):
+def _camera(text: str, backend: str):
     from manigrasp.perception.pipeline import CameraConfig
 
     try:
@@ -39,7 +39,7 @@ def _camera(text: str):
     if len(values) not in (2, 3):
         raise ConfigError(f"--camera wants AZ,EL or AZ,EL,DIST (degrees, metres), got {text!r}")
     fields = dict(zip(("azimuth_deg", "elevation_deg", "distance"), values, strict=False))
-    return CameraConfig(**fields)
+    return CameraConfig(**fields, backend=backend)
 
 
 def _perceive(args: argparse.Namespace) -> int:
@@ -50,8 +50,9 @@ def _perceive(args: argparse.Namespace) -> int:
         raise ConfigError(f"`manigrasp perceive`: {missing}")
     from manigrasp.objects import catalog, recipes
     from manigrasp.perception.models import ModelDatabase
-    from manigrasp.perception.pipeline import perceive, tabletop
+    from manigrasp.perception.pipeline import PerceptionConfig, perceive
     from manigrasp.planners.base import resting_pose
+    from manigrasp.sim import build_tabletop
 
     name = recipes.get(args.object).name
     among = [recipes.get(n).name for n in (args.among or recipes.names())]
@@ -62,14 +63,11 @@ def _perceive(args: argparse.Namespace) -> int:
     pose = resting_pose(assets[name])
     yaw = rng.uniform(0.0, 2 * math.pi)
     pose[:2, :2] = [[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]]
-    scene = tabletop(assets[name])
-    scene.place(pose)
-    config = _camera(args.camera)
-    from dataclasses import replace
-
-    camera = replace(config, backend=args.backend)
-    result = perceive(scene.model, scene.data, scene.object_geoms, camera.camera(pose[:2, 3]),
-                      ModelDatabase.from_assets(assets.values()), rng, true_pose=pose, backend=args.backend)
+    table = build_tabletop(assets[name])
+    table.place(pose)
+    camera = _camera(args.camera, args.backend).camera(pose[:2, 3])
+    result = perceive(table, camera, ModelDatabase.from_assets(assets.values()), rng,
+                      PerceptionConfig(backend=args.backend), true_pose=pose)
     same = result.recognized_as == name
     errors = result.errors
     payload = {

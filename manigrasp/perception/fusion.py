@@ -13,13 +13,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.perception.camera import Camera, DepthImage, capture
 from manigrasp.perception.cloud import Cloud, object_cloud
-from manigrasp.perception.noise import DepthNoise, apply_noise
+from manigrasp.perception.noise import apply_noise
+from manigrasp.perception.pipeline import PerceptionConfig, Viewed, object_geoms
 from manigrasp.planners.free_space import DepthView
 
 
@@ -56,21 +56,24 @@ def fuse_clouds(clouds: list[Cloud]) -> Cloud:
                  clouds[0].viewpoint)
 
 
-def observe_views(model: mujoco.MjModel, data: mujoco.MjData, object_geoms: np.ndarray,
-                  cameras: tuple[Camera, ...], noise: DepthNoise, rngs: list[np.random.Generator],
-                  backend: str = "raycast", table_height: float = 0.0) -> FusedViews:
-    """Capture every camera (noise from its own generator in `rngs`), segment each view, fuse the clouds.
+def observe_views(scene: Viewed, cameras: tuple[Camera, ...], rngs: list[np.random.Generator],
+                  config: PerceptionConfig | None = None) -> FusedViews:
+    """Capture every camera of `scene` (positions computed) with the noise, backend and table height of
+    `config` (default `PerceptionConfig()`; noise from each camera's own generator in `rngs`), segment each
+    view, fuse the clouds.
 
     Raises:
         ConfigError: no camera sees the object, or `rngs` and `cameras` differ in length.
     """
     if len(rngs) != len(cameras):
         raise ConfigError(f"{len(cameras)} cameras need as many generators, got {len(rngs)}")
+    config = config or PerceptionConfig()
+    labels = object_geoms(scene)
     images, clouds = [], []
     for camera, rng in zip(cameras, rngs, strict=True):
-        image = apply_noise(capture(model, data, camera, backend), noise, rng)
+        image = apply_noise(capture(scene.model, scene.data, camera, config.backend), config.noise, rng)
         try:
-            cloud = object_cloud(image, object_geoms, table_height)
+            cloud = object_cloud(image, labels, config.table_height)
         except ConfigError:  # this camera does not see the object: its frame still shows free space
             cloud = None
         images.append(image)

@@ -1,25 +1,30 @@
 """The perception pipeline end to end: camera frame -> noisy depth -> segmented cloud -> pose, with timings.
 
+    >>> table = manigrasp.sim.build_tabletop(asset)
+    >>> table.place(pose)
     >>> db = ModelDatabase.from_assets([asset])
-    >>> result = perceive(model, data, object_geoms, camera, db, rng, true_pose=pose)
+    >>> result = perceive(table, camera, db, rng, PerceptionConfig(backend="raycast"), true_pose=pose)
     >>> result.estimate.pose, result.errors.rotation_deg, result.timings
 
-`tabletop` compiles a table and one object without a hand, for perception
-on its own (tests, the `perceive` command); the benchmark uses its `Scene`.
+The scene is composed by `manigrasp.sim`: a `manigrasp.sim.Tabletop` (the
+table and one object, no hand: tests, the `perceive` command) or the
+benchmark's `manigrasp.sim.Scene`. The camera labels every geom of the
+object's body (visual and collision) as the object.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import mujoco
 import numpy as np
 
 from manigrasp.errors import ConfigError
-from manigrasp.objects.asset import ObjectAsset
 from manigrasp.perception import metrics
-from manigrasp.perception.camera import Camera, DepthImage, Intrinsics, capture, orbit_pose
+from manigrasp.perception.camera import BACKENDS, Camera, DepthImage, Intrinsics, capture, orbit_pose
 from manigrasp.perception.cloud import Cloud, object_cloud
 from manigrasp.perception.models import Model, ModelDatabase
 from manigrasp.perception.noise import DepthNoise, apply_noise
@@ -59,6 +64,55 @@ class CameraConfig:
         target = np.array([target_xy[0], target_xy[1], table_height + self.target_height])
         return Camera(Intrinsics.from_fovy(self.width, self.height, self.fovy_deg),
                       orbit_pose(target, self.distance, self.azimuth_deg, self.elevation_deg))
+
+
+class Viewed(Protocol):
+    """What a camera needs of a compiled scene (a `manigrasp.sim.Scene` or `manigrasp.sim.Tabletop`)."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    object_body: int
+
+
+def object_geoms(scene: Viewed) -> np.ndarray:
+    """Ids of every geom of the scene's object body (visual and collision): the pixels labelled as the object."""
+    return np.flatnonzero(scene.model.geom_bodyid == scene.object_body)
+
+
+@dataclass(frozen=True)
+class PerceptionConfig:
+    """How one view is taken and interpreted (everything of `perceive` but the scene, camera and truth).
+
+    Attributes:
+        noise: the depth noise model.
+        registration: thresholds of RANSAC + ICP; None: the defaults at the model database's voxel size.
+        restarts: RANSAC restarts per model (the best verified one is kept).
+        threshold: score a recognised model must reach, in [0, 1] (recognition only).
+        backend: depth backend, "raycast", "gl" or "auto" (`manigrasp.perception.camera`).
+        table_height: height of the table's top [m] (points at or below it are the table).
+    """
+
+    noise: DepthNoise = field(default_factory=DepthNoise)
+    registration: RegistrationParams | None = None
+    restarts: int = 4
+    threshold: float = 0.7
+    backend: str = "raycast"
+    table_height: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.noise, DepthNoise):
+            raise ConfigError(f"noise must be a DepthNoise, got {type(self.noise).__name__}")
+        if self.registration is not None and not isinstance(self.registration, RegistrationParams):
+            raise ConfigError(f"registration must be RegistrationParams or None, got "
+                              f"{type(self.registration).__name__}")
+        if isinstance(self.restarts, bool) or not isinstance(self.restarts, int) or self.restarts < 1:
+            raise ConfigError(f"restarts must be an integer >= 1, got {self.restarts!r}")
+        if not 0.0 <= self.threshold <= 1.0:
+            raise ConfigError(f"threshold must be in [0, 1], got {self.threshold}")
+        if self.backend not in BACKENDS:
+            raise ConfigError(f"unknown backend {self.backend!r}; available: {', '.join(BACKENDS)}")
+        if not math.isfinite(self.table_height):
+            raise ConfigError(f"table_height must be finite, got {self.table_height}")
 
 
 @dataclass(frozen=True)
@@ -129,32 +183,32 @@ class PerceptionResult:
         return self.image.backend
 
 
-def observe_cloud(model: mujoco.MjModel, data: mujoco.MjData, object_geoms: np.ndarray, camera: Camera,
-                  noise: DepthNoise, rng: np.random.Generator, backend: str = "raycast",
-                  table_height: float = 0.0, timings: dict[str, float] | None = None) -> tuple[DepthImage, Cloud]:
-    """A noisy frame of the scene and the object's segmented cloud (table removed) with normals."""
+def observe_cloud(scene: Viewed, camera: Camera, rng: np.random.Generator, config: PerceptionConfig,
+                  timings: dict[str, float] | None = None) -> tuple[DepthImage, Cloud]:
+    """A noisy frame of `scene` (positions computed) and the object's segmented cloud (table removed) with
+    normals; `timings` (if given) gets the seconds of "depth" and "cloud"."""
     timings = {} if timings is None else timings
     start = time.perf_counter()
-    image = apply_noise(capture(model, data, camera, backend), noise, rng)
+    image = apply_noise(capture(scene.model, scene.data, camera, config.backend), config.noise, rng)
     timings["depth"] = time.perf_counter() - start
     start = time.perf_counter()
-    cloud = object_cloud(image, object_geoms, table_height)
+    cloud = object_cloud(image, object_geoms(scene), config.table_height)
     timings["cloud"] = time.perf_counter() - start
     return image, cloud
 
 
-def perceive(model: mujoco.MjModel, data: mujoco.MjData, object_geoms: np.ndarray, camera: Camera,
-             database: ModelDatabase, rng: np.random.Generator, object_name: str | None = None,
-             true_pose: np.ndarray | None = None, noise: DepthNoise | None = None,
-             params: RegistrationParams | None = None, restarts: int = 4, threshold: float = 0.7,
-             backend: str = "raycast", table_height: float = 0.0) -> PerceptionResult:
-    """One view: depth, cloud, then the pose of `object_name` (a known model), or, if None, recognition
-    among every model of `database`. `true_pose` (4, 4), if given, gives the errors (of the known or
-    the recognised model; of the true object's model if recognition picked another)."""
-    params = params or RegistrationParams(voxel=database.params.voxel)
-    noise = noise or DepthNoise()
+def perceive(scene: Viewed, camera: Camera, database: ModelDatabase, rng: np.random.Generator,
+             config: PerceptionConfig | None = None, *, object_name: str | None = None,
+             true_pose: np.ndarray | None = None) -> PerceptionResult:
+    """One view of `scene` (positions computed) by `camera`: depth, cloud, then the pose of `object_name`
+    (a known model), or, if None, recognition among every model of `database`, as `config` (default
+    `PerceptionConfig()`) says. `true_pose` (4, 4), if given, gives the errors (of the known or the
+    recognised model; of the true object's model if recognition picked another)."""
+    config = config or PerceptionConfig()
+    params = config.registration or RegistrationParams(voxel=database.params.voxel)
+    restarts, table_height = config.restarts, config.table_height
     timings: dict[str, float] = {}
-    image, cloud = observe_cloud(model, data, object_geoms, camera, noise, rng, backend, table_height, timings)
+    image, cloud = observe_cloud(scene, camera, rng, config, timings)
     start = time.perf_counter()
     if object_name is not None:
         observed = observed_features(cloud, database)
@@ -163,7 +217,7 @@ def perceive(model: mujoco.MjModel, data: mujoco.MjData, object_geoms: np.ndarra
         estimate = estimate_pose(database.get(object_name), observed, image, params, rng, restarts, table_height)
         recognized_as: str | None = object_name
     else:
-        result = recognize(database, cloud, image, params, rng, threshold, restarts, table_height)
+        result = recognize(database, cloud, image, params, rng, config.threshold, restarts, table_height)
         if result.best is None:
             raise ConfigError("no model of the database fits the size of the observed cloud")
         estimate, recognized_as = result.best, result.name
@@ -173,34 +227,3 @@ def perceive(model: mujoco.MjModel, data: mujoco.MjData, object_geoms: np.ndarra
     if true_pose is not None:
         errors = pose_errors(database.get(estimate.name), true_pose, estimate.pose)
     return PerceptionResult(image, cloud, estimate, recognized_as, errors, timings)
-
-
-@dataclass(frozen=True, eq=False)
-class Tabletop:
-    """A table (top at z = 0) and one free object, no hand: `model`, `data`, the object's geoms."""
-
-    model: mujoco.MjModel
-    data: mujoco.MjData
-    object_geoms: np.ndarray
-    object_body: int
-
-    def place(self, pose: np.ndarray) -> None:
-        """Put the object at `pose` (4, 4) and run `mj_forward`."""
-        from manigrasp.sim.transforms import mat_to_quat
-
-        adr = self.model.jnt_qposadr[self.model.body_jntadr[self.object_body]]
-        self.data.qpos[adr:adr + 3] = pose[:3, 3]
-        self.data.qpos[adr + 3:adr + 7] = mat_to_quat(pose[:3, :3])
-        mujoco.mj_forward(self.model, self.data)
-
-
-def tabletop(asset: ObjectAsset, table_half_extents: tuple[float, float, float] = (0.4, 0.4, 0.02)) -> Tabletop:
-    """Compile a table box (top at z = 0) and `asset` (prefixed ``object/`` as in `manigrasp.sim`)."""
-    spec = mujoco.MjSpec()
-    half = np.asarray(table_half_extents, float)
-    spec.worldbody.add_geom(name="table/top", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=[0, 0, -half[2]])
-    child = mujoco.MjSpec.from_file(str(asset.mjcf_path))
-    spec.worldbody.add_frame().attach_body(child.body("object"), "object/", "")
-    model = spec.compile()
-    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "object/object")
-    return Tabletop(model, mujoco.MjData(model), np.flatnonzero(model.geom_bodyid == body), body)

@@ -24,7 +24,7 @@ import numpy as np
 from manigrasp.errors import ConfigError
 from manigrasp.perception.camera import BACKENDS, Camera
 from manigrasp.perception.noise import DepthNoise
-from manigrasp.perception.pipeline import CameraConfig
+from manigrasp.perception.pipeline import CameraConfig, PerceptionConfig
 
 MAX_VIEWS = 12
 
@@ -89,6 +89,11 @@ class CameraSetup:
     def cameras(self, target_xy: np.ndarray, table_height: float = 0.0) -> tuple[Camera, ...]:
         """Every camera, looking at (`target_xy`, table_height + target_height) [m]."""
         return tuple(self.view(i).camera(target_xy, table_height) for i in range(self.views))
+
+    def perception(self, table_height: float = 0.0) -> PerceptionConfig:
+        """The `PerceptionConfig` of these cameras' views (their noise and backend) over a table at
+        `table_height` [m]."""
+        return PerceptionConfig(noise=self.noise, backend=self.backend, table_height=table_height)
 
     def record(self) -> dict[str, float | int]:
         """The fields a trial stores (`manigrasp.protocol.result.TrialResult.camera_*`): number of cameras, the

@@ -16,13 +16,16 @@ from manigrasp.sim.contacts import (
     to_contacts,
 )
 from manigrasp.sim.scene import FloatingBase, Scene, build_scene
+from manigrasp.sim.tabletop import Tabletop, build_tabletop
 
 __all__ = [
     "FloatingBase",
     "HandContacts",
     "Scene",
     "SceneConfig",
+    "Tabletop",
     "build_scene",
+    "build_tabletop",
     "contact_forces",
     "current_grip_force",
     "grip_force",
