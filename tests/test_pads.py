@@ -71,6 +71,21 @@ def test_compliant_pad_holds_the_uniform_patch_torque_and_rigid_pad_overshoots_i
     assert press_pad("rigid", FORCE).holding_torque > 1.5 * patch_torque(FORCE, MU_RIGID)
 
 
+@pytest.mark.parametrize("hand", ["panda", "robotiq_2f85"])
+def test_the_other_hands_pads_pass_the_flat_face_cases(hand: str) -> None:
+    """The validation of the parallel_jaw pad, on the pad sizes of the other parallel-jaw hands (panda:
+    1.6 x 1.6 cm, 8 mm thick, a 2 x 2 grid; robotiq_2f85: 2 x 3.35 cm, 2 mm thick, 2 x 3)."""
+    spec = load(hand).build_spec()
+    name, toward = pads.pad_directions(spec, load(hand).pad_geoms, load(hand).tcp_site)[0]
+    pad = pads.pad_geometry(spec.geom(name), toward)
+    half = (*pad.half, pad.thickness / 2)
+    compliant = press_pad("compliant", FORCE, half=half)
+    assert compliant.normal_force == pytest.approx(FORCE, rel=0.02)
+    assert compliant.holding_torque == pytest.approx(pads.uniform_patch_torque(MU_PAD, FORCE, pad.half), rel=0.15)
+    rigid = press_pad("rigid", FORCE, half=half)
+    assert rigid.holding_torque > 1.3 * pads.uniform_patch_torque(MU_RIGID, FORCE, pad.half)
+
+
 def test_the_pad_rubber_friction_is_the_elements_own() -> None:
     """The surface keeps MuJoCo's default friction 1; the pad has contact priority, so the patch holds
     in proportion to the pad's own friction (with MuJoCo's max rule of equal priorities both would hold
@@ -79,6 +94,27 @@ def test_the_pad_rubber_friction_is_the_elements_own() -> None:
     high = press_pad("compliant", FORCE, config=SceneConfig(pad_friction=1.0)).holding_torque
     assert low == pytest.approx(patch_torque(FORCE, 0.5), rel=0.15)
     assert high / low == pytest.approx(2.0, rel=0.1)
+
+
+def test_a_post_under_one_element_meets_that_cells_torsion() -> None:
+    """An object touching the pad on one element only (an edge or corner on the pad's rim): the element
+    stands for its 1 x 1 cm cell of rubber, so it resists the cell's patch torque mu F mean(r), 0.383 mu F c,
+    besides its sliding friction. The rig turns the pad about its centre, 5 mm from the post: MuJoCo's
+    elliptic cone lets the element resist F hypot(mu r, mu_t) there, where a point contact gives mu F r."""
+    from manigrasp.sim.padtest import SURFACE_HALF, pad_rig
+
+    n = 81
+    grid = np.linspace(-SURFACE_HALF, SURFACE_HALF, n)
+    x, y = np.meshgrid(grid, grid, indexing="xy")
+    heights = np.where((np.abs(x - PAD_HALF[0] / 2) < 0.002) & (np.abs(y) < 0.002), 0.002, 0.0)
+    post = press_pad("compliant", 10.0, heights)
+    model = pad_rig("compliant", heights)
+    elements = [g for g in range(model.ngeom) if pads.is_element(model.geom(g).name)]
+    cell = model.geom_friction[elements[0], 1]
+    assert cell == pytest.approx(0.383 * MU_PAD * 0.01, rel=0.01)
+    r = PAD_HALF[0] / 2  # the post is under the element at (5 mm, 0)
+    assert post.holding_torque == pytest.approx(10.0 * np.hypot(MU_PAD * r, cell), rel=0.05)
+    assert post.holding_torque > 1.2 * MU_PAD * 10.0 * r
 
 
 def test_compliant_pad_keeps_its_torque_on_1mm_bumps_and_rigid_pad_loses_it() -> None:
@@ -105,8 +141,13 @@ def test_every_parallel_jaw_hand_gets_compliant_pads(hand: str) -> None:
     for name in load(hand).pad_geoms + load(hand).pad_backing:  # the rigid boxes stay, without collisions
         g = mujoco.mj_name2id(compliant, mujoco.mjtObj.mjOBJ_GEOM, f"hand/{name}")
         assert compliant.geom_contype[g] == 0 and compliant.geom_conaffinity[g] == 0
-    assert (compliant.geom_condim[elements] == 3).all()
+    assert (compliant.geom_condim[elements] == 4).all()  # soft fingers: each element's cell has a torsion
     np.testing.assert_allclose(compliant.geom_friction[elements, 0], MU_PAD)  # the rubber's own friction
+    spec = load(hand).build_spec()
+    pad = pads.pad_geometry(spec.geom(load(hand).pad_geoms[0]), pads.pad_directions(spec, load(hand).pad_geoms,
+                                                                                   load(hand).tcp_site)[0][1])
+    np.testing.assert_allclose(compliant.geom_friction[elements, 1],
+                               pads.cell_torsion(MU_PAD, pads.cell_sides(pad, SceneConfig().pad_pitch)))
     others = [g for g in range(compliant.ngeom) if g not in elements and compliant.geom_contype[g]
               and compliant.geom_bodyid[g] != 0 and compliant.geom(g).name.startswith("hand/")]
     np.testing.assert_allclose(compliant.geom_friction[others, 0], MU_RIGID)  # the rest of the hand keeps 0.5

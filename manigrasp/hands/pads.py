@@ -55,10 +55,16 @@ Parameters (`PadModel`) and their source:
   value of the dry-elastomer range for cardboard, painted metal, glazed ceramic
   and plastic, a sourced material value, not fitted to the benchmark
   (`benchmarks/bench_scans.py --modes compliant compliant:mu=0.5` shows what it
-  changes). Elements have no torsional friction of their own
-  (condim 3): the patch's torsional resistance comes from sliding friction over
-  its area, integral of mu p r dA (for a 2 x 3 cm pad under uniform pressure,
+  changes). The patch's torsional resistance is sliding friction over its
+  area, integral of mu p r dA (for a 2 x 3 cm pad under uniform pressure,
   0.0097 mu F; the rigid box touching at its corners gives about twice that).
+  Each element stands for its cell of rubber, so its contact is a soft finger
+  (condim 4) whose torsional friction is its own cell's patch, mu mean(r) over
+  the cell (0.383 mu c for a square of side c, `cell_torsion`). MuJoCo's
+  elliptic cone couples it with the element's sliding friction, so on a full
+  face it adds little (the 2 x 3 grid then holds 1.03 of the uniform patch
+  instead of 0.94) but an object touching one element, its edge or corner on
+  the pad's rim, still meets a 1 cm patch's torsion, not a point's zero.
   The hand geoms have contact priority over objects and the table, so MuJoCo
   uses the element's friction as it is (with equal priorities it would take the
   larger of the two geoms' values, element by element).
@@ -70,10 +76,8 @@ Parameters (`PadModel`) and their source:
 
 Known limit of the 1 cm grid: a contact strip narrower than the spacing (a pad
 overlapping an object only by its rim, at a slant, or an object's edge) is
-carried by one or two elements, points without torsional resistance, where a
-real pad has a small patch.
-
-The rigid pad box stays in the model as the backing, without collisions.
+carried by one or two elements, each with the torsion of its whole cell, where a
+real pad has a patch as small as the strip.
 """
 
 from __future__ import annotations
@@ -170,16 +174,24 @@ def element_grid(pad: PadGeometry, pitch: float) -> tuple[np.ndarray, np.ndarray
     patch integrals), so the areas sum to the face's; the radius is half the smaller
     cell side, so the elements reach the rims.
     """
-    axes_nodes, sides = [], []
-    for h in pad.half:
-        n = max(2, round(2 * h / pitch))
-        side = 2 * h / n
-        axes_nodes.append(-h + side * (np.arange(n) + 0.5))
-        sides.append(side)
+    sides = cell_sides(pad, pitch)
+    axes_nodes = [-h + side * (np.arange(round(2 * h / side)) + 0.5) for h, side in zip(pad.half, sides, strict=True)]
     aa, bb = np.meshgrid(*axes_nodes, indexing="ij")
     points = pad.center + aa.reshape(-1, 1) * pad.axes[0] + bb.reshape(-1, 1) * pad.axes[1]
     area = np.full(len(points), sides[0] * sides[1])
     return points, area, min(sides) / 2
+
+
+def cell_sides(pad: PadGeometry, pitch: float) -> np.ndarray:
+    """(2,) sides [m] of the grid's cells along the pad's two in-face axes: n_i = max(2, round(2 half_i / pitch))
+    equal cells per axis."""
+    return np.array([2 * h / max(2, round(2 * h / pitch)) for h in pad.half])
+
+
+def cell_torsion(friction: float, sides: Sequence[float]) -> float:
+    """Torsional friction [m] of one element: its cell's own patch under uniform pressure, mu mean(r) over
+    the cell (0.383 mu c on a square of side c), the torque per newton it resists about its centre."""
+    return uniform_patch_torque(friction, 1.0, np.asarray(sides) / 2, n=100)
 
 
 def element_stiffness(model: PadModel, area: np.ndarray, thickness: float) -> np.ndarray:
@@ -201,21 +213,24 @@ def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], 
             raise HandError(f"pad geom {name!r} not in the hand model")
         pad = pad_geometry(geom, np.asarray(toward, float))
         points, area, radius = element_grid(pad, model.pitch)
+        torsion = cell_torsion(model.friction, cell_sides(pad, model.pitch))
         thin = min(radius, pad.thickness / 3)  # half-thickness of the flattened element
         stiffness = element_stiffness(model, area, pad.thickness)
         body = geom.parent
         geom.contype, geom.conaffinity = 0, 0
         for i, (point, k) in enumerate(zip(points, stiffness, strict=True)):
             _add_element(body, f"{ELEMENT_PREFIX}{name}_{i:02d}", point - thin * pad.normal, pad,
-                         np.array([radius, radius, thin]), float(k), pad.thickness * model.travel_fraction, model)
+                         np.array([radius, radius, thin]), float(k), pad.thickness * model.travel_fraction, model,
+                         torsion)
 
 
 def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeometry, size: np.ndarray,
-                 k: float, travel: float, model: PadModel) -> None:
+                 k: float, travel: float, model: PadModel, torsion: float) -> None:
     """One element: an oblate ellipsoid (semi-axes `size`: in the face, in the face, along the
     normal) whose lowest point lies on the pad face, on a slide joint along -normal
     (q = compression [m]) with spring k [N/m]. Flattened so that an object edge pressing on it
-    is pushed back mostly along the pad normal, as by rubber, not sideways as by a sphere's flank."""
+    is pushed back mostly along the pad normal, as by rubber, not sideways as by a sphere's flank.
+    Its contact is a soft finger (condim 4) with `torsion` [m], its cell's own torsional friction."""
     armature = k * (model.timestep / STABILITY_FACTOR) ** 2
     mass = ELEMENT_MASS + armature
     u, v = pad.axes
@@ -230,8 +245,8 @@ def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeome
                     limited=mujoco.mjtLimited.mjLIMITED_TRUE, range=[-travel, travel],
                     solref_limit=list(LIMIT_SOLREF), solimp_limit=list(ELEMENT_SOLIMP),
                     frictionloss=0.0, margin=0.0)
-    child.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID, size=list(size), condim=3,
-                   friction=[model.friction, 0.0, 0.0], priority=1, rgba=[0.15, 0.15, 0.15, 1.0],
+    child.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID, size=list(size), condim=4,
+                   friction=[model.friction, torsion, 0.0], priority=1, rgba=[0.15, 0.15, 0.15, 1.0],
                    contype=ELEMENT_CONTYPE, conaffinity=ELEMENT_CONAFFINITY, density=0.0, margin=0.0,
                    solref=[0.004, 1.0], solimp=list(ELEMENT_SOLIMP))
 

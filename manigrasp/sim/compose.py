@@ -126,16 +126,6 @@ def object_spec(obj: ObjectSource) -> mujoco.MjSpec:
     return spec
 
 
-def tabletop_spec(obj: ObjectSource, config: SceneConfig) -> mujoco.MjSpec:
-    """The `MjSpec` (not compiled) of the table and `obj` as in a scene, without a hand (`sim.tabletop`)."""
-    spec = mujoco.MjSpec()
-    spec.modelname = "manigrasp_tabletop"
-    config.apply(spec.option)
-    _add_table(spec, config)
-    _attach_object(spec, obj)
-    return spec
-
-
 def _add_table(spec: mujoco.MjSpec, config: SceneConfig) -> None:
     half = np.asarray(config.table_half_extents, float)
     spec.worldbody.add_geom(name=TABLE_GEOM, type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
@@ -202,9 +192,8 @@ def hand_spec(hand: Hand, config: SceneConfig) -> mujoco.MjSpec:
 def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig) -> None:
     """Hand-object friction, condim and priority on every colliding hand geom; gravcomp.
 
-    Compliant pad elements get the pads' rubber friction `config.pad_friction` and condim 3
-    (sliding friction only): their patch's torsional resistance comes from sliding friction
-    over its area (`manigrasp.hands.pads`).
+    Compliant pad elements keep what `manigrasp.hands.pads.make_compliant` gave them: the pads'
+    rubber friction `config.pad_friction` and their cell's own torsional friction (condim 4).
     """
     bodies = [root, *root.find_all(mujoco.mjtObj.mjOBJ_BODY)]
     for body in bodies:
@@ -212,13 +201,11 @@ def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig) -> None:
         for geom in body.geoms:
             if geom.contype == 0 and geom.conaffinity == 0:
                 continue
-            element = pads.is_element(geom.name.removeprefix(HAND_PREFIX))
-            if element:
-                geom.friction = [config.pad_friction, 0.0, STANDARD_ROLLING_M]
-            else:
-                geom.friction = [config.hand_friction, config.hand_torsional_friction, STANDARD_ROLLING_M]
-            geom.condim = 3 if element else config.hand_condim
             geom.priority = max(int(geom.priority), 1)
+            if pads.is_element(geom.name.removeprefix(HAND_PREFIX)):
+                continue  # friction and condim of the pad's rubber, set by pads.make_compliant
+            geom.friction = [config.hand_friction, config.hand_torsional_friction, STANDARD_ROLLING_M]
+            geom.condim = config.hand_condim
 
 
 def compile_spec(spec: mujoco.MjSpec, what: str = "scene") -> mujoco.MjModel:

@@ -49,8 +49,10 @@ def bumps(n: int = 81, amplitude: float = 0.0005, wavelength: float = 0.03) -> n
     return amplitude * np.cos(2 * np.pi * x / wavelength) * np.cos(2 * np.pi * y / wavelength)
 
 
-def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | None = None) -> mujoco.MjModel:
-    """The rig's model: `mode` "compliant" or "rigid" pad, over a flat surface or `heights` (n, n) [m]."""
+def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | None = None,
+            half: tuple[float, float, float] = PAD_HALF) -> mujoco.MjModel:
+    """The rig's model: `mode` "compliant" or "rigid" pad of half extents `half` (x, y in the face, z thickness
+    [m]; default the `parallel_jaw` pad), over a flat surface or `heights` (n, n) [m]."""
     config = config or SceneConfig()
     spec = mujoco.MjSpec()
     config.apply(spec.option)
@@ -68,10 +70,10 @@ def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | 
         spec.worldbody.add_geom(name="surface", type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="bumps",
                                 pos=[0, 0, low])
         top = high
-    carrier = spec.worldbody.add_body(name="carrier", pos=[0, 0, top + 2 * PAD_HALF[2]])
+    carrier = spec.worldbody.add_body(name="carrier", pos=[0, 0, top + 2 * half[2]])
     carrier.add_joint(name="press", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1], damping=[5.0])
     carrier.add_joint(name="turn", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], damping=[0.0])
-    carrier.add_geom(name="pad", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(PAD_HALF), pos=[0, 0, -PAD_HALF[2]],
+    carrier.add_geom(name="pad", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(half), pos=[0, 0, -half[2]],
                      mass=0.1, priority=1, condim=config.hand_condim,
                      friction=[config.hand_friction, config.hand_torsional_friction, STANDARD_ROLLING_M],
                      solref=[0.004, 1.0], solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
@@ -83,10 +85,10 @@ def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | 
 
 
 def press_pad(mode: str, force: float, heights: np.ndarray | None = None, torque_rate: float = 0.2,
-              config: SceneConfig | None = None) -> PressResult:
+              config: SceneConfig | None = None, half: tuple[float, float, float] = PAD_HALF) -> PressResult:
     """Press the pad with `force` [N], measure the normal force, then ramp a torque at
     `torque_rate` [N m/s] until the pad turns faster than `SLIP_SPEED`. Deterministic."""
-    model = pad_rig(mode, heights, config)
+    model = pad_rig(mode, heights, config, half)
     data = mujoco.MjData(model)
     surface = model.geom("surface").id
     while data.time < 0.5:  # the press force ramps up over 0.3 s, then holds
