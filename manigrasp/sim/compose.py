@@ -126,6 +126,16 @@ def object_spec(obj: ObjectSource) -> mujoco.MjSpec:
     return spec
 
 
+def tabletop_spec(obj: ObjectSource, config: SceneConfig) -> mujoco.MjSpec:
+    """The `MjSpec` (not compiled) of the table and `obj` as in a scene, without a hand (`sim.tabletop`)."""
+    spec = mujoco.MjSpec()
+    spec.modelname = "manigrasp_tabletop"
+    config.apply(spec.option)
+    _add_table(spec, config)
+    _attach_object(spec, obj)
+    return spec
+
+
 def _add_table(spec: mujoco.MjSpec, config: SceneConfig) -> None:
     half = np.asarray(config.table_half_extents, float)
     spec.worldbody.add_geom(name=TABLE_GEOM, type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
