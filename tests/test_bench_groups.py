@@ -152,7 +152,7 @@ def test_two_protocols_end_to_end_side_by_side_on_the_same_grasps(tmp_path):
     assert row.count("/2, ") == 2 and row.count("[") == 2  # k/n and a rate with its interval per protocol
     paired = next(line for line in section.splitlines() if "| lift vs six_direction |" in line)
     cells = [c.strip() for c in paired.strip("|").split("|")]
-    assert cells[4] == "2" and sum(int(c) for c in cells[5:]) == 2
+    assert cells[4] == "2" and sum(int(c) for c in cells[5:9]) == 2
     assert "| protocol |" in text[text.index("## Per hand and planner"):]
 
 

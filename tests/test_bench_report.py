@@ -287,3 +287,30 @@ def test_report_out_writes_the_report_elsewhere(tmp_path, capsys):
     assert main(["report", str(run), "--out", str(tmp_path / "elsewhere")]) == 0
     assert f"report: {tmp_path / 'elsewhere' / 'report.md'}" in capsys.readouterr().out
     assert (tmp_path / "elsewhere" / "metric_auc.png").is_file() and _files(run) == ["results.sqlite", "run.json"]
+
+
+def test_protocols_side_by_side_in_config_order_with_paired_outcomes(tmp_path):
+    """20 grasps under two protocols: standard holds 14, six_direction 8, every grasp six_direction holds is also
+    held by standard. The 6 discordant pairs all go one way: exact McNemar p = 2 * 0.5**6 = 0.03125."""
+    from manigrasp.bench.markdown import paired_rows, protocol_order, protocol_rows
+
+    results = [(TrialKey(obj, "inspire_right", "power", "ground_truth", protocol, i),
+                TrialResult(Status.SUCCESS if i < held else Status.SLIPPED_LIFT))
+               for protocol, held in (("standard", 7), ("six_direction", 4)) for obj in ("025_mug", "004_sugar_box")
+               for i in range(10)]
+    report = summarize(results)
+    meta = {"config": {"protocol": None, "protocols": [{"name": "standard", "params": {}}, {"name": "six_direction"}]}}
+    order = protocol_order(report, meta)
+    assert order == ["standard", "six_direction"] and report.protocols == ["six_direction", "standard"]
+    assert protocol_order(report, {"config": {}}) == ["six_direction", "standard"]
+    rows = protocol_rows(report, order)
+    assert rows[0][3:] == ["all objects", "14/20, 0.70 [0.48, 0.85]", "8/20, 0.40 [0.22, 0.61]"]
+    assert [r[3] for r in rows[1:]] == ["004_sugar_box", "025_mug"]
+    (paired,) = paired_rows(report, results, order)
+    assert paired[3:] == ["standard vs six_direction", 20, 8, 6, 0, 6, "0.0312"]
+    text = write_markdown(report, results, tmp_path, meta).read_text()
+    assert "| hand | planner | observation | protocol | trials |" in text
+    assert "| inspire_right | power | ground_truth | standard | 025_mug | 10 | 7 |" in text
+    single = summarize([r for r in results if r[0].protocol == "standard"])
+    plain = write_markdown(single, results, tmp_path, {"config": {}}).read_text()
+    assert "Protocols side by side" not in plain and "| protocol |" not in plain  # one protocol: as before

@@ -87,16 +87,30 @@ def pooled_line(report: Report) -> str:
     return f"Pooled ({POOLED}, {what}): {r.successes}/{r.trials}, rate {format_rate(r)}"
 
 
-def protocol_rows(report: Report) -> list[list[str]]:
+def protocol_order(report: Report, meta: dict | None = None) -> list[str]:
+    """The run's protocols in its config's order (``protocols:`` of run.json, labelled as in trial ids), those
+    not found there after them, sorted."""
+    from manigrasp.bench.config import NamedEntry, labels
+
+    listed = ((meta or {}).get("config") or {}).get("protocols")
+    try:
+        order = list(labels([NamedEntry(str(p["name"]), dict(p.get("params") or {})) for p in listed]))
+    except (TypeError, KeyError, AttributeError, ValueError):  # no list recorded (or not one of entries)
+        order = []
+    return [p for p in order if p in report.protocols] + [p for p in report.protocols if p not in order]
+
+
+def protocol_rows(report: Report, order: list[str] | None = None) -> list[list[str]]:
     """Protocols side by side: per hand x planner x observation (object ``all objects``), then per object, each
-    protocol's successes/trials and rate [95% CI] (columns in `Report.protocols` order)."""
+    protocol's successes/trials and rate [95% CI] (columns in `order`, default `Report.protocols`)."""
+    order = order or report.protocols
     per_method: dict[tuple, dict[str, Rate]] = defaultdict(dict)
     per_object: dict[tuple, dict[str, Rate]] = defaultdict(dict)
     for m, r in report.by_method.items():
         per_method[(*m[:3], "all objects")][m[3]] = r
     for g, r in report.groups.items():
         per_object[(*g[:3], g[4])][g[3]] = r
-    return [[*key, *(_rate_cell(per.get(p)) for p in report.protocols)]
+    return [[*key, *(_rate_cell(per.get(p)) for p in order)]
             for rates in (per_method, per_object) for key, per in sorted(rates.items())]
 
 
@@ -104,36 +118,43 @@ def _rate_cell(rate: Rate | None) -> str:
     return "-" if rate is None else f"{rate.successes}/{rate.trials}, {format_rate(rate)}"
 
 
-def paired_rows(report: Report, results: list[tuple[TrialKey, TrialResult]]) -> list[list[str]]:
-    """Per hand x planner x observation and pair of protocols, over the trials run under both (same object,
-    grasp and seed: the paired design of `manigrasp.bench.trials`): pairs, both succeed, only the first, only
-    the second, neither."""
+def paired_rows(report: Report, results: list[tuple[TrialKey, TrialResult]], order: list[str] | None = None
+                ) -> list[list[str]]:
+    """Per hand x planner x observation and pair of protocols (in `order`), over the trials run under both (same
+    object, grasp and seed: the paired design of `manigrasp.bench.trials`): pairs, both succeed, only the first,
+    only the second, neither, and the exact McNemar p-value (two-sided binomial test of the discordant pairs:
+    how likely a split this uneven is if the protocols were equally hard)."""
+    from scipy.stats import binomtest
+
     outcome: dict[tuple, dict[str, bool]] = defaultdict(dict)
     for key, result in results:
         outcome[(key.hand, key.planner, key.observation, key.object, key.grasp_index)][key.protocol] = result.success
     rows = []
     for method in sorted({m[:3] for m in report.by_method}):
-        for a, b in combinations(report.protocols, 2):
+        for a, b in combinations(order or report.protocols, 2):
             pairs = [(v[a], v[b]) for k, v in outcome.items() if k[:3] == method and a in v and b in v]
             if pairs:
                 both, first, second = (sum(x and y for x, y in pairs), sum(x and not y for x, y in pairs),
                                        sum(y and not x for x, y in pairs))
+                p = binomtest(first, first + second).pvalue if first + second else 1.0
                 rows.append([*method, f"{a} vs {b}", len(pairs), both, first, second,
-                             len(pairs) - both - first - second])
+                             len(pairs) - both - first - second, f"{p:.3g}"])
     return rows
 
 
-def _protocols(report: Report, results: list[tuple[TrialKey, TrialResult]]) -> list[str]:
+def _protocols(report: Report, results: list[tuple[TrialKey, TrialResult]], meta: dict) -> list[str]:
     """The "Protocols side by side" section (nothing for a run with one protocol)."""
     if len(report.protocols) < 2:
         return []
+    order = protocol_order(report, meta)
     return ["## Protocols side by side",
             "Every group ran under each protocol with the same planned grasps and trial seeds, so the protocols "
             "are compared on the very same grasps. Rates with 95 % Wilson intervals.",
-            _table(["hand", "planner", "observation", "object", *report.protocols], protocol_rows(report)),
-            "Paired outcomes (the same grasp under both protocols):",
+            _table(["hand", "planner", "observation", "object", *order], protocol_rows(report, order)),
+            "Paired outcomes (the same grasp under both protocols); McNemar p: exact two-sided test of the grasps "
+            "that only one protocol held.",
             _table(["hand", "planner", "observation", "protocols (first vs second)", "pairs", "both succeed",
-                    "only the first", "only the second", "neither"], paired_rows(report, results))]
+                    "only the first", "only the second", "neither", "McNemar p"], paired_rows(report, results, order))]
 
 
 def rest_rows(results: list[tuple[TrialKey, TrialResult]]) -> list[list[str]]:
@@ -213,7 +234,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
                  format_planning_time(r)] for m, r in report.by_method.items()]),
         "Planning time: the wall time of one planning call, which plans every candidate of one object "
         "(what `manigrasp plan` prints as `planning_time_s`); the median is over the calls.",
-        *_protocols(report, results),
+        *_protocols(report, results, meta),
         "## Per object",
         _table([*headers, "object", "trials", "successes", "rate [95% CI]", "failure modes"],
                [[*method_cells(report, g[:4]), g[4], r.trials, r.successes, format_rate(r), _modes(r.failure_modes)]
