@@ -5,8 +5,9 @@ Phases: as `lift` (pre-grasp, approach, close, lift 10 cm, hold 0.5 s), then
 moves +-`shake_amplitude` along its approach axis and turns
 +-`shake_angle_deg` about it, in phase (peak acceleration 4 pi^2 f^2 A:
 3.2 m/s^2 for the defaults). The object moving more than the thresholds in
-the hand since the shaking began: `dropped_perturb` (detail "shake"). Success
-also needs `min_fingers` fingers touching at the end.
+the hand since the shaking began: `dropped_perturb` (detail "shake: ...", no
+`perturb_direction`). Success also needs `min_fingers` fingers touching at the
+end; a trial that passed the shaking has `last_phase` "shake".
 """
 
 from __future__ import annotations

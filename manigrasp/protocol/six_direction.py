@@ -7,8 +7,9 @@ off and the table made non-colliding, and for each of +x, -x, +y, -y, +z, -z
 grip force (`no_contact` if it closes on air), then a force of 10 m g_0
 (g_0 = 9.81 m/s^2, the object's weight on Earth) pushes the object's centre
 of mass for 2 s; the object moving more than 5 cm or 15 deg relative to the
-hand fails the trial as `dropped_perturb` (detail = the direction). Success
-also needs `min_fingers` fingers touching at the end of the last direction.
+hand fails the trial as `dropped_perturb` (its `perturb_direction` the
+direction), and so do fewer than `min_fingers` fingers touching at the end of
+any direction.
 The scene's gravity and table are restored afterwards, whatever happens.
 """
 

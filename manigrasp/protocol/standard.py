@@ -9,7 +9,7 @@ controller to half the hand's maximum grip force (no object contact:
 than 2 cm / 15 deg in the hand, or left behind: `slipped_lift`) -> perturb:
 a force of 1 x m g at the object's centre of mass along +x, -x, +y, -y, +z,
 -z (world) for 0.5 s each (object moving more than 2 cm / 15 deg in the hand
-since the perturbation began: `dropped_perturb`, detail = the direction).
+since the perturbation began: `dropped_perturb`, its `perturb_direction` the direction).
 Success also needs >= 2 distinct finger bodies touching the object at the end.
 """
 
