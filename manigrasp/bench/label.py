@@ -9,6 +9,10 @@ planner (x observation, protocol):
     <object>__<hand>__<planner>.json   manigrasp's native format (or .npz)
     <object>__<hand>__<planner>.h5     ACRONYM's layout (parallel hands only; needs h5py)
 
+A dexterous hand's grasps carry their joint configuration where the planner gave one (``joints`` in the
+native file, the grasp's own hand path). ACRONYM's layout holds parallel-jaw gripper poses only, so a
+dexterous set is written in the native format alone, and its `Exported.note` says so.
+
 Grasps are written in the object's frame (``inv(object_pose) @ grasp``), best first (trial order),
 with labels: status, success, trial id, seed, the protocol's measures and the object's settled pose.
 Trials that executed no grasp (`planner_error`: the planner returned fewer than asked) have no
@@ -26,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from manigrasp.bench.config import BenchConfig
-from manigrasp.bench.store import ResultsStore
+from manigrasp.bench.store import ResultsStore, joints_from_text
 from manigrasp.errors import ManigraspError
 from manigrasp.graspsets import GraspSet, ObjectRef, acronym, native
 from manigrasp.protocol.result import PoseRecord, Status
@@ -49,6 +53,7 @@ class Exported:
     grasps: int
     successes: int
     files: tuple[Path, ...]
+    note: str = ""
 
 
 @dataclass(frozen=True)
@@ -129,10 +134,19 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
         stem = run_dir / DATASET_DIR / names[group]
         files = [native.write(grasps, stem.with_suffix(native_suffix))]
         source = sources.get(str(first["object"]))
-        if hand.kind == "parallel" and source is not None and _has_h5py():
+        note = ""
+        if hand.kind != "parallel":
+            note = (f"no ACRONYM file: its layout holds parallel-jaw grasps only, {hand.name!r} is {hand.kind} "
+                    "(the native file has the grasps and their joints)")
+        elif source is None:
+            note = "no ACRONYM file: the object's mesh is not found (moved since the run?)"
+        elif not _has_h5py():
+            note = "no ACRONYM file: h5py is not installed (the `datasets` extra)"
+        else:
             files.append(acronym.write(_in_visual_frame(grasps, source), stem.with_suffix(".h5")))
         successes = int(np.sum(grasps.labels["success"]))
-        out.append(Exported(group, str(first["object"]), str(first["hand"]), len(grasps), successes, tuple(files)))
+        out.append(Exported(group, str(first["object"]), str(first["hand"]), len(grasps), successes, tuple(files),
+                            note))
     return out, skipped
 
 
@@ -146,7 +160,17 @@ def grasp_set(rows: list[dict], hand_kind: str) -> GraspSet:
                     np.nan_to_num(np.array([float(r["grasp_preshape"]) for r in rows], dtype=float)),
                     np.array([_finite(r["score"]) for r in rows]), frame="object", hand=str(first["hand"]),
                     hand_kind=hand_kind, object=ObjectRef(name=str(first["object"])), labels=labels,
-                    source=str(first["trial_id"]).rsplit("/", 1)[0])
+                    source=str(first["trial_id"]).rsplit("/", 1)[0], joints=_joints(rows))
+
+
+def _joints(rows: list[dict]) -> np.ndarray | None:
+    """(n, 2, n_act) the stored joints of each row (NaN: the hand's own path), or None if no row has any."""
+    given = [joints_from_text(str(r.get("grasp_joints") or "")) for r in rows]
+    shapes = {j.shape for j in given if j is not None}
+    if not shapes:
+        return None
+    (shape,) = shapes  # one hand per group
+    return np.stack([np.full(shape, np.nan) if j is None else j for j in given])
 
 
 def _object_frame(row: dict) -> np.ndarray:

@@ -5,7 +5,8 @@ A trial is re-created from its run: the resolved config in run.json gives its gr
 protocol, physics) and seed (`Group.trial_seed`), and results.sqlite its executed grasp (the TCP
 pose in the world, width, pre-shape). The object is settled again in a freshly compiled scene (the
 same deterministic drop as the run's), the stored grasp is executed under the group's protocol with
-the trial's seed, and the status is compared with the stored one. The planner is not run again:
+the trial's seed (with its own hand path if it had one), and the status is compared with the stored
+one. The planner is not run again:
 what is replayed is the grasp that was executed.
 """
 
@@ -20,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from manigrasp.bench.store import ResultsStore
+from manigrasp.bench.store import ResultsStore, joints_from_text
 from manigrasp.errors import ManigraspError
 from manigrasp.protocol.result import PoseRecord, Status, TrialResult
 from manigrasp.runfiles import META_NAME, RECORDINGS_DIR, STORE_NAME
@@ -118,7 +119,8 @@ def stored_grasp(result: TrialResult):
     preshape = result.grasp_preshape
     return GraspCandidate(pose=pose, score=result.score if math.isfinite(result.score) else 0.0,
                           width=width if math.isfinite(width) else None,
-                          preshape=preshape if math.isfinite(preshape) else 0.0)
+                          preshape=preshape if math.isfinite(preshape) else 0.0,
+                          joints=joints_from_text(result.grasp_joints))
 
 
 def replay_trial(run_dir: Path, trial_id: str, record: Path | None = None, base: Path | None = None) -> Replay:

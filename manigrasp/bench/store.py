@@ -7,12 +7,15 @@ own transaction, so a kill -9 loses at most the trial that was running.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import sqlite3
 from collections.abc import Iterator
 from dataclasses import dataclass, fields
 from pathlib import Path
+
+import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import Status, TrialResult
@@ -145,5 +148,21 @@ def _sql_value(value: object) -> object:
 
 def _py_value(value: object, name: str) -> object:
     if value is None:
-        return "" if name in ("detail", "last_phase", "fingers_in_contact") else math.nan
+        return "" if name in ("detail", "last_phase", "fingers_in_contact", "grasp_joints") else math.nan
     return value
+
+
+def joints_text(joints: np.ndarray | None) -> str:
+    """A grasp's joints (2, n_act) as the store keeps them (`TrialResult.grasp_joints`): JSON text with every
+    float's shortest exact repr, so a replay executes the very same numbers; "" for None."""
+    return "" if joints is None else json.dumps(np.asarray(joints, dtype=float).tolist())
+
+
+def joints_from_text(text: str) -> np.ndarray | None:
+    """Inverse of `joints_text` (None for ""); a text that is not a JSON array of numbers raises ConfigError."""
+    if not text:
+        return None
+    try:
+        return np.array(json.loads(text), dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"stored grasp joints are not a JSON array of numbers: {text[:80]!r}") from exc

@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from manigrasp.bench.observe import ObservationInfo, observe_with_info
-from manigrasp.bench.store import TrialKey
+from manigrasp.bench.store import TrialKey, joints_text
 from manigrasp.bench.trials import Group
 from manigrasp.errors import ManigraspError, PerceptionError
 from manigrasp.protocol.result import PoseRecord, Status, TrialResult
@@ -159,7 +159,8 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
     if index < len(plan.candidates):  # a GraspCandidate with numeric fields (planners.plan validated it)
         candidate = plan.candidates[index]
         result = replace(result, grasp=PoseRecord.of(candidate.pose), grasp_preshape=float(candidate.preshape),
-                         grasp_width_m=math.nan if candidate.width is None else float(candidate.width))
+                         grasp_width_m=math.nan if candidate.width is None else float(candidate.width),
+                         grasp_joints=joints_text(candidate.joints))
     return key, replace(result, **_rest_record(group, plan))
 
 

@@ -49,5 +49,6 @@ def _label(args: argparse.Namespace) -> int:
           f"{summary.labelled_per_second:.2f} labelled/s ({summary.seconds:.0f} s, {max(1, args.jobs)} job(s)); "
           f"{summary.skipped} trials without a grasp (planner errors) not written", file=sys.stderr)
     for item in summary.exported:
-        print("  " + ", ".join(str(f) for f in item.files), file=sys.stderr)
+        note = f" ({item.note})" if item.note else ""
+        print("  " + ", ".join(str(f) for f in item.files) + note, file=sys.stderr)
     return 0

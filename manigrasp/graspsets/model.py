@@ -60,6 +60,9 @@ class GraspSet:
         object: the object, as the file names it.
         labels: per-grasp columns (n,) of a labelled set: "status", "success", metrics...
         source: where the set was read from (for messages).
+        joints: (n, 2, n_act) each grasp's own hand path of a dexterous hand (`GraspCandidate.joints`:
+            row 0 pre-shape, row 1 squeeze target, actuator commands), or None (every grasp uses the
+            hand's own path). An all-NaN (2, n_act) entry: that grasp uses the hand's own path.
     """
 
     poses: np.ndarray
@@ -72,6 +75,7 @@ class GraspSet:
     object: ObjectRef = field(default_factory=ObjectRef)
     labels: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
+    joints: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         where = self.source or "grasp set"
@@ -102,6 +106,18 @@ class GraspSet:
             raise GraspFileError(f"{where}: object mass must be a finite number > 0 [kg], got {mass}")
         object.__setattr__(self, "poses", poses)
         object.__setattr__(self, "labels", labels)
+        if self.joints is not None:
+            joints = np.asarray(self.joints, dtype=float)
+            if joints.ndim != 3 or joints.shape[:2] != (n, 2):
+                raise GraspFileError(f"{where}: joints must be (n, 2, n_actuators) with n = {n} (a pre-shape and "
+                                     f"a squeeze row per grasp), got shape {joints.shape}")
+            object.__setattr__(self, "joints", joints)
+
+    def grasp_joints(self, index: int) -> np.ndarray | None:
+        """(2, n_act) the own hand path of grasp `index`, or None (the hand's own path)."""
+        if self.joints is None or np.all(np.isnan(self.joints[index])):
+            return None
+        return self.joints[index]
 
     def __len__(self) -> int:
         return len(self.poses)
@@ -139,6 +155,12 @@ def placement_defect(grasps: GraspSet, index: int, hand_name: str, hand_kind: st
         return f"{prefix}: pre-shape {preshape} is outside [0, 1]"
     if np.isfinite(width) and not 0.0 <= width <= max_width + 1e-9:
         return f"{prefix}: width {width:.4g} m is outside [0, {max_width:.4g}] m, the opening of {hand_name!r}"
+    joints = grasps.grasp_joints(index)
+    if joints is not None:
+        if hand_kind != "dexterous":
+            return f"{prefix} has joints, but hand {hand_name!r} is a {hand_kind} hand (joints are for dexterous hands)"
+        if not np.all(np.isfinite(joints)):
+            return f"{prefix}: joints contain NaN or inf"
     return None
 
 

@@ -12,17 +12,23 @@ JSON::
         "position": [x, y, z], "quaternion": [w, x, y, z],
         "width": 0.05,                       # optional jaw opening at contact [m]
         "preshape": 0.0,                     # optional synergy in [0, 1] (dexterous hands)
+        "joints": [[...], [...]],            # optional, dexterous hands: the grasp's own hand path, actuator
+                                             # commands (joint angles [rad]) in the hand's actuator order:
+                                             # [pre-shape row, squeeze-target row]
         "score": 0.9,                        # optional (default 0), higher first
         "label": {"status": "success", ...}} # optional (written by `manigrasp label`)
      ]}
 
 NPZ: arrays ``poses`` (n, 4, 4) or ``positions`` (n, 3) with ``quaternions`` (n, 4) (w, x, y, z);
-optional ``widths``, ``preshapes``, ``scores`` (n,); optional scalars ``hand``, ``hand_kind``, ``frame``,
+optional ``widths``, ``preshapes``, ``scores`` (n,), ``joints`` (n, 2, n_actuators) (an all-NaN entry: that
+grasp uses the hand's own path); optional scalars ``hand``, ``hand_kind``, ``frame``,
 ``object_name``, ``object_mesh``, ``object_scale``, ``object_mass``; labels as ``label_<name>`` (n,).
 
 The object frame is manigrasp's (origin at the object's centre of mass, axes of its mesh); "mesh"
 means the frame of the object's mesh file scaled by ``object.scale``. TCP: z = approach (hand
 toward object), y = closing (finger 1 toward finger 2), x = y cross z. NaN widths mean "not given".
+A quaternion must be a unit quaternion within `manigrasp.geometry.RIGID_TOLERANCE` (a non-unit one is a
+file error naming the grasp: it is not silently normalised, nor read as the identity).
 """
 
 from __future__ import annotations
@@ -34,14 +40,14 @@ from typing import Any
 
 import numpy as np
 
-from manigrasp.geometry import pose_from_pos_quat
+from manigrasp.geometry import pose_from_pos_quat, quaternion_defect
 from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef
 
 FORMAT = "manigrasp.grasps"
 VERSION = 1
 SUFFIXES = (".json", ".npz")
 _TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "grasps")
-_GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label")
+_GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label", "joints")
 _OBJECT_KEYS = ("name", "mesh", "scale", "mass")
 
 
@@ -68,7 +74,7 @@ def _read_json(path: Path) -> GraspSet:
     grasps = data.get("grasps")
     if not isinstance(grasps, list):
         raise GraspFileError(f"{path}: missing key 'grasps' (a list of grasps)")
-    poses, widths, preshapes, scores, labels = [], [], [], [], []
+    poses, widths, preshapes, scores, labels, joints = [], [], [], [], [], []
     for i, grasp in enumerate(grasps):
         where = f"{path}: grasp {i}"
         if not isinstance(grasp, dict):
@@ -79,10 +85,12 @@ def _read_json(path: Path) -> GraspSet:
         preshapes.append(_number(grasp.get("preshape"), f"{where}: preshape", 0.0))
         scores.append(_number(grasp.get("score"), f"{where}: score", 0.0))
         labels.append(grasp.get("label") or {})
+        joints.append(None if grasp.get("joints") is None else _array(grasp["joints"], f"{where}: joints"))
     columns = _label_columns(labels, str(path))
     return GraspSet(np.array(poses).reshape(-1, 4, 4), np.array(widths), np.array(preshapes), np.array(scores),
                     frame=data.get("frame", "object"), hand=data.get("hand"), hand_kind=data.get("hand_kind"),
-                    object=_object(data.get("object") or {}, str(path)), labels=columns, source=str(path))
+                    object=_object(data.get("object") or {}, str(path)), labels=columns, source=str(path),
+                    joints=_joints_column(joints, str(path)))
 
 
 def _pose(grasp: dict, where: str) -> np.ndarray:
@@ -97,7 +105,37 @@ def _pose(grasp: dict, where: str) -> np.ndarray:
     if pos.shape != (3,) or quat.shape != (4,):
         raise GraspFileError(f"{where}: position must have 3 numbers and quaternion 4 (w, x, y, z), got "
                              f"shapes {pos.shape} and {quat.shape}")
+    defect = quaternion_defect(quat) if np.all(np.isfinite(quat)) else None  # NaN stays: invalid_grasp
+    if defect is not None:
+        raise GraspFileError(f"{where}: quaternion {quat.tolist()} {defect}")
     return pose_from_pos_quat(pos[None], quat[None])[0]
+
+
+def _check_quaternions(quats: np.ndarray, where: str) -> None:
+    """A finite quaternion that is not unit is a file error naming its grasp (NaN ones stay: invalid_grasp)."""
+    for index, quat in enumerate(quats):
+        defect = quaternion_defect(quat) if np.all(np.isfinite(quat)) else None
+        if defect is not None:
+            raise GraspFileError(f"{where}: grasp {index}: quaternion {quat.tolist()} {defect}")
+
+
+def _joints_column(rows: list[np.ndarray | None], where: str) -> np.ndarray | None:
+    """(n, 2, n_act) from per-grasp joints (None: NaN rows), or None if no grasp has any."""
+    given = [(i, j) for i, j in enumerate(rows) if j is not None]
+    if not given:
+        return None
+    shape = given[0][1].shape
+    if len(shape) != 2 or shape[0] != 2:
+        raise GraspFileError(f"{where}: grasp {given[0][0]}: joints must be [[pre-shape...], [squeeze...]] "
+                             f"(2 rows), got shape {shape}")
+    for i, joints in given:
+        if joints.shape != shape:
+            raise GraspFileError(f"{where}: grasp {i}: joints have shape {joints.shape}, grasp {given[0][0]}'s "
+                                 f"{shape} (one hand per file)")
+    out = np.full((len(rows), *shape), np.nan)
+    for i, joints in given:
+        out[i] = joints
+    return out
 
 
 def _array(value: Any, where: str) -> np.ndarray:
@@ -158,6 +196,7 @@ def _read_npz(path: Path) -> GraspSet:
         if pos.ndim != 2 or pos.shape[1] != 3 or quat.shape != (len(pos), 4):
             raise GraspFileError(f"{path}: 'positions' must be (n, 3) and 'quaternions' (n, 4), got "
                                  f"{pos.shape} and {quat.shape}")
+        _check_quaternions(quat, str(path))
         poses = pose_from_pos_quat(pos, quat)
     else:
         raise GraspFileError(f"{path}: missing key 'poses' (n, 4, 4) or 'positions' and 'quaternions'")
@@ -174,9 +213,10 @@ def _read_npz(path: Path) -> GraspSet:
                     scale=float(scalar("object_scale") or 1.0) if "object_scale" in arrays else 1.0,
                     mass=None if mass is None else float(mass))
     labels = {k.removeprefix("label_"): v for k, v in arrays.items() if k.startswith("label_")}
+    joints = arrays["joints"].astype(float) if "joints" in arrays else None
     return GraspSet(poses, column("widths", math.nan), column("preshapes", 0.0), column("scores", 0.0),
                     frame=scalar("frame") or "object", hand=scalar("hand"), hand_kind=scalar("hand_kind"),
-                    object=ref, labels=labels, source=str(path))
+                    object=ref, labels=labels, source=str(path), joints=joints)
 
 
 def write(grasps: GraspSet, path: str | Path) -> Path:
@@ -203,6 +243,9 @@ def _json_payload(grasps: GraspSet) -> dict[str, Any]:
                                "preshape": float(grasps.preshapes[i])}
         if np.isfinite(grasps.widths[i]):
             row["width"] = float(grasps.widths[i])
+        joints = grasps.grasp_joints(i)
+        if joints is not None:
+            row["joints"] = joints.tolist()
         if grasps.labels:
             row["label"] = {k: v[i].item() for k, v in grasps.labels.items()}
         rows.append(row)
@@ -221,5 +264,7 @@ def _write_npz(grasps: GraspSet, path: Path) -> None:
         if value is not None:
             arrays[key] = np.array(value)
     arrays.update({f"label_{k}": v for k, v in grasps.labels.items()})
+    if grasps.joints is not None:
+        arrays["joints"] = grasps.joints
     with path.open("wb") as handle:
         np.savez_compressed(handle, **arrays)

@@ -5,7 +5,8 @@
 The file's grasps are TCP poses in the object's frame; each is placed on the pose the planner
 observes (the settled pose, or the estimated one under ``observation: estimated_pose``):
 ``world = object_pose @ mesh_to_object @ grasp``. A grasp that cannot be placed (made for another
-hand, NaN, not a rotation, a width the hand cannot open to, a pre-shape outside [0, 1]) is returned
+hand, NaN, not a rotation, a width the hand cannot open to, a pre-shape outside [0, 1], joints on a parallel
+hand) is returned
 marked `invalid`: its trial is recorded as `invalid_grasp`, never dropped. The `n` best grasps by
 score are returned (equal scores keep file order).
 
@@ -114,7 +115,7 @@ class FilePlanner:
                 out.append(GraspCandidate(pose=np.full((4, 4), np.nan), invalid=defect, **fields))
             else:
                 out.append(GraspCandidate(pose=base @ grasps.poses[index], preshape=float(grasps.preshapes[index]),
-                                          **fields))
+                                          joints=grasps.grasp_joints(int(index)), **fields))
         return out
 
 

@@ -141,6 +141,8 @@ class TrialResult:
         pose_add_s_mm: ADD-S of that pose [mm] (NaN if not estimated).
         grasp: the executed grasp's TCP pose in the world (flattened as ``grasp_*`` columns).
         grasp_width_m: the planned jaw opening [m] (NaN: none given).
+        grasp_joints: the grasp's own hand path (`GraspCandidate.joints`, (2, n_act) actuator commands) as
+            JSON text ``[[pre-shape...], [squeeze...]]``; "" when the grasp used the hand's own path.
         grasp_preshape: the grasp's pre-shape synergy in [0, 1].
         object_pose: the object's settled pose in the world that the grasp was planned on
             (``object_*`` columns): with `grasp`, the grasp in the object's frame.
@@ -179,6 +181,7 @@ class TrialResult:
     pose_add_s_mm: float = math.nan
     grasp: PoseRecord = field(default_factory=PoseRecord)
     grasp_width_m: float = math.nan
+    grasp_joints: str = ""
     grasp_preshape: float = math.nan
     object_pose: PoseRecord = field(default_factory=PoseRecord)
     plan_time_s: float = math.nan
