@@ -95,6 +95,8 @@ def test_one_protocol_or_several_side_by_side():
     listed = parse_config({"objects": ["mug"], "protocols": ["lift"]})
     assert listed == one and to_mapping(listed) == to_mapping(one)
     assert "protocols" not in to_mapping(one)  # run.json of one-protocol runs as before (resume, compare)
+    # run.json of several protocols (protocol: null beside the list) parses back to the same config (replay)
+    assert parse_config(to_mapping(several)) == several and to_mapping(several)["protocol"] is None
 
 
 @pytest.mark.parametrize(("data", "overrides", "phrase"), [

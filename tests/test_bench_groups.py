@@ -115,6 +115,10 @@ def test_stable_k_end_to_end_stores_each_trials_resting_pose_and_resumes(tmp_pat
             assert abs(quats[i] @ quats[j]) < 1 - 1e-6, (i, j)
     for r in rows:  # the planner saw the box settled in the pose it was put in
         assert r["object_z_m"] == pytest.approx(r["rest_z_m"], abs=1e-3)
+    from manigrasp.bench.replay import replay_trial
+
+    replay = replay_trial(tmp_path / "run", rows[3]["trial_id"])  # rebuilt in pose 3 from run.json
+    assert replay.same_status and replay.object_pose_error < 1e-9
     again = run_benchmark(config, tmp_path / "run", progress=False)
     assert again.ran == 0 and again.already_done == 6 and len(_rows(tmp_path / "run")) == 6
     results = load_results(tmp_path / "run")
@@ -139,6 +143,11 @@ def test_two_protocols_end_to_end_side_by_side_on_the_same_grasps(tmp_path):
     for a, b in zip(by_protocol["lift"], by_protocol["six_direction"], strict=True):
         assert [a[k] for k in keys] == [b[k] for k in keys]  # paired: the same grasp, the same seed
     assert run_benchmark(config, tmp_path / "run", progress=False).ran == 0
+    from manigrasp.bench.replay import replay_trial
+
+    for row in rows:  # every trial re-runs from run.json under its own protocol to its stored status
+        replay = replay_trial(tmp_path / "run", row["trial_id"])
+        assert replay.same_status and replay.replayed.seed == row["seed"], row["trial_id"]
     results = load_results(tmp_path / "run")
     report = summarize(results)
     assert report.protocols == ["lift", "six_direction"]

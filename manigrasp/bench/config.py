@@ -322,7 +322,7 @@ def _normalise(data: dict[str, Any], where: str = "config") -> dict[str, Any]:
         data["objects"] = [{"name": o} if isinstance(o, str) else o for o in data["objects"]]
     if "planners" in data:
         data["planners"] = [{"name": p} if isinstance(p, str) else p for p in data["planners"]]
-    if "protocol" in data and "protocols" in data:
+    if data.get("protocol") is not None and "protocols" in data:  # run.json of several holds protocol: null
         raise ConfigError(f"{where}: give either 'protocol' (one protocol) or 'protocols' (a list run side by "
                           "side), not both")
     if isinstance(data.get("protocol"), str):

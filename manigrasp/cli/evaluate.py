@@ -10,10 +10,13 @@ FORMATS_HELP = """\
 grasp files:
   native (.json, .npz): per grasp the TCP pose in the object's frame (origin at the centre of mass),
     as "pose" (4x4) or "position" + "quaternion" (w, x, y, z) [m]; optional "width" (jaw opening [m]),
-    "preshape" (synergy in [0, 1]: a dexterous hand's configuration), "score" (higher first); the file
-    may name "hand", "hand_kind" and "object" {name | mesh, scale, mass}. TCP: z = approach (hand
-    toward object), y = closing. NPZ: arrays poses (n,4,4) or positions + quaternions, widths,
-    preshapes, scores. Full layout: manigrasp/graspsets/native.py.
+    "preshape" (synergy in [0, 1]), "joints" (dexterous hands: the grasp's own hand path
+    [[pre-shape...], [squeeze target...]], actuator commands in the hand's actuator order, e.g. joint
+    angles [rad]), "score" (higher first); the file may name "hand", "hand_kind" and "object"
+    {name | mesh, scale, mass}. TCP: z = approach (hand toward object), y = closing. A quaternion must
+    be unit within 1e-5 (else the file is refused, naming the grasp). NPZ: arrays poses (n,4,4) or
+    positions + quaternions, widths, preshapes, scores, joints (n,2,n_act; all-NaN: the hand's own
+    path). Full layout: manigrasp/graspsets/native.py.
   ACRONYM (.h5, .hdf5): grasps/transforms (n,4,4) Panda gripper poses in the frame of object/file
     scaled by object/scale (a relative object/file is looked for beside the .h5 file, then in its
     parent and grandparent folders: ACRONYM's meshes/ beside grasps/). manigrasp's TCP =

@@ -16,7 +16,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Run CONFIG like `manigrasp bench` (resumable: re-run the same command to continue; parallel "
                     "with --jobs or Ray), then write every trial's grasp in the object's frame with its label "
                     "(status, success, trial id, seed, measures, the object's settled pose) to RUN_DIR/grasps/: "
-                    "<object>__<hand>__<planner>.json (or .npz) and, for parallel hands, .h5 in ACRONYM's layout. "
+                    "<object>__<hand>__<planner>.json (or .npz; a dexterous grasp's joints included) and, for parallel "
+                    "hands only, .h5 in ACRONYM's layout (a parallel-jaw format; the summary says when none is "
+                    "written and why). "
                     "Set the number of candidates with grasps_per_object=N.",
         epilog=FORMATS_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("config", help="a YAML config file, or the name of a shipped one")
