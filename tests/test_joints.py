@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from joint_planners import own_path, side_grasp
 
 from manigrasp import hands, planners
 from manigrasp.errors import PlannerError
@@ -30,18 +31,6 @@ def scene(can):
     return build_scene(hands.load(HAND), can)
 
 
-def _side_power_grasp(scene, object_pose: np.ndarray) -> np.ndarray:
-    """TCP pose of a side power grasp of the standing can at mid-height (as tests/test_dexterous_grip.py)."""
-    scene.reset(mount=np.eye(4))
-    tcp = scene.tcp_pose()
-    thumb = scene.model.body(f"hand/{scene.hand.finger_bodies[0]}").id
-    side = np.sign((tcp[:3, :3].T @ (scene.data.xipos[thumb] - tcp[:3, 3]))[0]) or 1.0
-    pose = np.eye(4)
-    pose[:3, 3] = [object_pose[0, 3], object_pose[1, 3], scene.object_rest_height]
-    pose[:3, :3] = np.column_stack([[0.0, 0.0, side], [0.0, -side, 0.0], [1.0, 0.0, 0.0]])
-    return pose
-
-
 class _Commands:
     """A trial observer keeping the hand's actuator commands at each phase's start."""
 
@@ -63,18 +52,12 @@ class _Commands:
     sample_period_s = float("inf")
 
 
-def _own_path(hand: hands.Hand) -> np.ndarray:
-    """A path that is not the hand's: fingers from 20 % closed, squeezing to 90 % of the hand's closed command."""
-    open_ctrl, closed_ctrl = hand.open_ctrl, hand.closed_ctrl
-    return np.stack([open_ctrl + 0.2 * (closed_ctrl - open_ctrl), open_ctrl + 0.9 * (closed_ctrl - open_ctrl)])
-
-
 @pytest.mark.slow
 def test_a_grasp_with_its_own_joints_drives_that_path_and_holds_the_can(scene) -> None:
     rest = settle_object(scene)
-    joints = _own_path(scene.hand)
+    joints = own_path(scene.hand)
     watch = _Commands()
-    candidate = GraspCandidate(pose=_side_power_grasp(scene, rest), score=1.0, joints=joints)
+    candidate = GraspCandidate(pose=side_grasp(scene.hand, rest), score=1.0, joints=joints)
     result = PROTOCOLS.load("lift").run(scene, candidate, np.random.default_rng(0), object_pose=rest, observer=watch)
     assert result.status is Status.SUCCESS, result.detail
     np.testing.assert_allclose(watch.at["approach"], joints[0], atol=1e-12)  # the pre-shape is row 0
@@ -93,7 +76,7 @@ def test_a_grasp_with_its_own_joints_drives_that_path_and_holds_the_can(scene) -
 
 def test_set_hand_path_moves_the_synergy_along_the_given_rows(scene) -> None:
     hand = scene.hand
-    joints = _own_path(hand)
+    joints = own_path(hand)
     scene.set_hand_path(*joints)
     scene.set_synergy(0.25)
     np.testing.assert_allclose(scene.data.ctrl[scene.hand_actuators], 0.75 * joints[0] + 0.25 * joints[1])
@@ -105,7 +88,7 @@ def test_set_hand_path_moves_the_synergy_along_the_given_rows(scene) -> None:
 
 
 def _bad_joints(hand: hands.Hand, low: np.ndarray, high: np.ndarray) -> dict[str, object]:
-    good = _own_path(hand)
+    good = own_path(hand)
     nan = good.copy()
     nan[1, 2] = np.nan
     outside = good.copy()
@@ -122,7 +105,7 @@ def test_joints_that_do_not_fit_the_hand_are_invalid_grasp(scene, defect: str, m
     rest = settle_object(scene)
     low, high = scene.hand_ctrlrange().T
     joints = _bad_joints(scene.hand, low, high)[defect]
-    grasp = Grasp(pose=_side_power_grasp(scene, rest), joints=np.asarray(joints))
+    grasp = Grasp(pose=side_grasp(scene.hand, rest), joints=np.asarray(joints))
     result = PROTOCOLS.load("lift").run(scene, grasp, np.random.default_rng(0), object_pose=rest)
     assert result.status is Status.INVALID_GRASP and message in result.detail, result.detail
     assert result.sim_steps == 0

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from joint_planners import own_path
 
 from manigrasp import hands
 from manigrasp.bench.config import parse_config
@@ -45,9 +46,7 @@ def test_a_dexterous_run_stores_labels_and_replays_its_joints(labelled, tmp_path
     assert statuses == {0: "success", 1: "no_contact"}  # on its own path; the same closing on air
     with ResultsStore(run_dir / "results.sqlite") as store:
         rows = sorted(store.rows(), key=lambda r: int(r["grasp_index"]))
-    hand = hands.load(HAND)
-    span = hand.closed_ctrl - hand.open_ctrl
-    expected = np.stack([hand.open_ctrl + 0.2 * span, hand.open_ctrl + 0.9 * span])
+    expected = own_path(hands.load(HAND))
     for row in rows:  # stored exactly (JSON text of the float64 values)
         np.testing.assert_array_equal(joints_from_text(str(row["grasp_joints"])), expected)
     # Replay re-executes the stored joints: the same status for each trial.
