@@ -11,13 +11,14 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from manigrasp.bench.markdown import write_markdown
 from manigrasp.bench.report import POOLED, format_auc, report_from_json, summarize
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.cli import main
-from manigrasp.protocol.result import GraspMetrics, Status, TrialResult
+from manigrasp.protocol.result import GraspMetrics, PoseRecord, Status, TrialResult
 
 
 def _results(successes: dict[tuple[str, str], int], n: int = 20) -> list[tuple[TrialKey, TrialResult]]:
@@ -295,7 +296,8 @@ def test_protocols_side_by_side_in_config_order_with_paired_outcomes(tmp_path):
     from manigrasp.bench.markdown import paired_rows, protocol_order, protocol_rows
 
     results = [(TrialKey(obj, "inspire_right", "power", "ground_truth", protocol, i),
-                TrialResult(Status.SUCCESS if i < held else Status.SLIPPED_LIFT))
+                TrialResult(Status.SUCCESS if i < held else Status.SLIPPED_LIFT,
+                            grasp=PoseRecord.of(np.eye(4)) if i < 5 else PoseRecord()))  # 5 stored grasps per object
                for protocol, held in (("standard", 7), ("six_direction", 4)) for obj in ("025_mug", "004_sugar_box")
                for i in range(10)]
     report = summarize(results)
@@ -307,7 +309,7 @@ def test_protocols_side_by_side_in_config_order_with_paired_outcomes(tmp_path):
     assert rows[0][3:] == ["all objects", "14/20, 0.70 [0.48, 0.85]", "8/20, 0.40 [0.22, 0.61]"]
     assert [r[3] for r in rows[1:]] == ["004_sugar_box", "025_mug"]
     (paired,) = paired_rows(report, results, order)
-    assert paired[3:] == ["standard vs six_direction", 20, 8, 6, 0, 6, "0.0312"]
+    assert paired[3:] == ["standard vs six_direction", 20, 10, 8, 6, 0, 6, "0.0312"]  # unstored grasps: not same
     text = write_markdown(report, results, tmp_path, meta).read_text()
     assert "| hand | planner | observation | protocol | trials |" in text
     assert "| inspire_right | power | ground_truth | standard | 025_mug | 10 | 7 |" in text

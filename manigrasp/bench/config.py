@@ -167,10 +167,11 @@ class BenchConfig:
         protocol: the trial protocol ("standard", "six_direction", "shake", "lift") and its parameters
             (default "standard"); None when `protocols` lists several.
         protocols: several protocols run side by side (``protocols: [standard, six_direction]``): every group
-            runs under each, with the same planned grasps and trial seeds (a paired comparison, see
-            `manigrasp.bench.trials`), labelled by `protocol_labels` in trial ids and the report. Not given
-            together with `protocol`; a one-element list is that one protocol (the same config and run
-            identity). Left out of run.json when empty, so a one-protocol run's identity is unchanged.
+            runs under each, with the same planning and trial seeds (a paired comparison: the same
+            grasps unless the planner adapts its plan to the protocol, see `manigrasp.bench.trials`),
+            labelled by `protocol_labels` in trial ids and the report. Not given together with `protocol`;
+            a one-element list is that one protocol (the same config and run identity). Left out of
+            run.json when empty, so a one-protocol run's identity is unchanged.
         observation: what planners see, one or several of "ground_truth", "estimated_pose" and
             "point_cloud" (several: every group runs under each, and the report puts them side by side).
         scene: physics and scene parameters.

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from dataclasses import astuple
 from itertools import combinations
 from pathlib import Path
 
@@ -11,7 +12,7 @@ from manigrasp.bench import plots, twins
 from manigrasp.bench.plots import method_label
 from manigrasp.bench.report import POOLED, Method, Rate, Report, format_auc, format_planning_time, format_rate
 from manigrasp.bench.store import TrialKey
-from manigrasp.protocol.result import TrialResult
+from manigrasp.protocol.result import PoseRecord, TrialResult
 from manigrasp.runfiles import REPORT_NAME
 
 
@@ -121,25 +122,34 @@ def _rate_cell(rate: Rate | None) -> str:
 def paired_rows(report: Report, results: list[tuple[TrialKey, TrialResult]], order: list[str] | None = None
                 ) -> list[list[str]]:
     """Per hand x planner x observation and pair of protocols (in `order`), over the trials run under both (same
-    object, grasp and seed: the paired design of `manigrasp.bench.trials`): pairs, both succeed, only the first,
-    only the second, neither, and the exact McNemar p-value (two-sided binomial test of the discordant pairs:
-    how likely a split this uneven is if the protocols were equally hard)."""
+    object, grasp rank and seed: the paired design of `manigrasp.bench.trials`): pairs, how many of them executed
+    the very same grasp pose (all, unless the planner adapts its plan to the protocol), both succeed, only the
+    first, only the second, neither, and the exact McNemar p-value (two-sided binomial test of the discordant
+    pairs: how likely a split this uneven is if the protocols were equally hard)."""
     from scipy.stats import binomtest
 
-    outcome: dict[tuple, dict[str, bool]] = defaultdict(dict)
+    outcome: dict[tuple, dict[str, TrialResult]] = defaultdict(dict)
     for key, result in results:
-        outcome[(key.hand, key.planner, key.observation, key.object, key.grasp_index)][key.protocol] = result.success
+        outcome[(key.hand, key.planner, key.observation, key.object, key.grasp_index)][key.protocol] = result
     rows = []
     for method in sorted({m[:3] for m in report.by_method}):
         for a, b in combinations(order or report.protocols, 2):
             pairs = [(v[a], v[b]) for k, v in outcome.items() if k[:3] == method and a in v and b in v]
             if pairs:
-                both, first, second = (sum(x and y for x, y in pairs), sum(x and not y for x, y in pairs),
-                                       sum(y and not x for x, y in pairs))
+                same = sum(_same_pose(x.grasp, y.grasp) for x, y in pairs)
+                wins = [(x.success, y.success) for x, y in pairs]
+                both, first, second = (sum(x and y for x, y in wins), sum(x and not y for x, y in wins),
+                                       sum(y and not x for x, y in wins))
                 p = binomtest(first, first + second).pvalue if first + second else 1.0
-                rows.append([*method, f"{a} vs {b}", len(pairs), both, first, second,
+                rows.append([*method, f"{a} vs {b}", len(pairs), same, both, first, second,
                              len(pairs) - both - first - second, f"{p:.3g}"])
     return rows
+
+
+def _same_pose(a: PoseRecord, b: PoseRecord) -> bool:
+    """True if both poses are stored (no NaN) and equal."""
+    values = [astuple(a), astuple(b)]
+    return all(math.isfinite(v) for v in values[0]) and values[0] == values[1]
 
 
 def _protocols(report: Report, results: list[tuple[TrialKey, TrialResult]], meta: dict) -> list[str]:
@@ -148,12 +158,14 @@ def _protocols(report: Report, results: list[tuple[TrialKey, TrialResult]], meta
         return []
     order = protocol_order(report, meta)
     return ["## Protocols side by side",
-            "Every group ran under each protocol with the same planned grasps and trial seeds, so the protocols "
-            "are compared on the very same grasps. Rates with 95 % Wilson intervals.",
+            "Every group ran under each protocol with the same planning and trial seeds: the protocols are "
+            "compared on the same draw of grasps (the very same grasps unless the planner adapts its plan to the "
+            "protocol's grip force and loads; 'same grasp' below counts them). Rates with 95 % Wilson intervals.",
             _table(["hand", "planner", "observation", "object", *order], protocol_rows(report, order)),
-            "Paired outcomes (the same grasp under both protocols); McNemar p: exact two-sided test of the grasps "
-            "that only one protocol held.",
-            _table(["hand", "planner", "observation", "protocols (first vs second)", "pairs", "both succeed",
+            "Paired outcomes (the same object, grasp rank and seed under both protocols); McNemar p: exact two-sided "
+            "test of the pairs that only one protocol held.",
+            _table(["hand", "planner", "observation", "protocols (first vs second)", "pairs", "same grasp",
+                    "both succeed",
                     "only the first", "only the second", "neither", "McNemar p"], paired_rows(report, results, order))]
 
 

@@ -17,11 +17,14 @@ would repeat that setup's trials exactly.
 A config with several protocols (``protocols: [standard, six_direction]``) runs
 every group under each, labelled by the protocol in trial ids (a config with one
 protocol keeps the ids it always had). The seed of a group does not depend on its
-protocol either: the planner sees the same observation with the same generator and
-returns the same grasps, and trial i gets the same seed, under every protocol, so
-the protocols are compared on the very same grasps (a paired comparison, which
-separates the protocol's effect from the luck of the draw far better than
-independent samples would).
+protocol either: the planner sees the same observation with the same generator, and
+trial i gets the same seed, under every protocol. A planner that does not adapt its
+plan to the protocol (`manigrasp.planners.context.PlanContext`: the protocol's grip
+force and loads) so returns the same grasps, and the protocols are compared on the
+very same grasps; one that adapts it is compared on the same draw, each grasp made
+for its protocol. Pairing is the better comparison: it separates the protocol's
+effect from the luck of the draw far better than independent samples would (the
+report's paired outcomes and McNemar test, `manigrasp.bench.markdown.paired_rows`).
 
 ``rest: stable_k`` (`SceneConfig.rest_k`) runs each object in each of its `rest_k`
 most probable stable poses (`manigrasp.sim.scene.object_stable_poses`; an object
