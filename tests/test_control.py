@@ -19,8 +19,8 @@ from manigrasp.control import (
     default_gains,
 )
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import quat_to_mat
 from manigrasp.sim import Scene, SceneConfig, build_scene, hand_contact_wrench, read_hand_contacts
-from manigrasp.sim.transforms import quat_to_mat
 
 FIXED_BOX = """<mujoco><worldbody><body name="object" pos="0 0 0.02">
 <geom type="box" size="0.04 0.04 0.02"/></body></worldbody></mujoco>"""

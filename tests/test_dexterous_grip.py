@@ -145,11 +145,10 @@ def test_hold_gain_of_the_protocol_is_validated() -> None:
         PROTOCOLS.load("standard", finger_hold_gain=0.5)
 
 
-def test_parallel_jaw_grasp_is_never_stiffened(tmp_path) -> None:
-    box = build_object(trimesh.creation.box((0.05, 0.05, 0.05)), name="box", mass=0.3, cache_root=tmp_path).asset
-    scene = build_scene(hands.load("parallel_jaw"), box)
+def test_parallel_jaw_grasp_is_never_stiffened(box_scene) -> None:
+    scene = box_scene.scene
     gains = scene.model.actuator_gainprm.copy()
-    object_pose = settle_object(scene)
+    object_pose = box_scene.rest
     pose = np.eye(4)
     pose[:3, :3] = np.diag([1.0, -1.0, -1.0])
     pose[:3, 3] = [object_pose[0, 3], object_pose[1, 3], scene.object_rest_height]

@@ -8,33 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import trimesh
 
-from manigrasp.bench.observe import view_rngs
 from manigrasp.errors import ConfigError
-from manigrasp.objects import build_object
-from manigrasp.perception.fusion import observe_views
 from manigrasp.perception.noise import NOISELESS
 from manigrasp.perception.setup import CameraSetup
 from manigrasp.planners.free_space import FREE, OCCUPIED, UNKNOWN, FreeSpace
-from manigrasp.sim import build_tabletop
-from tests.test_planners import BOX
+from tests.helpers import TALL_BOX as BOX
+from tests.helpers import fused
 
 pytest.importorskip("open3d")
-
-
-@pytest.fixture(scope="module")
-def box_table():
-    asset = build_object(trimesh.creation.box(BOX), name="planner_test_box", mass=0.2).asset
-    table = build_tabletop(asset)
-    pose = np.eye(4)
-    pose[2, 3] = BOX[2] / 2
-    table.place(pose)
-    return table
-
-
-def fused(table, setup: CameraSetup, seed: int = 0):
-    return observe_views(table, setup.cameras(np.zeros(2)), view_rngs(seed, "box", setup.views), setup.perception())
 
 
 def test_camera_setup_spreads_views_and_validates():

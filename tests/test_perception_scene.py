@@ -53,7 +53,7 @@ def _pose(yaw_deg: float) -> np.ndarray:
 
 def _place(scene, pose: np.ndarray) -> None:
     """Place the object of a hand-built model as the old `Tabletop.place` did."""
-    from manigrasp.sim.transforms import mat_to_quat
+    from manigrasp.geometry import mat_to_quat
 
     adr = scene.model.jnt_qposadr[scene.model.body_jntadr[scene.object_body]]
     scene.data.qpos[adr:adr + 3], scene.data.qpos[adr + 3:adr + 7] = pose[:3, 3], mat_to_quat(pose[:3, :3])

@@ -14,14 +14,13 @@ import trimesh
 from manigrasp import hands, planners
 from manigrasp.errors import ConfigError, PlannerError, UnknownNameError
 from manigrasp.objects import build_object
-from manigrasp.planners.geometry import mats_to_quats, random_rotations
 from manigrasp.planners.jaw_poses import jaw_clears_table
 from manigrasp.planners.nms import rotation_angles, suppress
 from manigrasp.planners.pairs import Pairs
-from manigrasp.sim import build_scene, read_hand_contacts
+from tests.helpers import TALL_BOX as BOX
+from tests.helpers import assert_collision_free
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-BOX = (0.05, 0.03, 0.12)  # [m]: x and y fit the 8 cm jaw, z does not
 SPHERE_RADIUS = 0.03  # [m]
 
 
@@ -31,9 +30,8 @@ def jaw() -> hands.Hand:
 
 
 @pytest.fixture(scope="module")
-def box_obs() -> planners.Observation:
-    asset = build_object(trimesh.creation.box(BOX), name="planner_test_box", mass=0.2).asset
-    return planners.Observation.from_asset(asset)
+def box_obs(tall_box_asset) -> planners.Observation:
+    return planners.Observation.from_asset(tall_box_asset)
 
 
 @pytest.fixture(scope="module")
@@ -46,16 +44,6 @@ def sphere_obs() -> planners.Observation:
 @pytest.fixture(scope="module")
 def box_plan(box_obs, jaw) -> planners.PlanResult:
     return planners.plan(planners.load("antipodal"), box_obs, jaw, 100, np.random.default_rng(0))
-
-
-def assert_collision_free(obs: planners.Observation, hand: hands.Hand, candidates) -> None:
-    """Independent check: a fresh standard scene (no planner settings), open hand at grasp and pre-grasp."""
-    scene = build_scene(hand, obs.asset)
-    for i, c in enumerate(candidates):
-        for label, pose in (("grasp", c.pose), ("pre-grasp", c.pregrasp_pose)):
-            scene.reset(mount=pose, object_pose=obs.object_pose)
-            touching = read_hand_contacts(scene, "any")
-            assert len(touching) == 0, f"candidate {i} touches something at its {label} pose"
 
 
 # ------------------------------------------------------------ antipodal, analytic
@@ -295,15 +283,6 @@ def test_nms_thresholds_and_finger_swap_symmetry():
     assert list(suppress(np.array([base, flipped]))) == [0, 1]
     assert list(suppress(np.array([base, flipped]), symmetric=True)) == [0]
     assert rotation_angles(base[:3, :3], turned(25)[None, :3, :3])[0] == pytest.approx(np.radians(25))
-
-
-def test_batch_quaternions_match_mujoco():
-    rots = random_rotations(200, np.random.default_rng(0))
-    quats = mats_to_quats(rots)
-    for rot, q in zip(rots, quats, strict=True):
-        ref = np.empty(4)
-        mujoco.mju_mat2Quat(ref, rot.ravel())
-        assert np.allclose(q, ref * np.sign(ref[0]), atol=1e-9)
 
 
 # ------------------------------------------------------------ CLI

@@ -2,12 +2,13 @@
 partial view of a shipped mesh, normals by PCA. (The default ``"free_space"`` path needs the depth views:
 tests/test_planners_partial.py.)
 
-Clouds are made here, independently of `manigrasp.perception`: area-uniform
-samples (~2 mm apart) of the true mesh that face a camera 0.55 m away at
-45 degrees elevation and are not occluded from it, 1 mm Gaussian noise, the
-table (4 mm) removed, normals by PCA of 20 neighbours turned toward the
-camera. Grasps are checked against the true object: contacts on a box's
-faces, collisions in a fresh MuJoCo scene, and lifts under the `lift` protocol.
+Clouds are made here, without rendering: area-uniform samples (~2 mm apart)
+of the true mesh that face a camera 0.55 m away at 45 degrees elevation and
+are not occluded from it, 1 mm Gaussian noise, the table (4 mm) removed,
+normals by the package's one estimate (`perception.cloud.estimate_normals`, here
+Open3D's PCA of the 20 nearest points) turned toward the camera.
+Grasps are checked against the true object: contacts on a box's faces,
+collisions in a fresh MuJoCo scene, and lifts under the `lift` protocol.
 """
 
 from __future__ import annotations
@@ -17,15 +18,20 @@ import pytest
 import trimesh
 
 from manigrasp import hands, planners
-from manigrasp.objects import build_object, catalog
-from manigrasp.planners.cloud import complete, estimate_normals
+from manigrasp.objects import catalog
+from manigrasp.perception.cloud import estimate_normals
+from manigrasp.planners.cloud import complete
 from manigrasp.protocol import PROTOCOLS, settle_object
 from manigrasp.protocol.result import Status
 from manigrasp.sim import build_scene
-from tests.test_planners import BOX, assert_collision_free
+from tests.helpers import TALL_BOX as BOX
+from tests.helpers import assert_collision_free
+
+pytest.importorskip("open3d", reason="normals are estimated with the perception extra (open3d)")
 
 SPACING = 0.002  # [m]
 NOISE = 0.001  # [m]
+NEIGHBOURS = 20  # points in the neighbourhood of a normal
 TABLE_MARGIN = 0.004  # [m]
 
 
@@ -51,7 +57,7 @@ def view_cloud(mesh: trimesh.Trimesh, camera: np.ndarray, rng: np.random.Generat
     visible = facing & ~mesh.ray.intersects_any(points + 1e-4 * to_camera, to_camera)
     points = points[visible] + rng.normal(0.0, NOISE, (int(visible.sum()), 3))
     points = points[points[:, 2] > TABLE_MARGIN]
-    return points, estimate_normals(points, camera)
+    return points, estimate_normals(points, camera, radius=None, max_nn=NEIGHBOURS)
 
 
 def cloud_observation(truth: planners.Observation, azimuth_deg: float, seed: int) -> planners.Observation:
@@ -65,9 +71,8 @@ def jaw() -> hands.Hand:
 
 
 @pytest.fixture(scope="module")
-def box_truth() -> planners.Observation:
-    asset = build_object(trimesh.creation.box(BOX), name="planner_test_box", mass=0.2).asset
-    return planners.Observation.from_asset(asset)
+def box_truth(tall_box_asset) -> planners.Observation:
+    return planners.Observation.from_asset(tall_box_asset)
 
 
 def test_the_synthetic_view_is_partial_and_noisy(box_truth):

@@ -20,8 +20,8 @@ from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.free_space import FreeSpace, ViewedObservation
 from manigrasp.planners.geometry import tcp_frames
 from manigrasp.planners.partial import SpaceProbe, object_region
-from tests.test_perception_fusion import box_table, fused  # noqa: F401 (fixture)
-from tests.test_planners import BOX
+from tests.helpers import TALL_BOX as BOX
+from tests.helpers import fused
 
 pytest.importorskip("open3d")
 
@@ -41,7 +41,7 @@ def jaw() -> hands.Hand:
 
 
 @pytest.fixture(scope="module")
-def one_view(box_table) -> ViewedObservation:  # noqa: F811
+def one_view(box_table) -> ViewedObservation:
     return viewed(box_table, CameraSetup(width=640, height=480))
 
 
@@ -70,25 +70,14 @@ def test_partial_view_grasps_close_across_faces_that_exist(one_view, jaw):
     assert hidden >= 5, "grasps reach the hidden faces"
 
 
-def test_single_view_box_grasps_are_collision_free_on_the_true_box(one_view, jaw, box_table):  # noqa: F811
-    import trimesh
-
-    from manigrasp.objects import build_object
-
-    asset = build_object(trimesh.creation.box(BOX), name="planner_test_box", mass=0.2).asset
-    truth = Observation.from_asset(asset, np.block([[np.eye(3), CENTRE[:, None]], [np.zeros(3), 1.0]]))
-    probe = HandProbe(jaw, truth)
+def test_single_view_box_grasps_are_collision_free_on_the_true_box(one_view, jaw, tall_box_asset):
+    probe = true_box_probe(jaw, tall_box_asset)
     top = planners.plan(planners.load("antipodal"), one_view, jaw, 10, np.random.default_rng(1)).candidates
     assert all(probe.free(c.pose) for c in top)
 
 
-def true_box_probe(jaw: hands.Hand) -> HandProbe:
-    """MuJoCo's test against the real box (what the view does not know)."""
-    import trimesh
-
-    from manigrasp.objects import build_object
-
-    asset = build_object(trimesh.creation.box(BOX), name="planner_test_box", mass=0.2).asset
+def true_box_probe(jaw: hands.Hand, asset) -> HandProbe:
+    """MuJoCo's test against the real box `asset` (what the view does not know)."""
     return HandProbe(jaw, Observation.from_asset(asset, np.block([[np.eye(3), CENTRE[:, None]],
                                                                   [np.zeros(3), 1.0]])))
 
@@ -99,7 +88,7 @@ def top_down(x: float, depth: float, reach: float) -> np.ndarray:
                       np.array([[1.0, 0.0, 0.0]]))[0]
 
 
-def test_a_jaw_in_the_occluded_space_behind_a_seen_face_is_rejected(one_view, jaw):
+def test_a_jaw_in_the_occluded_space_behind_a_seen_face_is_rejected(one_view, jaw, tall_box_asset):
     """Fingertips 3 cm below the top, the hand shifted 3.5 cm toward +x: the -x finger lies behind the seen
     +x face, in the box's unseen part, and is rejected. Centred with the fingertips 5 mm below the top (the
     space the camera saw past the far edge), the hand is accepted."""
@@ -109,10 +98,10 @@ def test_a_jaw_in_the_occluded_space_behind_a_seen_face_is_rejected(one_view, ja
     poses = np.stack([top_down(0.035, 0.03, reach), top_down(0.0, 0.005, reach)])
     np.testing.assert_array_equal(probe.collides(poses), [True, False])
     assert not probe.free(poses[0]) and probe.free(poses[1])
-    np.testing.assert_array_equal(true_box_probe(jaw).collides(poses), [True, False])
+    np.testing.assert_array_equal(true_box_probe(jaw, tall_box_asset).collides(poses), [True, False])
 
 
-def test_strict_unknown_space_rejects_a_jaw_in_the_shadow(one_view, jaw):
+def test_strict_unknown_space_rejects_a_jaw_in_the_shadow(one_view, jaw, tall_box_asset):
     """Fingertips 4.5 cm below the top (the palm just above it), centred: the -x finger lies in the box's
     shadow, 1.5 cm from its hidden face. The true scene has room for it; the strict probe (all unknown space
     blocked) rejects it, the default (unknown space blocked only within 2 mm of the seen footprint: the
@@ -120,7 +109,7 @@ def test_strict_unknown_space_rejects_a_jaw_in_the_shadow(one_view, jaw):
     region = object_region(one_view.points, 0.0, 0.03)
     space = FreeSpace(one_view.views)
     pose = top_down(0.0, 0.045, SpaceProbe(jaw, one_view, space, region, 0.001).finger_extents()[0])
-    assert not true_box_probe(jaw).collides(pose[None])[0]
+    assert not true_box_probe(jaw, tall_box_asset).collides(pose[None])[0]
     assert SpaceProbe(jaw, one_view, space, region, 0.001, hidden_margin=None).collides(pose[None])[0]
     assert not SpaceProbe(jaw, one_view, space, region, 0.001, hidden_margin=0.002).collides(pose[None])[0]
 
@@ -142,7 +131,7 @@ def test_every_cloud_planner_is_deterministic_for_a_seed(one_view, jaw, completi
         assert a.score == b.score and a.width == b.width
 
 
-def test_two_views_find_visible_pairs_on_both_sides(box_table, jaw):  # noqa: F811
+def test_two_views_find_visible_pairs_on_both_sides(box_table, jaw):
     """With a second camera opposite, both faces of each pair are seen: full-confidence visible pairs."""
     two = viewed(box_table, CameraSetup(views=2))
     top = planners.plan(planners.load("antipodal"), two, jaw, 10, np.random.default_rng(0)).candidates

@@ -14,7 +14,7 @@ from manigrasp import hands, planners
 from manigrasp.objects import catalog, recipes
 from manigrasp.objects.asset import ObjectAsset
 from manigrasp.planners.nms import suppress
-from tests.test_planners import assert_collision_free
+from tests.helpers import assert_collision_free
 
 pytestmark = pytest.mark.slow  # plans on every shipped object (the power planner alone ~30 s)
 

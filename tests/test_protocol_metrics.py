@@ -6,20 +6,14 @@ import math
 
 import numpy as np
 import pytest
-import trimesh
 
-from manigrasp.objects import build_object_from_mesh
 from manigrasp.protocol.metrics import planned_metrics, planned_metrics_batch, radius_of_gyration
-from manigrasp.sim import build_scene
 
 
 @pytest.fixture(scope="module")
-def scene(tmp_path_factory):
-    import os
-
-    os.environ.setdefault("MANIGRASP_CACHE", str(tmp_path_factory.mktemp("cache")))
-    asset = build_object_from_mesh(trimesh.creation.box((0.05, 0.05, 0.05)), "cube", mass=0.3)
-    return build_scene("parallel_jaw", asset)
+def scene(box_scene):
+    """The shared cube scene (conftest: a 5 cm cube of 0.3 kg and `parallel_jaw`)."""
+    return box_scene.scene
 
 
 def test_batched_planned_metrics_equal_the_single_ones(scene):

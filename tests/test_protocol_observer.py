@@ -8,13 +8,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-import trimesh
 
-from manigrasp.objects import build_object
-from manigrasp.protocol import PROTOCOLS, GraspParams, Phase, Status, TrialResult, settle_object
+from manigrasp.protocol import PROTOCOLS, GraspParams, Phase, Status, TrialResult
 from manigrasp.protocol.execution import Abort, TrialRun
 from manigrasp.protocol.observer import NullObserver, TrialObserver
-from manigrasp.sim import Scene, build_scene
+from manigrasp.sim import Scene
 
 
 @dataclass
@@ -44,14 +42,9 @@ class Recorder:
 
 
 @pytest.fixture(scope="module")
-def box(tmp_path_factory: pytest.TempPathFactory) -> tuple[Scene, np.ndarray, np.ndarray]:
-    asset = build_object(trimesh.creation.box((0.05,) * 3), name="box", mass=0.3,
-                         cache_root=tmp_path_factory.mktemp("observer")).asset
-    scene = build_scene("parallel_jaw", asset)
-    rest = settle_object(scene)
-    pose = np.diag([1.0, -1.0, -1.0, 1.0])
-    pose[:3, 3] = rest[:3, 3]
-    return scene, rest, pose
+def box(box_scene) -> tuple[Scene, np.ndarray, np.ndarray]:
+    """The shared cube scene (conftest), the cube's resting pose and its top grasp (approach down, closing -y)."""
+    return box_scene.scene, box_scene.rest, box_scene.top_grasp.copy()
 
 
 def _same(a: TrialResult, b: TrialResult) -> bool:

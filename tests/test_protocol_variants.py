@@ -6,27 +6,17 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-import trimesh
 
 from manigrasp.bench.report import summarize
 from manigrasp.bench.store import TrialKey
-from manigrasp.objects import build_object
-from manigrasp.protocol import PROTOCOLS, Phase, Status, TrialResult, settle_object
-from manigrasp.sim import Scene, build_scene
-
-BOX, MASS = 0.05, 0.3  # [m] cube edge, [kg]
+from manigrasp.protocol import PROTOCOLS, Phase, Status, TrialResult
+from manigrasp.sim import Scene
 
 
 @pytest.fixture(scope="module")
-def box(tmp_path_factory: pytest.TempPathFactory) -> tuple[Scene, np.ndarray, np.ndarray]:
-    """Scene, resting pose and a top grasp at the cube's centre (approach down, closing along -y)."""
-    asset = build_object(trimesh.creation.box((BOX,) * 3), name="box", mass=MASS,
-                         cache_root=tmp_path_factory.mktemp("variants")).asset
-    scene = build_scene("parallel_jaw", asset)
-    rest = settle_object(scene)
-    pose = np.diag([1.0, -1.0, -1.0, 1.0])
-    pose[:3, 3] = rest[:3, 3]
-    return scene, rest, pose
+def box(box_scene) -> tuple[Scene, np.ndarray, np.ndarray]:
+    """The shared cube scene (conftest), the cube's resting pose and its top grasp (approach down, closing -y)."""
+    return box_scene.scene, box_scene.rest, box_scene.top_grasp.copy()
 
 
 def _run(box: tuple, name: str, **params: object) -> TrialResult:

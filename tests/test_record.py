@@ -1,8 +1,8 @@
 """Trial recordings: valid .rrd files that hold the scene, the trial over sim_time, and its status.
 
-Scene: `parallel_jaw` with a 5 cm cube of 0.3 kg (as in test_protocol). A
+Scene: the shared `parallel_jaw` and 5 cm, 0.3 kg cube (conftest `box_scene`). A
 trial is either the real standard protocol (when its `run` takes an
-`observer`) or `drive`: a small scripted trial that calls the observer the
+`observer`) or `drive` (tests/helpers.py): a small scripted trial that calls the observer the
 way a protocol does (start, phases, a sample every period, end).
 """
 
@@ -17,64 +17,24 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import trimesh
 
 from manigrasp.errors import ConfigError
-from manigrasp.objects import ObjectAsset, build_object
-from manigrasp.protocol import PROTOCOLS, Grasp, Status, TrialResult, settle_object
+from manigrasp.objects import ObjectAsset
+from manigrasp.protocol import PROTOCOLS, Status, TrialResult, settle_object
 from manigrasp.protocol.observer import NullObserver, TrialObserver
 from manigrasp.record import RecordOptions, SimClock, TrialRecorder
 from manigrasp.record.readback import summarize
 from manigrasp.sim import Scene, build_scene
+from tests.helpers import drive, top_grasp
 
 RERUN = Path(sys.executable).parent / "rerun"
-BOX, MASS = 0.05, 0.3
 HAS_HOOK = "observer" in inspect.signature(PROTOCOLS.load("standard").run).parameters
 
 
 @pytest.fixture(scope="module")
-def asset(tmp_path_factory: pytest.TempPathFactory) -> ObjectAsset:
-    root = tmp_path_factory.mktemp("record_objects")
-    return build_object(trimesh.creation.box((BOX,) * 3), name="box_rec", mass=MASS, cache_root=root).asset
-
-
-@pytest.fixture(scope="module")
-def box(asset: ObjectAsset) -> tuple[Scene, np.ndarray]:
-    scene = build_scene("parallel_jaw", asset)
-    return scene, settle_object(scene)
-
-
-def top_grasp(rest: np.ndarray) -> Grasp:
-    """TCP at the cube's centre, approach down, closing along -y, with its two planned contacts."""
-    pose = np.diag([1.0, -1.0, -1.0, 1.0])
-    pose[:3, 3] = rest[:3, 3]
-    contacts = rest[:3, 3] + np.array([[0.0, BOX / 2, 0.0], [0.0, -BOX / 2, 0.0]])
-    return Grasp(pose=pose, contacts=contacts, contact_normals=np.array([[0.0, -1.0, 0.0], [0.0, 1.0, 0.0]]))
-
-
-def drive(scene: Scene, observer: TrialObserver, rest: np.ndarray, seconds: float = 1.0) -> TrialResult:
-    """A scripted trial: hand at the grasp, close, "lift" (phase only), push +x; calls `observer` like a protocol."""
-    grasp = top_grasp(rest)
-    observer.on_start(scene, grasp, rest)
-    observer.on_phase(scene, "pregrasp")
-    scene.reset(mount=grasp.pose, object_pose=rest, synergy=0.0)
-    dt, n = scene.model.opt.timestep, int(round(seconds / scene.model.opt.timestep))
-    phases = {0: ("close", ""), n // 2: ("lift", ""), 3 * n // 4: ("perturb", "+x")}
-    next_sample = 0.0
-    for i in range(n):
-        if i in phases:
-            observer.on_phase(scene, *phases[i])
-        if i == 3 * n // 4:
-            scene.data.xfrc_applied[scene.object_body, :3] = [MASS * 9.81, 0.0, 0.0]
-        scene.set_synergy(min(1.0, 4.0 * i * dt))
-        if scene.time >= next_sample - 1e-12:
-            observer.on_sample(scene)
-            next_sample += observer.sample_period_s
-        scene.step()
-    scene.data.xfrc_applied[:] = 0.0
-    result = TrialResult(Status.DROPPED_PERTURB, detail="+x", last_phase="lift", sim_steps=n, sim_time_s=n * dt)
-    observer.on_end(scene, result)
-    return result
+def box(box_scene) -> tuple[Scene, np.ndarray]:
+    """The shared cube scene (conftest) and the cube's settled pose."""
+    return box_scene.scene, box_scene.rest
 
 
 def run_trial(scene: Scene, rest: np.ndarray, observer: TrialObserver | None) -> TrialResult:
@@ -188,10 +148,10 @@ def test_a_failing_recorder_never_raises_into_the_trial(box: tuple[Scene, np.nda
     assert recorder.result is None and result.sim_steps == 25  # the trial ran to its end regardless
 
 
-def test_dexterous_hand_recording_names_bodies_and_stays_small(tmp_path: Path, asset: ObjectAsset) -> None:
+def test_dexterous_hand_recording_names_bodies_and_stays_small(tmp_path: Path, box_asset: ObjectAsset) -> None:
     from manigrasp.record.static import scene_geometry
 
-    scene = build_scene("inspire_left", asset)
+    scene = build_scene("inspire_left", box_asset)
     meshes, hidden = scene_geometry(scene.model)
     entities = {m.entity for m in meshes}
     assert "world/hand/l_palm/visual/l_palm_vis" in entities and "world/hand/l_palm/collision/l_palm_col" in entities

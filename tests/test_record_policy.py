@@ -25,9 +25,15 @@ from manigrasp.record.policy import (
 )
 from manigrasp.record.readback import summarize
 from manigrasp.record.view import open_viewer
-from tests.test_record import asset, box, drive  # noqa: F401 - fixtures shared with test_record
+from tests.helpers import drive
 
 TRIAL = "box_rec/parallel_jaw/antipodal/ground_truth/standard/0003"
+
+
+@pytest.fixture(scope="module")
+def box(box_scene) -> tuple:
+    """The shared cube scene (conftest) and the cube's settled pose."""
+    return box_scene.scene, box_scene.rest
 
 
 @pytest.mark.parametrize(("text", "expected"), [
@@ -69,7 +75,7 @@ def _record(scene_rest: tuple, tmp_path: Path, policy: str, index: int, status: 
     return rec
 
 
-def test_failures_policy_keeps_failures_and_drops_successes(box, tmp_path: Path) -> None:  # noqa: ANN001, F811
+def test_failures_policy_keeps_failures_and_drops_successes(box, tmp_path: Path) -> None:  # noqa: ANN001
     kept = _record(box, tmp_path / "a", "failures", 0, Status.SLIPPED_LIFT)
     assert kept.path == tmp_path / "a" / "recordings" / trial_file_name(TRIAL) and kept.path.is_file()
     assert summarize(kept.path).recording_id == TRIAL
@@ -77,13 +83,13 @@ def test_failures_policy_keeps_failures_and_drops_successes(box, tmp_path: Path)
     assert dropped.path is None and list((tmp_path / "b" / "recordings").iterdir()) == []  # no .partial left
 
 
-def test_first_n_policy_records_only_the_first_trials(box, tmp_path: Path) -> None:  # noqa: ANN001, F811
+def test_first_n_policy_records_only_the_first_trials(box, tmp_path: Path) -> None:  # noqa: ANN001
     late = _record(box, tmp_path, "2", 2, Status.SUCCESS)
     assert isinstance(late.observer, NullObserver) and late.path is None
     assert _record(box, tmp_path, "2", 1, Status.SUCCESS).path.is_file()
 
 
-def test_a_trial_that_raises_counts_as_unstable(box, tmp_path: Path) -> None:  # noqa: ANN001, F811
+def test_a_trial_that_raises_counts_as_unstable(box, tmp_path: Path) -> None:  # noqa: ANN001
     scene, rest = box
     settings = RecordSettings.for_run(tmp_path, "failures")
     with pytest.raises(ValueError, match="boom"), trial_recording(settings, TRIAL, 0) as rec:
@@ -92,7 +98,7 @@ def test_a_trial_that_raises_counts_as_unstable(box, tmp_path: Path) -> None:  #
     assert rec.path is not None and summarize(rec.path).status == "unstable"
 
 
-def test_a_broken_recording_warns_and_is_dropped(box, tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001, F811
+def test_a_broken_recording_warns_and_is_dropped(box, tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
     scene, rest = box
 
     def broken(self, scene, t):  # noqa: ANN001, ANN202, ARG001
@@ -108,7 +114,7 @@ def test_a_broken_recording_warns_and_is_dropped(box, tmp_path: Path, monkeypatc
     assert list((tmp_path / "recordings").iterdir()) == []
 
 
-def test_view_headless_prints_the_command_and_never_fails(box, tmp_path: Path, capsys,  # noqa: ANN001, F811
+def test_view_headless_prints_the_command_and_never_fails(box, tmp_path: Path, capsys,  # noqa: ANN001
                                                           monkeypatch) -> None:
     _record(box, tmp_path, "all", 0, Status.DROPPED_PERTURB)
     monkeypatch.delenv("DISPLAY", raising=False)
@@ -122,7 +128,7 @@ def test_view_headless_prints_the_command_and_never_fails(box, tmp_path: Path, c
     assert not outcome.opened and outcome.command.endswith(trial_file_name(TRIAL))
 
 
-def test_view_user_mistakes_are_clear_errors(box, tmp_path: Path, capsys) -> None:  # noqa: ANN001, F811
+def test_view_user_mistakes_are_clear_errors(box, tmp_path: Path, capsys) -> None:  # noqa: ANN001
     _record(box, tmp_path, "all", 0, Status.SUCCESS)
     assert main(["view", str(tmp_path), "--status", "dropped"]) == 2
     assert "available: success" in capsys.readouterr().err
@@ -130,11 +136,11 @@ def test_view_user_mistakes_are_clear_errors(box, tmp_path: Path, capsys) -> Non
     assert main(["view", str(tmp_path / "missing")]) == 2
 
 
-def test_plan_recording_holds_object_and_candidates_coloured_by_score(asset, tmp_path: Path) -> None:  # noqa: ANN001, F811
+def test_plan_recording_holds_object_and_candidates_coloured_by_score(box_asset, tmp_path: Path) -> None:  # noqa: ANN001
     from manigrasp import hands, planners
     from manigrasp.record.plan import record_plan, score_colors
 
-    observation = planners.Observation.from_asset(asset)
+    observation = planners.Observation.from_asset(box_asset)
     result = planners.plan(planners.load("antipodal"), observation, hands.load("parallel_jaw"), 10,
                            np.random.default_rng(0))
     path = record_plan(tmp_path / "plan.rrd", observation, result.candidates, title="antipodal on box")

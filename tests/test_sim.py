@@ -5,11 +5,10 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-import trimesh
 
 from manigrasp.control import ImpedanceController, default_gains
 from manigrasp.errors import ConfigError, SimulationError
-from manigrasp.objects import build_object
+from manigrasp.geometry import quat_to_mat
 from manigrasp.sim import (
     SceneConfig,
     build_scene,
@@ -20,20 +19,14 @@ from manigrasp.sim import (
     to_contacts,
 )
 from manigrasp.sim.compose import BASE_JOINTS
-from manigrasp.sim.transforms import quat_to_mat
 
 TOP_GRASP = np.diag([1.0, -1.0, -1.0])
 
 
 @pytest.fixture(scope="module")
-def box_asset(tmp_path_factory: pytest.TempPathFactory):
-    return build_object(trimesh.creation.box((0.05, 0.05, 0.05)), name="box", mass=0.3,
-                        cache_root=tmp_path_factory.mktemp("objects")).asset
-
-
-@pytest.fixture(scope="module")
-def box_scene(box_asset):
-    return build_scene("parallel_jaw", box_asset)
+def box_scene(box_scene):
+    """The shared cube scene's `Scene` (conftest `box_scene`; the cube is `box_asset`)."""
+    return box_scene.scene
 
 
 def test_names_are_prefixed_per_part(box_scene) -> None:

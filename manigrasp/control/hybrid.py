@@ -32,8 +32,8 @@ import numpy as np
 
 from manigrasp.control.impedance import ImpedanceController, ImpedanceGains
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import check_rigid
 from manigrasp.sim.scene import FloatingBase
-from manigrasp.sim.transforms import check_pose
 
 
 class ForcePI:
@@ -132,7 +132,7 @@ class HybridController:
 
         The wrench is what the hand should exert on its environment [N, N m].
         """
-        self.impedance.set_target(check_pose(pose, "target pose"))
+        self.impedance.set_target(check_rigid(pose, "target pose"))
         self.target_wrench = np.zeros(6) if wrench is None else np.asarray(wrench, float).reshape(6)
 
     def compute(self, measured: np.ndarray, dt: float) -> np.ndarray:
@@ -179,7 +179,7 @@ class GuardedApproach:
 
     def begin(self, start: np.ndarray, goal: np.ndarray) -> None:
         """Start a new approach from pose `start` to pose `goal` (both (4, 4), same orientation)."""
-        self.start, self.goal = check_pose(start, "start").copy(), check_pose(goal, "goal").copy()
+        self.start, self.goal = check_rigid(start, "start").copy(), check_rigid(goal, "goal").copy()
         self.travelled, self.tripped = 0.0, False
         self.hybrid.set_selection(np.ones(6))
         self.hybrid.pi.reset()

@@ -54,8 +54,8 @@ import mujoco
 import numpy as np
 
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import check_rigid, rotation_error
 from manigrasp.sim.scene import FloatingBase
-from manigrasp.sim.transforms import check_pose, rotation_error
 
 
 def _vec(value: np.ndarray | float, n: int, name: str) -> np.ndarray:
@@ -142,7 +142,7 @@ class ImpedanceController:
     def set_target(self, pose: np.ndarray, velocity: np.ndarray | None = None,
                    feedforward: np.ndarray | None = None) -> None:
         """Target TCP `pose` (4, 4), twist `velocity` (6,) [m/s, rad/s] and feed-forward wrench (6,), world."""
-        self.target = check_pose(pose, "target pose").copy()
+        self.target = check_rigid(pose, "target pose").copy()
         self.target_velocity = np.zeros(6) if velocity is None else np.asarray(velocity, float).reshape(6)
         self.feedforward = np.zeros(6) if feedforward is None else np.asarray(feedforward, float).reshape(6)
 

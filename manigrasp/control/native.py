@@ -43,8 +43,8 @@ import numpy as np
 
 from manigrasp.control.impedance import ImpedanceGains
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import check_rigid
 from manigrasp.sim.scene import FloatingBase
-from manigrasp.sim.transforms import check_pose
 
 _FD_STEP = 1e-4  # [s] finite-difference step of the set-point rate
 
@@ -143,7 +143,7 @@ class NativeImpedance:
         object's weight); without MuJoCo's gravity compensation the hand's weight is
         added. Writes and returns the servo commands u (6,).
         """
-        check_pose(pose, "target pose")
+        check_rigid(pose, "target pose")
         return self.track(pose, velocity, np.zeros(6) if feedforward is None else feedforward)
 
     def track(self, pose: np.ndarray, velocity: np.ndarray | None = None,

@@ -53,13 +53,18 @@ def above_table(points: np.ndarray, table_height: float = 0.0, margin: float = 0
     return np.asarray(points, float)[:, 2] > table_height + margin
 
 
-def estimate_normals(points: np.ndarray, viewpoint: np.ndarray, radius: float = 0.01, max_nn: int = 30) -> np.ndarray:
-    """(n, 3) unit normals by local PCA (Open3D, `radius` [m], at most `max_nn` neighbours),
-    flipped to face `viewpoint` (3,) [m]. Needs the `perception` extra (open3d)."""
+def estimate_normals(points: np.ndarray, viewpoint: np.ndarray, radius: float | None = 0.01,
+                     max_nn: int = 30) -> np.ndarray:
+    """(n, 3) unit normals by local PCA (Open3D: the neighbours within `radius` [m], at most `max_nn`
+    of them; `radius` None: the `max_nn` nearest), flipped to face `viewpoint` (3,) [m]. The one
+    normal estimate of the package (perception and the planners' tests). Needs the `perception`
+    extra (open3d)."""
     import open3d as o3d
 
     pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, float)))
-    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=radius, max_nn=max_nn))
+    search = (o3d.geometry.KDTreeSearchParamKNN(knn=max_nn) if radius is None
+              else o3d.geometry.KDTreeSearchParamHybrid(radius=radius, max_nn=max_nn))
+    pcd.estimate_normals(search)
     pcd.orient_normals_towards_camera_location(np.asarray(viewpoint, float))
     return np.asarray(pcd.normals).copy()
 

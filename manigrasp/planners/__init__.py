@@ -7,13 +7,13 @@
     >>> result.candidates[0].pose   # (4, 4) TCP pose in the world, best first
 """
 
+from manigrasp.geometry import pregrasp_pose as pregrasp  # (..., 4, 4) poses moved back along their approach
 from manigrasp.planners.base import (
     PREGRASP_OFFSET,
     GraspCandidate,
     Observation,
     ObservationKind,
     Planner,
-    pregrasp,
     resting_pose,
 )
 from manigrasp.planners.registry import PLANNERS, load, names

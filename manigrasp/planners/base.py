@@ -26,7 +26,7 @@ import numpy as np
 import trimesh
 
 from manigrasp.errors import PlannerError
-from manigrasp.geometry import pose_from_pos_quat, quaternion_defect
+from manigrasp.geometry import pose_from_pos_quat, pregrasp_pose, quaternion_defect
 from manigrasp.hands.base import Hand
 from manigrasp.objects.asset import ObjectAsset
 
@@ -217,14 +217,7 @@ class GraspCandidate:
     @property
     def pregrasp_pose(self) -> np.ndarray:
         """(4, 4) the pose `pregrasp_offset` back along the approach axis."""
-        return pregrasp(self.pose, self.pregrasp_offset)
-
-
-def pregrasp(pose: np.ndarray, offset: float = PREGRASP_OFFSET) -> np.ndarray:
-    """(..., 4, 4) poses moved `offset` [m] back along their own z (approach) axis."""
-    out = np.array(pose, dtype=float)
-    out[..., :3, 3] -= offset * out[..., :3, 2]
-    return out
+        return pregrasp_pose(self.pose, self.pregrasp_offset)
 
 
 @runtime_checkable

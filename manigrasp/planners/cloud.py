@@ -73,19 +73,6 @@ def unit(vectors: np.ndarray) -> np.ndarray:
     return np.divide(vectors, norm, out=np.zeros_like(vectors), where=norm > 1e-12)
 
 
-def estimate_normals(points: np.ndarray, viewpoint: np.ndarray, k: int = 20) -> np.ndarray:
-    """(n, 3) unit normals of `points` (n, 3) by PCA of their `k` nearest neighbours, turned toward `viewpoint` (3,).
-
-    Pure NumPy/SciPy (no open3d): the eigenvector of the smallest eigenvalue of each neighbourhood's covariance.
-    """
-    points = np.asarray(points, float)
-    _, idx = cKDTree(points).query(points, k=min(k, len(points)))
-    local = points[idx] - points[idx].mean(axis=1, keepdims=True)
-    normals = np.linalg.eigh(np.einsum("nki,nkj->nij", local, local))[1][:, :, 0]
-    flip = np.einsum("ij,ij->i", normals, np.asarray(viewpoint, float) - points) < 0
-    return np.where(flip[:, None], -normals, normals)
-
-
 def denoise(points: np.ndarray, normals: np.ndarray, k: int = 12) -> tuple[np.ndarray, float]:
     """`points` (n, 3) projected on their neighbourhood planes (module docstring, step 1), and the median
     nearest-neighbour spacing [m]."""

@@ -14,11 +14,10 @@ import mujoco
 import numpy as np
 import trimesh
 
+from manigrasp.geometry import mat_to_quat, pose_matrix, pregrasp_pose
 from manigrasp.hands.base import Hand
-from manigrasp.planners.base import PREGRASP_OFFSET, Observation, pregrasp
-from manigrasp.planners.geometry import mats_to_quats
+from manigrasp.planners.base import PREGRASP_OFFSET, Observation
 from manigrasp.sim import SceneConfig, build_scene
-from manigrasp.sim.transforms import pose_matrix
 
 DEFAULT_CLEARANCE = 0.001  # [m]
 
@@ -104,7 +103,7 @@ class HandProbe:
     def roots(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions (n, 3) and quaternions (n, 4) of the hand's root body for TCP poses (n, 4, 4)."""
         root = self.shift @ np.asarray(poses, float) @ self.root_in_tcp
-        return root[:, :3, 3].copy(), mats_to_quats(root[:, :3, :3])
+        return root[:, :3, 3].copy(), mat_to_quat(root[:, :3, :3])
 
     def place(self, pos: np.ndarray, quat: np.ndarray) -> None:
         """Put the hand's root at `pos` (3,), `quat` (4,) and update kinematics and contacts."""
@@ -134,7 +133,7 @@ class HandProbe:
 
     def free(self, pose: np.ndarray, offset: float = PREGRASP_OFFSET) -> bool:
         """True if the open hand is clear of object and table at `pose` (4, 4) and at its pre-grasp pose."""
-        poses = np.stack([pose, pregrasp(pose, offset)])
+        poses = np.stack([pose, pregrasp_pose(pose, offset)])
         pos, quat = self.roots(poses)
         for i in range(2):
             self.place(pos[i], quat[i])

@@ -1,4 +1,5 @@
-"""Vectorised geometry for the planners: surface samples, smooth normals, ray hits, frames.
+"""Vectorised geometry for the planners: surface samples, smooth normals, ray hits, frames
+(rotations and poses: `manigrasp.geometry`).
 
 Pure NumPy (and trimesh's ray casting, with embree where installed). Every
 random draw comes from an explicit `numpy.random.Generator`.
@@ -10,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import trimesh
+
+from manigrasp.geometry import quat_to_mat
 
 CREASE_ANGLE = np.radians(20.0)
 """Faces meeting at a sharper angle than this keep separate normals (a box's edges)."""
@@ -129,36 +132,4 @@ def fibonacci_sphere(n: int) -> np.ndarray:
 
 def random_rotations(n: int, rng: np.random.Generator) -> np.ndarray:
     """(n, 3, 3) rotations uniform on SO(3) (from uniform unit quaternions)."""
-    q = rng.normal(size=(n, 4))
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    return quats_to_mats(q)
-
-
-def quats_to_mats(q: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotation matrices of unit quaternions (n, 4) (w, x, y, z)."""
-    w, x, y, z = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=1),
-    ], axis=1)
-
-
-def mats_to_quats(mats: np.ndarray) -> np.ndarray:
-    """(n, 4) unit quaternions (w, x, y, z), w >= 0, of rotation matrices (n, 3, 3)."""
-    m = mats
-    tr = np.trace(m, axis1=1, axis2=2)
-    cand = np.stack([
-        np.stack([1 + tr, m[:, 2, 1] - m[:, 1, 2], m[:, 0, 2] - m[:, 2, 0], m[:, 1, 0] - m[:, 0, 1]], axis=1),
-        np.stack([m[:, 2, 1] - m[:, 1, 2], 1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2], m[:, 0, 1] + m[:, 1, 0],
-                  m[:, 0, 2] + m[:, 2, 0]], axis=1),
-        np.stack([m[:, 0, 2] - m[:, 2, 0], m[:, 0, 1] + m[:, 1, 0], 1 - m[:, 0, 0] + m[:, 1, 1] - m[:, 2, 2],
-                  m[:, 1, 2] + m[:, 2, 1]], axis=1),
-        np.stack([m[:, 1, 0] - m[:, 0, 1], m[:, 0, 2] + m[:, 2, 0], m[:, 1, 2] + m[:, 2, 1],
-                  1 - m[:, 0, 0] - m[:, 1, 1] + m[:, 2, 2]], axis=1),
-    ], axis=1)  # (n, 4 candidates, 4); pick the best-conditioned one
-    diag = np.stack([1 + tr, 1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2], 1 - m[:, 0, 0] + m[:, 1, 1] - m[:, 2, 2],
-                     1 - m[:, 0, 0] - m[:, 1, 1] + m[:, 2, 2]], axis=1)
-    q = cand[np.arange(len(m)), np.argmax(diag, axis=1)]
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    return np.where(q[:, :1] < 0, -q, q)
+    return quat_to_mat(rng.normal(size=(n, 4)))

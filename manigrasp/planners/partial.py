@@ -54,8 +54,9 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from manigrasp.errors import PlannerError
+from manigrasp.geometry import pregrasp_pose
 from manigrasp.hands.base import Hand
-from manigrasp.planners.base import PREGRASP_OFFSET, pregrasp
+from manigrasp.planners.base import PREGRASP_OFFSET
 from manigrasp.planners.cloud import CompletedCloud
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.free_space import OCCUPIED, UNKNOWN, FreeSpace
@@ -317,7 +318,7 @@ class SpaceProbe(HandProbe):
 
     def free(self, pose: np.ndarray, offset: float = PREGRASP_OFFSET) -> bool:
         """True if the open hand is clear of blocked space and table at `pose` (4, 4) and its pre-grasp pose."""
-        both = np.stack([pose, pregrasp(pose, offset)])
+        both = np.stack([pose, pregrasp_pose(pose, offset)])
         return bool(self.clear(both).all()) and super().free(pose, offset)
 
 
@@ -332,7 +333,7 @@ def select_clear(probe: SpaceProbe, nms, ranked: np.ndarray, n: int, pregrasp_of
     for start in range(0, len(ranked), chunk):
         block = ranked[start:start + chunk]
         ok = np.flatnonzero(probe.clear(block))
-        ok = ok[probe.clear(pregrasp(block[ok], pregrasp_offset))]
+        ok = ok[probe.clear(pregrasp_pose(block[ok], pregrasp_offset))]
         found = select_free(probe, nms, block[ok], n - total, pregrasp_offset, max_checks)
         kept.append(start + ok[found])
         total += len(found)

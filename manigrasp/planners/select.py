@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from manigrasp.planners.base import pregrasp
+from manigrasp.geometry import pregrasp_pose
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.nms import Suppressor, conflicts, pack, pairwise_close, representatives
 
@@ -35,7 +35,7 @@ def select_free(probe: HandProbe, nms: Suppressor, ranked: np.ndarray, n: int, p
         close = pairwise_close(chunk[fresh], chunk[fresh, :3, 3], chunk[fresh, :3, :3], nms.distance, nms.angle,
                                nms.symmetric)
         grasp_pos, grasp_quat = probe.roots(chunk[fresh])
-        pre_pos, pre_quat = probe.roots(pregrasp(chunk[fresh], pregrasp_offset))
+        pre_pos, pre_quat = probe.roots(pregrasp_pose(chunk[fresh], pregrasp_offset))
         kept_here: list[int] = []
         for i in range(len(fresh)):
             if kept_here and close[i, kept_here].any():
@@ -77,6 +77,6 @@ def pack_free(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, ang
     """
     ranked = ranked[:max_checks]
     free = np.flatnonzero(~probe.collides(ranked))
-    free = free[~probe.collides(pregrasp(ranked[free], pregrasp_offset))]
+    free = free[~probe.collides(pregrasp_pose(ranked[free], pregrasp_offset))]
     free = free[representatives(ranked[free], PACK_CELL, PACK_BINS, symmetric)][:PACK_LIMIT]
     return free[pack(conflicts(ranked[free], distance, angle, symmetric), len(free))][:n]

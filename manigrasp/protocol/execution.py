@@ -35,6 +35,7 @@ import numpy as np
 
 from manigrasp.control import GripController, NativeImpedance, default_gains
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import pose_distance, relative_pose
 from manigrasp.protocol.grasp import Grasp
 from manigrasp.protocol.metrics import radius_of_gyration
 from manigrasp.protocol.observer import TrialObserver
@@ -143,12 +144,12 @@ class Abort(Exception):
         self.status, self.detail = status, detail
 
 
-def relative_motion(reference: np.ndarray, current: np.ndarray) -> tuple[float, float]:
-    """(translation [m], rotation [deg]) between two (4, 4) object-in-hand poses."""
-    diff = current[:3, 3] - reference[:3, 3]
-    shift = math.sqrt(float(diff @ diff))
-    cos = (float(np.vdot(reference[:3, :3], current[:3, :3])) - 1.0) / 2.0  # trace(A^T B) = sum(A * B)
-    return shift, math.degrees(math.acos(min(1.0, max(-1.0, cos))))
+def object_in_hand(scene: Scene) -> np.ndarray:
+    """(4, 4) the object's pose in the TCP frame of `scene` now."""
+    body = scene.object_body
+    obj = np.eye(4)
+    obj[:3, :3], obj[:3, 3] = scene.data.xmat[body].reshape(3, 3), scene.data.xpos[body]
+    return relative_pose(scene.tcp_pose(), obj)
 
 
 class TrialRun:
@@ -322,22 +323,17 @@ class TrialRun:
             self._track()
 
     def object_in_hand(self) -> np.ndarray:
-        """(4, 4) object pose in the TCP frame."""
-        data, site, body = self.scene.data, self.scene.tcp_site, self.scene.object_body
-        rot = data.site_xmat[site].reshape(3, 3)
-        out = np.eye(4)
-        out[:3, :3] = rot.T @ data.xmat[body].reshape(3, 3)
-        out[:3, 3] = rot.T @ (data.xpos[body] - data.site_xpos[site])
-        return out
+        """(4, 4) object pose in the TCP frame (`object_in_hand`)."""
+        return object_in_hand(self.scene)
 
     def _track(self) -> None:
         current = self.object_in_hand()
-        shift, angle = relative_motion(self.in_hand, current)
+        shift, angle = pose_distance(self.in_hand, current)
         self.max_translation = max(shift, 0.0 if math.isnan(self.max_translation) else self.max_translation)
         self.max_rotation = max(angle, 0.0 if math.isnan(self.max_rotation) else self.max_rotation)
         if self.watch is not None:
             reference, status, detail = self.watch
-            shift, angle = relative_motion(reference, current)
+            shift, angle = pose_distance(reference, current)
             p = self.params
             if shift > p.translation_threshold or angle > p.rotation_threshold_deg:
                 raise Abort(status, f"{detail}: object moved {100 * shift:.1f} cm / {angle:.1f} deg in the hand")

@@ -16,6 +16,7 @@ import weakref
 import numpy as np
 
 from manigrasp.control import FingerHold, GripController
+from manigrasp.geometry import pregrasp_pose
 from manigrasp.protocol.execution import Abort, Trajectory, TrialRun
 from manigrasp.protocol.metrics import simulated_metrics
 from manigrasp.protocol.result import Phase, Status
@@ -40,13 +41,6 @@ def release_hold(run: TrialRun) -> None:
     """Give the hand its closing gains back if a previous close stiffened them (dexterous hands only)."""
     if run.scene in _HOLDS:
         _HOLDS[run.scene].release()
-
-
-def pregrasp_pose(pose: np.ndarray, offset: float) -> np.ndarray:
-    """(4, 4) `pose` moved `offset` [m] back along its approach (z) axis."""
-    out = pose.copy()
-    out[:3, 3] -= offset * out[:3, 2]
-    return out
 
 
 def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, preshape: float) -> np.ndarray:

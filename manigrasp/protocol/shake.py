@@ -15,10 +15,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import axis_angle_to_mat
 from manigrasp.protocol.base import Grasp, Protocol, register
 from manigrasp.protocol.execution import TrialRun
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
@@ -50,14 +50,6 @@ class ShakeParams(LiftParams):
             raise ConfigError("shake amplitudes must be >= 0, frequency > 0 and cycles >= 1")
 
 
-def _about(axis: np.ndarray, angle: float) -> np.ndarray:
-    """(3, 3) rotation by `angle` [rad] about the unit `axis` (3,)."""
-    quat, mat = np.empty(4), np.empty(9)
-    mujoco.mju_axisAngle2Quat(quat, axis, angle)
-    mujoco.mju_quat2Mat(mat, quat)
-    return mat.reshape(3, 3)
-
-
 def shake(run: TrialRun, p: ShakeParams) -> None:
     """Oscillate the set-point along and about its approach axis (module docstring)."""
     centre = run.impedance.target.copy()
@@ -69,7 +61,7 @@ def shake(run: TrialRun, p: ShakeParams) -> None:
         s, c = math.sin(omega * t), math.cos(omega * t)
         pose = centre.copy()
         pose[:3, 3] += p.shake_amplitude * s * axis
-        pose[:3, :3] = _about(axis, angle * s) @ centre[:3, :3]
+        pose[:3, :3] = axis_angle_to_mat(axis, angle * s) @ centre[:3, :3]
         return pose, np.concatenate([p.shake_amplitude * omega * c * axis, angle * omega * c * axis])
 
     with run.phase(Phase.SHAKE, watch=Status.DROPPED_PERTURB):

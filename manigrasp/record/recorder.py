@@ -24,7 +24,8 @@ import numpy as np
 import rerun as rr
 
 from manigrasp.errors import ConfigError
-from manigrasp.protocol.execution import relative_motion
+from manigrasp.geometry import pose_distance, pregrasp_pose
+from manigrasp.protocol.execution import object_in_hand
 from manigrasp.protocol.result import Phase, Status, TrialResult
 from manigrasp.record import layout, static
 from manigrasp.record.geometry import body_entity
@@ -176,7 +177,7 @@ class TrialRecorder:
         phase = Phase(phase)
         t = self._clock.stamp(scene.time, sample=False)
         if phase.grasped and not self._grasped:  # the grasp is made: motion in the hand counts from here
-            self._reference = _object_in_hand(scene)
+            self._reference = object_in_hand(scene)
         self._grasped = phase.grasped
         label = f"{phase} {detail}".strip()
         self._stream.set_time(layout.TIMELINE, duration=t)
@@ -225,7 +226,6 @@ class TrialRecorder:
     # ------------------------------------------------------------- internals
     def _log_plan(self, grasp: Any) -> None:
         from manigrasp.protocol.grasp import as_grasp, check_grasp, grasp_tcp_pose
-        from manigrasp.protocol.phases import pregrasp_pose
 
         g = as_grasp(grasp)
         problem = check_grasp(g)
@@ -253,7 +253,7 @@ class TrialRecorder:
         if scene.object_body >= 0:
             s.perturb.append(data.xfrc_applied[scene.object_body, :3].copy())
         if self._reference is not None:
-            shift, angle = relative_motion(self._reference, _object_in_hand(scene))
+            shift, angle = pose_distance(self._reference, object_in_hand(scene))
             s.hand_time.append(t)
             s.displacement_mm.append(1000.0 * shift)
             s.rotation_deg.append(angle)
@@ -304,14 +304,3 @@ class TrialRecorder:
 def _subset(contacts: HandContacts, mask: np.ndarray) -> HandContacts:
     """The contacts where `mask` (n,) is True (e.g. those with the object, for the grip force)."""
     return HandContacts(**{f.name: getattr(contacts, f.name)[mask] for f in fields(HandContacts)})
-
-
-def _object_in_hand(scene: Any) -> np.ndarray:
-    """(4, 4) object pose in the TCP frame."""
-    tcp, obj = scene.tcp_pose(), scene.object_pose()
-    out = np.eye(4)
-    out[:3, :3] = tcp[:3, :3].T @ obj[:3, :3]
-    out[:3, 3] = tcp[:3, :3].T @ (obj[:3, 3] - tcp[:3, 3])
-    return out
-
-

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from manigrasp.errors import MeshError, SimulationError
+from manigrasp.geometry import check_rigid, mat_to_quat, pose_matrix, quat_to_mat
 from manigrasp.hands.base import Hand
 from manigrasp.objects.poses import RestPose, stable_poses
 from manigrasp.sim.compose import (
@@ -33,7 +34,6 @@ from manigrasp.sim.compose import (
     object_spec,
 )
 from manigrasp.sim.config import SceneConfig
-from manigrasp.sim.transforms import check_pose, mat_to_quat, pose_matrix, quat_to_mat
 
 SPAN_EPSILON = 1e-12  # an actuator whose open and closed commands differ by less does not move along a hand path
 
@@ -207,7 +207,7 @@ class Scene:
 
         Edits the root body's `body_pos`/`body_quat`; call `reset` or `forward` afterwards.
         """
-        mount = check_pose(mount, "mount")
+        mount = check_rigid(mount, "mount")
         root = mount @ self._root_in_tcp
         self.model.body_pos[self.root_body] = root[:3, 3]
         self.model.body_quat[self.root_body] = mat_to_quat(root[:3, :3])
@@ -220,7 +220,7 @@ class Scene:
 
     def set_object_pose(self, pose: np.ndarray) -> None:
         """Place the object at `pose` (4, 4) with zero velocity (a fixed object: edit the model)."""
-        pose = check_pose(pose, "object pose")
+        pose = check_rigid(pose, "object pose")
         quat = mat_to_quat(pose[:3, :3])
         if self._object_qpos is None:
             self.model.body_pos[self.object_body], self.model.body_quat[self.object_body] = pose[:3, 3], quat

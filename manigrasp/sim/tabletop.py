@@ -17,9 +17,9 @@ import mujoco
 import numpy as np
 
 from manigrasp.errors import SimulationError
+from manigrasp.geometry import check_rigid, mat_to_quat
 from manigrasp.sim.compose import OBJECT_BODY, ObjectSource, compile_spec, name_to_id, tabletop_spec
 from manigrasp.sim.config import SceneConfig
-from manigrasp.sim.transforms import check_pose, mat_to_quat
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,7 +37,7 @@ class Tabletop:
 
     def place(self, pose: np.ndarray) -> None:
         """Put the object at `pose` (4, 4) [m] and compute positions (`mj_forward`)."""
-        pose = check_pose(pose, "object pose")
+        pose = check_rigid(pose, "object pose")
         adr = self.model.jnt_qposadr[self.model.body_jntadr[self.object_body]]
         self.data.qpos[adr:adr + 3] = pose[:3, 3]
         self.data.qpos[adr + 3:adr + 7] = mat_to_quat(pose[:3, :3])
