@@ -44,9 +44,10 @@ class EnergyWeights:
     penetration: float = 100.0
     table: float = 100.0
     joints: float = 10.0
+    self_penetration: float = 100.0
 
     def __post_init__(self) -> None:
-        for name in ("force_closure", "distance", "penetration", "table", "joints"):
+        for name in ("force_closure", "distance", "penetration", "table", "joints", "self_penetration"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise ConfigError(f"EnergyWeights.{name} must be finite and >= 0, got {value}")
@@ -113,6 +114,111 @@ class Box:
             g[np.arange(inside.sum()), axis] = sign[inside][np.arange(inside.sum()), axis]
             grad[inside] = g
         return dist, grad @ rot.T, np.einsum("ij,njk,lk->nil", rot, hess, rot)
+
+
+@dataclass(frozen=True, eq=False)
+class GridSdf:
+    """A signed distance sampled on a regular grid, read by trilinear interpolation.
+
+    `values` (nx, ny, nz) [m] at ``origin + spacing * (i, j, k)``. Inside the grid the distance and its
+    gradient are those of the trilinear interpolant (exact on planes, O(spacing^2) error on curved surfaces);
+    the Hessian is the central difference of that gradient over one grid step (the interpolant's own is
+    piecewise constant). Outside the grid, a point's distance is the one at its nearest grid point plus the
+    distance to it (an upper bound), its gradient the direction away from the grid.
+    """
+
+    origin: np.ndarray
+    spacing: float
+    values: np.ndarray
+    solid: tuple[np.ndarray, np.ndarray] | None = None  # (lo, hi) box holding every negative value, if known
+
+    @classmethod
+    def from_convex_parts(cls, parts: list[np.ndarray], spacing: float, margin: float) -> GridSdf:
+        """The grid of the union of the convex hulls of `parts` (each (v, 3) vertices [m]) over their bounding
+        box grown by `margin` [m], `spacing` [m] apart.
+
+        Inside a part the distance is exact (minus the distance to its nearest face plane); outside every
+        part it is the Euclidean distance to the nearest part, from open3d's ray-casting scene over the parts'
+        hull triangles (exact). Inside the union, the depth is the largest depth into any one part (the union's
+        own depth can be larger where parts overlap: a lower bound).
+        """
+        import open3d as o3d
+        import scipy.spatial
+
+        vertices = np.concatenate(parts)
+        lo, hi = vertices.min(axis=0) - margin, vertices.max(axis=0) + margin
+        axes = [np.arange(a, b + spacing, spacing) for a, b in zip(lo, hi, strict=True)]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        scene = o3d.t.geometry.RaycastingScene()
+        depth = np.zeros(len(grid))
+        for verts in parts:
+            verts = np.asarray(verts, float)
+            hull = scipy.spatial.ConvexHull(verts)
+            scene.add_triangles(o3d.core.Tensor(verts.astype(np.float32)),
+                                o3d.core.Tensor(hull.simplices.astype(np.uint32)))
+            sel = np.flatnonzero(np.all((grid >= verts.min(axis=0)) & (grid <= verts.max(axis=0)), axis=1))
+            # hull.equations: (normal, offset) rows with normal @ x + offset <= 0 inside.
+            inner = -np.max(grid[sel] @ hull.equations[:, :3].T + hull.equations[:, 3], axis=1)
+            depth[sel] = np.maximum(depth[sel], inner)
+        outside = scene.compute_distance(o3d.core.Tensor(grid.astype(np.float32))).numpy().astype(float)
+        values = np.where(depth > 0, -depth, outside).reshape(tuple(len(a) for a in axes))
+        return cls(origin=lo, spacing=float(spacing), values=values,
+                   solid=(vertices.min(axis=0) - spacing, vertices.max(axis=0) + spacing))
+
+    def penetrating(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Indices (j,) of the `points` (n, 3) inside the solid, their distances (j,) (< 0) and gradients (j, 3).
+
+        Only points in the `solid` box are interpolated (the rest cannot be inside).
+        """
+        p = np.atleast_2d(np.asarray(points, float))
+        near = np.arange(len(p)) if self.solid is None else np.flatnonzero(
+            np.all((p >= self.solid[0]) & (p <= self.solid[1]), axis=1))
+        dist, grad = self.distance(p[near])
+        inside = dist < 0
+        return near[inside], dist[inside], grad[inside]
+
+    def distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(n,) distances [m] and (n, 3) gradients at `points` (n, 3)."""
+        p = np.atleast_2d(np.asarray(points, float))
+        shape = np.array(self.values.shape)
+        upper = self.origin + self.spacing * (shape - 1)
+        inside = np.clip(p, self.origin, upper)
+        cell = (inside - self.origin) / self.spacing
+        idx = np.clip(np.floor(cell).astype(int), 0, shape - 2)
+        t = cell - idx
+        nx, ny, nz = self.values.shape
+        base = (idx[:, 0] * ny + idx[:, 1]) * nz + idx[:, 2]
+        corners = np.array([(a * ny + b) * nz + e for a in (0, 1) for b in (0, 1) for e in (0, 1)])
+        c = self.values.ravel()[base[:, None] + corners].reshape(-1, 2, 2, 2)
+        tx, ty, tz = t[:, 0, None, None], t[:, 1, None], t[:, 2]
+        cx = c[:, 0] * (1 - tx) + c[:, 1] * tx  # (n, 2, 2) over y, z
+        cxy = cx[:, 0] * (1 - ty) + cx[:, 1] * ty  # (n, 2) over z
+        dist = cxy[:, 0] * (1 - tz) + cxy[:, 1] * tz
+        dz = cxy[:, 1] - cxy[:, 0]
+        dy_ = cx[:, 1] - cx[:, 0]
+        dy = dy_[:, 0] * (1 - tz) + dy_[:, 1] * tz
+        dx_ = c[:, 1] - c[:, 0]  # (n, 2, 2)
+        dx1 = dx_[:, 0] * (1 - ty) + dx_[:, 1] * ty
+        dx = dx1[:, 0] * (1 - tz) + dx1[:, 1] * tz
+        grad = np.stack([dx, dy, dz], axis=1) / self.spacing
+        away = p - inside
+        gap = np.linalg.norm(away, axis=1)
+        out = gap > 0
+        if out.any():
+            dist[out] += gap[out]
+            grad[out] = away[out] / gap[out, None]
+        return dist, grad
+
+    def sdf(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(n,) distances, (n, 3) gradients and (n, 3, 3) Hessians (central differences of the gradient)."""
+        p = np.atleast_2d(np.asarray(points, float))
+        dist, grad = self.distance(p)
+        h = self.spacing
+        steps = np.concatenate([p[:, None] + h * np.eye(3)[None], p[:, None] - h * np.eye(3)[None]], axis=1)
+        _, g = self.distance(steps.reshape(-1, 3))
+        g = g.reshape(len(p), 6, 3)
+        hess = (g[:, :3] - g[:, 3:]).transpose(0, 2, 1) / (2 * h)  # hess[n, i, k] = d grad_i / d x_k
+        return dist, grad, 0.5 * (hess + hess.transpose(0, 2, 1))
 
 
 def force_closure(points: np.ndarray, shape: Shape) -> tuple[float, np.ndarray]:

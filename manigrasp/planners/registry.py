@@ -1,4 +1,5 @@
-"""The planner registry: ``antipodal``, ``file``, ``power``, ``random``, and users' ``package.module:attribute``.
+"""The planner registry: ``antipodal``, ``dexopt``, ``file``, ``power``, ``random``, and users'
+``package.module:attribute``.
 
 A user attribute is a planner class (one with a ``plan`` method; it is built
 with the keyword parameters) or a ready planner object (then without
@@ -20,6 +21,7 @@ PLANNERS: Registry[Planner] = Registry("planner")
 
 _BUILTIN: dict[str, str] = {
     "antipodal": "manigrasp.planners.antipodal:AntipodalPlanner",
+    "dexopt": "manigrasp.planners.dexopt_planner:DexOptPlanner",
     "file": "manigrasp.planners.file:FilePlanner",
     "power": "manigrasp.planners.power:PowerPlanner",
     "random": "manigrasp.planners.random_planner:RandomPlanner",

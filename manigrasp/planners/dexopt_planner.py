@@ -1,0 +1,577 @@
+"""`dexopt`: dexterous grasps by descent on a grasp energy (DexGraspNet-style synthesis), for any dexterous hand.
+
+1. The object: the signed distance of the union of its convex collision parts (the geometry MuJoCo simulates;
+   the convex hull of the mesh without a built asset) on a grid (`dexopt.GridSdf`, `grid_spacing`).
+2. Restarts: `restarts` hand configurations around the object: the palm (TCP z) toward the centre of mass from
+   a random direction that does not come from below (z component <= `max_approach_z`), rolled at random about
+   it, the TCP a random depth inside the object's surface along that line (the optimisation backs it out),
+   shifted sideways by a few mm; the fingers a random fraction (0 to `init_closure`) of the way from the open
+   to the closed pre-shape, with noise. `INIT_DRAWS` times as many are drawn; those whose hand is clear of the
+   table are kept first (a hand started in the table stays trapped against it).
+3. Descent: `iterations` steps of Adam (per restart, per coordinate) on the energy over the root pose
+   (translation, rotation in the root frame) and the hand's independent joints (coupled joints follow), all
+   gradients analytic: over points in the world, then to the coordinates through MuJoCo's body Jacobians
+   (`dexopt_hand`). Step sizes (`step_translation`, `step_rotation`, `step_joints`) decay on a cosine to a
+   tenth; joints are projected onto their ranges after each step. The energy (weights `weights`):
+   - force closure of one pad per finger (the finger's pad candidate nearest the object, re-chosen every
+     `SWITCH_EVERY` steps): |sum_i l_i n_i|^2 + |sum_i l_i (x_i - c) / r x n_i|^2 with n_i the inward unit
+     normals, c the centre of mass, r the object's radius and l_i >= `min_force_share` the force shares
+     that balance best (`force_shares`; 1 for all is Liu et al.'s estimate);
+   - the pads' distance to the surface sum |d_i| (L1, as DexGraspNet: a constant pull);
+   - the depth of the hand's surface samples inside the object and below the table top + `table_clearance`;
+   - the fingers' mutual penetration (spheres along their links); joint limits.
+4. Selection, lowest energy first: at least `min_contacts` pads within `contact_tolerance` of the surface;
+   a MuJoCo check at the planned configuration in the real scene (hand geoms vs object parts and table,
+   `mj_collision`, no margin): a hand that penetrates is first moved out along the contact normals (a few
+   mm at most: the surface samples miss what lies between them), then its deepest contact must be at most
+   `max_penetration`, and so must the hand's own (geoms of different fingers); then non-maximum
+   suppression (`nms_distance`, `nms_angle`) for diversity.
+5. Hand path (`GraspCandidate.joints`, actuator commands): first the pads' remaining gaps are closed (the
+   least-norm joint motion moving each pad its distance along its normal, damped least squares): the contact
+   command. The squeeze is the actuator forces f that best produce the joint torques sum_i J_i^T n_i pushing
+   every pad into the object (least squares through the joint -> command map), as a command offset f / kp
+   scaled so the most loaded actuator reaches its force limit: row 1 = contact command + offset. Row 0, the
+   pre-shape, lies on the same line backwards, far enough that the pads back off `preshape_backoff` [m]
+   (first order, within the command ranges); it must be clear (penetration at most `max_penetration`) at the
+   grasp pose and along the approach from the pre-grasp pose; if not, the back-off is doubled (up to
+   `PRESHAPE_TRIES` tries).
+
+Score = 1 / (1 + E) (in (0, 1], higher is better) with E the final energy.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+import trimesh
+
+from manigrasp.errors import ConfigError
+from manigrasp.grasp.closure import EPSILON_TOLERANCE
+from manigrasp.hands.base import Hand
+from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.collision import HandProbe
+from manigrasp.planners.dexopt import EnergyWeights, GridSdf
+from manigrasp.planners.dexopt_hand import HandKinematics
+from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
+from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
+from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
+
+# Weights of the energy's terms for this planner [-] (DexGraspNet's relative scale, distances in m): a pad 1 cm
+# off the surface costs as much as a unit force imbalance of the normals; 1 mm of summed sample depth (object,
+# table, fingers) costs 1.
+DEFAULT_WEIGHTS = EnergyWeights(force_closure=1.0, distance=100.0, penetration=1000.0, table=1000.0, joints=10.0,
+                                self_penetration=1000.0)
+GRID_MARGIN = 0.03  # [m] the SDF grid extends this far beyond the object's parts
+# Adam's moment decays: a short second-moment memory, so the early penetration gradients (100 x the late ones)
+# do not freeze the end of the descent.
+ADAM_BETAS = (0.9, 0.95)
+PRESHAPE_TRIES = 4  # pre-shape back-offs tried: 1, 2, 4, 8 x preshape_backoff
+SWITCH_EVERY = 10  # descent steps between re-choosing each finger's pad (the candidate nearest the object)
+GAP_DAMPING = 1e-4  # [m^2] damping of the least-squares gap closure of the pads (`hand_path`)
+BACK_OFF_STEPS = 4  # moves of a penetrating hand out of the object and table (`_back_off`)
+BACK_OFF_EXTRA = 2e-4  # [m] each move goes this much past the deepest penetration
+INIT_DRAWS = 4  # initial configurations drawn per restart (those clear of the table are kept)
+FORCE_SHARE_STEPS = 30  # projected-gradient steps of the contact force shares (`force_shares`)
+APPROACH_CHECKS = 6  # poses checked along the approach from the pre-grasp pose to the grasp pose
+
+
+@dataclass
+class Synthesis:
+    """The result of `DexOptPlanner.synthesise` for one restart that passed the checks.
+
+    Attributes:
+        pose: (4, 4) TCP pose in the world [m].
+        q: (n_q,) the hand's independent joints at contact [rad or m].
+        joints: (2, n_act) pre-shape and squeeze commands.
+        energy: final energy and `terms` its parts (unweighted).
+        contacts, normals: (k, 3) pad points in the world [m], inward unit normals (pads within tolerance).
+        penetration: deepest hand-object/table penetration measured in MuJoCo [m] (>= 0).
+    """
+
+    pose: np.ndarray
+    q: np.ndarray
+    joints: np.ndarray
+    energy: float
+    terms: dict[str, float]
+    contacts: np.ndarray
+    normals: np.ndarray
+    penetration: float
+
+
+@dataclass(frozen=True)
+class DexOptPlanner:
+    """Optimisation-based dexterous grasp synthesis (module docstring).
+
+    After each call, `last["rejected"]` counts the restarts each check of step 4-5 turned down.
+
+    Attributes:
+        restarts: random initial configurations optimised together.
+        iterations: descent steps.
+        step_translation: [m], step_rotation: [rad], step_joints: [rad]: initial Adam steps.
+        weights: the energy's weights (`dexopt.EnergyWeights`; a mapping of its fields in a config).
+        grid_spacing: [m] of the object's signed-distance grid.
+        table_clearance: [m] the hand's samples are penalised below the table top + this.
+        init_closure: largest fraction of the open -> closed pre-shape of the initial fingers [-].
+        max_approach_z: largest z component of the initial approach direction (0: horizontal or from above).
+        min_force_share: smallest force of a pad relative to the mean in the force-closure term (1: all
+            pads push equally, Liu et al.; `force_shares`).
+        contact_tolerance: [m] a pad this close to the surface is in contact.
+        min_contacts: fewest pads in contact (capped at the hand's number of fingers).
+        max_penetration: [m] deepest penetration allowed in the MuJoCo check.
+        preshape_backoff: [m] how far the pre-shape opens the pads from the object (first order).
+        nms_distance: [m]; nms_angle: [rad] (non-maximum suppression thresholds).
+        pregrasp_offset: pre-grasp distance back along the approach [m].
+    """
+
+    name: ClassVar[str] = "dexopt"
+    needs: ClassVar[ObservationKind] = "mesh"
+
+    restarts: int = 32
+    iterations: int = 150
+    step_translation: float = 0.003
+    step_rotation: float = 0.03
+    step_joints: float = 0.05
+    weights: EnergyWeights = DEFAULT_WEIGHTS
+    grid_spacing: float = 0.0025
+    table_clearance: float = 0.003
+    init_closure: float = 0.3
+    max_approach_z: float = 0.0
+    min_force_share: float = 0.3
+    contact_tolerance: float = 0.02
+    min_contacts: int = 3
+    max_penetration: float = 0.001
+    preshape_backoff: float = 0.02
+    nms_distance: float = DEFAULT_DISTANCE
+    nms_angle: float = DEFAULT_ANGLE
+    pregrasp_offset: float = PREGRASP_OFFSET
+    _hands: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    last: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.weights, dict):
+            try:
+                object.__setattr__(self, "weights", EnergyWeights(**self.weights))
+            except TypeError as exc:
+                raise ConfigError(f"dexopt: bad weights {sorted(self.weights)}; valid: "
+                                  f"{[f.name for f in dataclasses.fields(EnergyWeights)]}") from exc
+        for key in ("restarts", "iterations", "min_contacts"):
+            if int(getattr(self, key)) < 1:
+                raise ConfigError(f"dexopt: {key} must be >= 1, got {getattr(self, key)}")
+        for key in ("step_translation", "step_rotation", "step_joints", "grid_spacing", "contact_tolerance",
+                    "preshape_backoff"):
+            if not float(getattr(self, key)) > 0:
+                raise ConfigError(f"dexopt: {key} must be > 0, got {getattr(self, key)}")
+        if self.max_penetration < 0 or self.table_clearance < 0 or not 0 <= self.init_closure <= 1:
+            raise ConfigError("dexopt: max_penetration and table_clearance must be >= 0, init_closure in [0, 1]")
+
+    # ------------------------------------------------------------------ planner interface
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
+        """At most `n` grasps, lowest energy first."""
+        found = self.synthesise(observation, hand, n, rng)
+        center = observation.center_of_mass
+        scale = torque_scale(observation.world_mesh().vertices, center)
+        out = []
+        for s in found:
+            eps = None
+            if len(s.contacts) >= 2:
+                eps = float(grasp_metrics(s.contacts[None], s.normals[None], center, scale,
+                                          ContactModel(min_friction=False)).epsilon_l1[0])
+            out.append(GraspCandidate(
+                pose=s.pose, score=1.0 / (1.0 + s.energy), width=None, preshape=0.0, contacts=s.contacts,
+                contact_normals=s.normals, epsilon_l1=eps,
+                force_closure=None if eps is None else bool(eps > EPSILON_TOLERANCE),
+                pregrasp_offset=self.pregrasp_offset, planner=self.name, **_joints_field(s.joints)))
+        return out
+
+    def kinematics(self, hand: Hand) -> HandKinematics:
+        """The hand's kinematic model, built once per hand name."""
+        if hand.name not in self._hands:
+            self._hands[hand.name] = HandKinematics(hand)
+        return self._hands[hand.name]
+
+    def object_sdf(self, observation: Observation) -> GridSdf:
+        """The signed-distance grid of the observed object's collision parts in the world."""
+        pose = observation.object_pose
+        if observation.asset is not None and observation.asset.part_paths:
+            parts = [np.asarray(trimesh.load(str(p), force="mesh", process=False).vertices, float)
+                     for p in observation.asset.part_paths]
+        else:
+            parts = [np.asarray(observation.mesh.convex_hull.vertices, float)]
+        parts = [v @ pose[:3, :3].T + pose[:3, 3] for v in parts]
+        return GridSdf.from_convex_parts(parts, self.grid_spacing, GRID_MARGIN)
+
+    # ------------------------------------------------------------------ synthesis
+    def synthesise(self, observation: Observation, hand: Hand, n: int,
+                   rng: np.random.Generator) -> list[Synthesis]:
+        """Optimise `restarts` configurations and return at most `n` that pass the checks, best first."""
+        hk = self.kinematics(hand)
+        sdf = self.object_sdf(observation)
+        center = observation.center_of_mass
+        scale = torque_scale(observation.world_mesh().vertices, center)
+        pos, quat, q = self.initial(hk, sdf, center, hand.max_width, rng, observation.table_height)
+        pos, quat, q, energy, terms = self.descend(hk, sdf, center, scale, observation.table_height, pos, quat, q)
+        return self.select(hk, sdf, observation, pos, quat, q, energy, terms, n)
+
+    def initial(self, hk: HandKinematics, sdf: GridSdf, center: np.ndarray, width: float,
+                rng: np.random.Generator, table_z: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Root positions (R, 3), quaternions (R, 4) and joints (R, n_q) of the restarts (module docstring):
+        `INIT_DRAWS` x R drawn, those clear of the table (+ clearance) kept first, in the order drawn."""
+        pos, quat, q = self._draw(hk, sdf, center, width, rng, INIT_DRAWS * self.restarts)
+        xpos, xmat, *_ = hk.evaluate(pos, quat, q)
+        lowest = hk.world(hk.samples, xpos, xmat)[..., 2].min(axis=1)
+        order = np.argsort(lowest < table_z + self.table_clearance, kind="stable")[:self.restarts]
+        return pos[order], quat[order], q[order]
+
+    def _draw(self, hk: HandKinematics, sdf: GridSdf, center: np.ndarray, width: float, rng: np.random.Generator,
+              r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        approach = np.zeros((0, 3))
+        while len(approach) < r:
+            a = rng.normal(size=(2 * r, 3))
+            a /= np.linalg.norm(a, axis=1, keepdims=True)
+            approach = np.concatenate([approach, a[a[:, 2] <= self.max_approach_z]])[:r]
+        u, v = perpendicular_basis(approach)
+        roll = rng.uniform(0.0, 2.0 * np.pi, r)
+        closing = np.cos(roll)[:, None] * u + np.sin(roll)[:, None] * v
+        surface = np.array([_ray_to_surface(sdf, center, -a) for a in approach])  # distance centre -> surface
+        depth = rng.uniform(0.0, 0.5, r) * 0.5 * width
+        lateral = rng.normal(scale=0.005, size=(r, 2))
+        tcp_pos = (center - approach * (surface - depth)[:, None] + lateral[:, :1] * u + lateral[:, 1:] * v)
+        tcp = tcp_frames(tcp_pos, approach, closing)
+        root = tcp @ hk.root_in_tcp
+        s = rng.uniform(0.0, self.init_closure, (r, 1))
+        q = hk.q_open + s * (hk.q_closed - hk.q_open) + rng.normal(scale=0.05, size=(r, hk.n_q))
+        return root[:, :3, 3].copy(), _mat_quats(root[:, :3, :3]), np.clip(q, hk.low, hk.high)
+
+    def energy(self, hk: HandKinematics, sdf: GridSdf, center: np.ndarray, scale: float, table_z: float,
+               pos: np.ndarray, quat: np.ndarray, q: np.ndarray, gradient: bool = True,
+               chosen: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray | None]:
+        """Energies (R,), their unweighted terms (R,) each, and the gradient (R, 6 + n_q) (module docstring).
+
+        `chosen` (R, fingers): the pad candidate of each finger (default: the one nearest the object now).
+        """
+        w = self.weights
+        xpos, xmat, jp, jr, _ = hk.evaluate(pos, quat, q)
+        r = len(pos)
+        # Pads: force closure and distance.
+        if chosen is None:
+            chosen = choose_pads(sdf, hk.world(hk.contacts, xpos, xmat), hk.pad_finger)  # (R, fingers)
+        rows = np.arange(r)[:, None]
+        slot = hk._slot[hk.contacts.bodies[chosen]]  # (R, k)
+        x = xpos[rows, slot] + np.einsum("rkij,rkj->rki", xmat[rows, slot], hk.contacts.local[chosen])  # (R, k, 3)
+        k = x.shape[1]
+        d, g, hess = sdf.sdf(x.reshape(-1, 3))
+        d, g, hess = d.reshape(r, k), g.reshape(r, k, 3), hess.reshape(r, k, 3, 3)
+        gnorm = np.maximum(np.linalg.norm(g, axis=2, keepdims=True), 1e-9)
+        normal = -g / gnorm
+        proj = np.eye(3) - normal[..., :, None] * normal[..., None, :]
+        d_normal = -np.einsum("rkij,rkjl->rkil", proj, hess) / gnorm[..., None]  # dn/dx (R, k, 3, 3)
+        arm = (x - center) / scale
+        share = force_shares(np.concatenate([normal, np.cross(arm, normal)], axis=2), self.min_force_share)
+        force = np.einsum("rk,rki->ri", share, normal)
+        torque = np.einsum("rk,rki->ri", share, np.cross(arm, normal))
+        e_fc = (force**2).sum(axis=1) + (torque**2).sum(axis=1)
+        d_cross = -_skew(normal) / scale + np.einsum("rkij,rkjl->rkil", _skew(arm), d_normal)
+        g_fc = 2.0 * share[..., None] * (np.einsum("rkji,rj->rki", d_normal, force)
+                                         + np.einsum("rkji,rj->rki", d_cross, torque))
+        e_dis = np.abs(d).sum(axis=1)
+        g_pad = w.force_closure * g_fc + w.distance * np.sign(d)[..., None] * g
+        # Surface samples: object and table penetration.
+        p = hk.world(hk.samples, xpos, xmat)  # (R, m, 3)
+        which, ds, gs = sdf.penetrating(p.reshape(-1, 3))
+        e_pen = np.bincount(which // p.shape[1], weights=-ds, minlength=r)
+        g_samples = np.zeros(p.shape)
+        g_samples.reshape(-1, 3)[which] = -w.penetration * gs
+        low = p[..., 2] < table_z + self.table_clearance
+        e_tab = np.where(low, table_z + self.table_clearance - p[..., 2], 0.0).sum(axis=1)
+        g_samples[..., 2] -= w.table * low
+        # Finger spheres: mutual penetration of different fingers.
+        c = hk.world(hk.spheres, xpos, xmat)  # (R, s, 3)
+        diff = c[:, :, None] - c[:, None]
+        dist = np.linalg.norm(diff, axis=3)
+        reach = hk.sphere_radius[:, None] + hk.sphere_radius[None]
+        pairs = (hk.sphere_finger[:, None] != hk.sphere_finger[None]) & (dist < reach)
+        e_self = 0.5 * np.where(pairs, reach - dist, 0.0).sum(axis=(1, 2))
+        unit = diff / np.maximum(dist, 1e-9)[..., None]
+        g_spheres = -w.self_penetration * np.where(pairs[..., None], unit, 0.0).sum(axis=2)
+        # Joint limits (the descent projects onto the ranges; the term is for completeness).
+        over, under = np.maximum(q - hk.high, 0.0), np.maximum(hk.low - q, 0.0)
+        e_jnt = (over + under).sum(axis=1)
+        total = (w.force_closure * e_fc + w.distance * e_dis + w.penetration * e_pen + w.table * e_tab
+                 + w.self_penetration * e_self + w.joints * e_jnt)
+        terms = {"force_closure": e_fc, "distance": e_dis, "penetration": e_pen, "table": e_tab,
+                 "self_penetration": e_self, "joints": e_jnt}
+        if not gradient:
+            return total, terms, None
+        torque = np.cross(x - xpos[rows, slot], g_pad)
+        grad = (np.einsum("rki,rkij->rj", g_pad, jp[rows, slot]) + np.einsum("rki,rkij->rj", torque, jr[rows, slot])
+                + _sparse_backprop(hk, hk.samples, p, g_samples, xpos, jp, jr)
+                + _sparse_backprop(hk, hk.spheres, c, g_spheres, xpos, jp, jr))
+        grad[:, 6:] += w.joints * ((q > hk.high).astype(float) - (q < hk.low).astype(float))
+        return total, terms, grad
+
+    def descend(self, hk: HandKinematics, sdf: GridSdf, center: np.ndarray, scale: float, table_z: float,
+                pos: np.ndarray, quat: np.ndarray, q: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Adam descent from the given configurations; returns them optimised with their energies and terms."""
+        pos, quat, q = pos.copy(), quat.copy(), q.copy()
+        steps = np.concatenate([np.full(3, self.step_translation), np.full(3, self.step_rotation),
+                                np.full(hk.n_q, self.step_joints)])
+        m1, m2 = np.zeros((len(pos), len(steps))), np.zeros((len(pos), len(steps)))
+        b1, b2 = ADAM_BETAS
+        chosen = None
+        for it in range(self.iterations):
+            if it % SWITCH_EVERY == 0:
+                xpos, xmat, *_ = hk.evaluate(pos, quat, q)
+                chosen = choose_pads(sdf, hk.world(hk.contacts, xpos, xmat), hk.pad_finger)
+            _, _, grad = self.energy(hk, sdf, center, scale, table_z, pos, quat, q, chosen=chosen)
+            m1 = b1 * m1 + (1 - b1) * grad
+            m2 = b2 * m2 + (1 - b2) * grad**2
+            rate = 0.1 + 0.9 * 0.5 * (1.0 + np.cos(np.pi * it / self.iterations))
+            step = rate * steps * (m1 / (1 - b1 ** (it + 1))) / (np.sqrt(m2 / (1 - b2 ** (it + 1))) + 1e-12)
+            pos -= step[:, :3]
+            for i in range(len(quat)):
+                mujoco.mju_quatIntegrate(quat[i], -step[i, 3:6], 1.0)
+                mujoco.mju_normalize4(quat[i])
+            q = np.clip(q - step[:, 6:], hk.low, hk.high)
+        energy, terms, _ = self.energy(hk, sdf, center, scale, table_z, pos, quat, q, gradient=False)
+        return pos, quat, q, energy, terms
+
+    # ------------------------------------------------------------------ checks and the hand path
+    def select(self, hk: HandKinematics, sdf: GridSdf, observation: Observation, pos: np.ndarray,
+               quat: np.ndarray, q: np.ndarray, energy: np.ndarray, terms: dict[str, np.ndarray],
+               n: int) -> list[Synthesis]:
+        """The restarts that pass the checks, lowest energy first, diverse (module docstring, steps 4-5)."""
+        probe = HandProbe(hk.hand, observation, clearance=0.0)
+        addresses = probe.hand_qpos_addresses()
+        names = [hk.model.joint(j).name for j in hk.joints]
+        need = min(self.min_contacts, len(np.unique(hk.pad_finger)))
+        passed: list[Synthesis] = []
+        rejected = self.last.setdefault("rejected", {})
+        rejected.clear()
+        for i in np.argsort(energy, kind="stable"):
+            if not np.isfinite(energy[i]):
+                continue
+            qpos = hk.full_qpos(pos[i], quat[i], q[i])
+            xpos, xmat, jp, jr, _ = hk.evaluate(pos[i:i + 1], quat[i:i + 1], q[i:i + 1])
+            pads = hk.world(hk.contacts, xpos, xmat)
+            chosen = choose_pads(sdf, pads, hk.pad_finger)[0]
+            x = pads[0, chosen]
+            d, g = sdf.distance(x)
+            touching = np.abs(d) <= self.contact_tolerance
+            if touching.sum() < need:
+                rejected["contacts"] = rejected.get("contacts", 0) + 1
+                continue
+            root = np.eye(4)
+            root[:3, :3] = _quat_mat(quat[i])
+            root[:3, 3] = pos[i]
+            tcp = root @ np.linalg.inv(hk.root_in_tcp)
+            hand_q = {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]]) for nm, j in zip(names, hk.joints,
+                                                                                             strict=True)}
+            tcp, depth = _back_off(probe, tcp, hand_q, self.max_penetration)
+            if depth > self.max_penetration:
+                rejected["penetration"] = rejected.get("penetration", 0) + 1
+                continue
+            if _self_depth(hk, qpos) > self.max_penetration:
+                rejected["self_penetration"] = rejected.get("self_penetration", 0) + 1
+                continue
+            normal = -g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
+            joints = self.hand_path(hk, probe, tcp, q[i], x, hk.contacts.bodies[chosen], normal, d, jp[0],
+                                    jr[0], xpos[0], addresses, names)
+            if joints is None:
+                rejected["preshape"] = rejected.get("preshape", 0) + 1
+                continue
+            passed.append(Synthesis(pose=tcp, q=q[i].copy(), joints=joints, energy=float(energy[i]),
+                                    terms={key: float(v[i]) for key, v in terms.items()},
+                                    contacts=x[touching], normals=normal[touching], penetration=depth))
+        if not passed:
+            return []
+        keep = suppress(np.stack([s.pose for s in passed]), self.nms_distance, self.nms_angle)
+        return [passed[k] for k in keep[:n]]
+
+    def hand_path(self, hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray, x: np.ndarray,
+                  bodies: np.ndarray, normal: np.ndarray, dist: np.ndarray, jp: np.ndarray, jr: np.ndarray,
+                  xpos: np.ndarray, addresses: dict[str, int], names: list[str]) -> np.ndarray | None:
+        """(2, n_act) pre-shape and squeeze commands (module docstring, step 5), or None if no pre-shape of the
+        first `PRESHAPE_TRIES` back-offs is collision-free along the approach."""
+        slot = hk._slot[bodies]
+        # Pad Jacobians over the independent joints (R = 1 layout of `evaluate`): Jp - [x - x_b]x Jr.
+        jac = jp[slot][..., 6:] - np.einsum("kij,kjl->kil", _skew(x - xpos[slot]), jr[slot][..., 6:])
+        rows = np.einsum("ki,kij->kj", normal, jac)  # (k, n_q): how fast each pad moves into the object
+        # Close the pads' gaps: the least-norm joint motion moving pad i by its distance d_i along its normal
+        # (damped least squares), so the line below runs through a configuration with every pad on the surface.
+        dq_gap = rows.T @ np.linalg.solve(rows @ rows.T + GAP_DAMPING * np.eye(len(rows)), dist)
+        q_touch = np.clip(q + dq_gap, hk.low, hk.high)
+        ctrl_c, a = hk.ctrl(q_touch)
+        tau = rows.sum(axis=0)  # joint torques of unit inward pushes at every pad
+        force = np.linalg.lstsq(a.T, tau, rcond=None)[0]  # actuator forces f with A^T f = tau (least squares)
+        load = np.max(np.abs(force) / hk.force_limit)
+        if not load > 0:
+            return None
+        direction = force / load / hk.kp  # command offset past contact at which the most loaded actuator saturates
+        squeeze = np.clip(ctrl_c + direction, hk.ctrl_low, hk.ctrl_high)
+        dq = np.linalg.lstsq(a, direction, rcond=None)[0]
+        motion = np.linalg.norm(np.einsum("kij,j->ki", jac, dq), axis=1).max()
+        beta = self.preshape_backoff / max(motion, 1e-9)
+        for attempt in range(PRESHAPE_TRIES):
+            pre = np.clip(ctrl_c - 2**attempt * beta * direction, hk.ctrl_low, hk.ctrl_high)
+            pre_q = hk.q_from_ctrl(pre)
+            qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0, 0, 0]), pre_q)
+            hand_q = {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]])
+                      for nm, j in zip(names, hk.joints, strict=True)}
+            if all(_probe_contacts(probe, pose, hand_q)[0] <= self.max_penetration
+                   for pose in _approach_poses(tcp, self.pregrasp_offset)):
+                return np.stack([pre, squeeze])
+        return None
+
+
+
+def choose_pads(sdf: GridSdf, pads: np.ndarray, finger: np.ndarray) -> np.ndarray:
+    """(R, fingers) index into the pads (R, c, 3) of each finger's pad with the smallest signed distance."""
+    d, _ = sdf.distance(pads.reshape(-1, 3))
+    d = d.reshape(pads.shape[:2])
+    fingers = np.unique(finger)
+    masked = np.where(finger[None, None, :] == fingers[None, :, None], d[:, None, :], np.inf)  # (R, f, c)
+    return np.argmin(masked, axis=2)
+
+
+def force_shares(wrenches: np.ndarray, floor: float, iterations: int = FORCE_SHARE_STEPS) -> np.ndarray:
+    """(R, k) contact force magnitudes lambda that best balance unit `wrenches` (R, k, 6): argmin |sum_i
+    lambda_i w_i|^2 subject to lambda_i >= `floor` and sum_i lambda_i = k (mean 1), by projected gradient.
+
+    With `floor` = 1 every contact pushes equally (Liu et al.'s estimate); below 1 a thumb opposing three
+    fingers may push as hard as the three together, as it does in a real grasp. The energy's gradient holds
+    lambda fixed (envelope theorem: lambda minimises the energy).
+    """
+    r, k, _ = wrenches.shape
+    lam = np.ones((r, k))
+    if floor >= 1.0 or k < 2:
+        return lam
+    gram = np.einsum("rki,rli->rkl", wrenches, wrenches)
+    rate = 1.0 / (2.0 * np.maximum(np.trace(gram, axis1=1, axis2=2), 1e-12))[:, None]
+    budget = k * (1.0 - floor)
+    for _ in range(iterations):
+        y = lam - rate * 2.0 * np.einsum("rkl,rl->rk", gram, lam) - floor
+        # Euclidean projection of y onto {mu >= 0, sum mu = budget} (sort-based, batched).
+        u = -np.sort(-y, axis=1)
+        css = np.cumsum(u, axis=1) - budget
+        ind = np.arange(1, k + 1)
+        rho = np.sum(u - css / ind > 0, axis=1)
+        theta = css[np.arange(r), rho - 1] / rho
+        lam = np.maximum(y - theta[:, None], 0.0) + floor
+    return lam
+
+
+def _joints_field(joints: np.ndarray) -> dict[str, Any]:
+    """``{"joints": joints}`` when `GraspCandidate` carries a hand path, else nothing."""
+    names = {f.name for f in dataclasses.fields(GraspCandidate)}
+    return {"joints": joints} if "joints" in names else {}
+
+
+def _approach_poses(tcp: np.ndarray, offset: float) -> list[np.ndarray]:
+    out = []
+    for t in np.linspace(0.0, offset, APPROACH_CHECKS):
+        pose = tcp.copy()
+        pose[:3, 3] -= t * tcp[:3, 2]
+        out.append(pose)
+    return out
+
+
+def _back_off(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float], tolerance: float
+              ) -> tuple[np.ndarray, float]:
+    """The TCP pose moved out of the object and table by MuJoCo's contact normals (at most `BACK_OFF_STEPS`
+    moves, each by the deepest penetration + `BACK_OFF_EXTRA` along the depth-weighted mean normal), and the
+    deepest penetration left [m]: the optimiser's surface samples miss what lies between them."""
+    pose = tcp.copy()
+    for _ in range(BACK_OFF_STEPS):
+        depth, push = _probe_contacts(probe, pose, hand_q)
+        if depth <= tolerance or not np.any(push):
+            return pose, depth
+        pose = pose.copy()
+        pose[:3, 3] += (depth + BACK_OFF_EXTRA) * push / np.linalg.norm(push)
+    return pose, _probe_contacts(probe, pose, hand_q)[0]
+
+
+def _probe_contacts(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float]) -> tuple[float, np.ndarray]:
+    """Deepest penetration [m] (>= 0) of the hand at `tcp` with joints `hand_q` into object or table, and the
+    depth-weighted sum of the contact normals pointing out of them into the hand (3,)."""
+    probe.set_hand_qpos(hand_q)
+    pos, quat = probe.roots(tcp[None])
+    probe.place(pos[0], quat[0])
+    data = probe.scene.data
+    depth, push = 0.0, np.zeros(3)
+    for c in range(data.ncon):
+        g1, g2 = data.contact.geom[c]
+        hand_second = probe.is_hand[g2] and probe.is_other[g1]
+        if not (hand_second or (probe.is_hand[g1] and probe.is_other[g2])):
+            continue
+        dist = float(data.contact.dist[c])
+        if dist < 0:
+            depth = max(depth, -dist)
+            push += -dist * data.contact.frame[c, :3] * (1.0 if hand_second else -1.0)
+    probe.restore()
+    return depth, push
+
+
+def _self_depth(hk: HandKinematics, qpos: np.ndarray) -> float:
+    """Deepest penetration [m] (>= 0) between geoms of different fingers of the hand at `qpos`."""
+    m, d = hk.model, hk.data
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_collision(m, d)
+    depth = 0.0
+    for c in range(d.ncon):
+        f1, f2 = hk.body_finger[m.geom_bodyid[d.contact.geom[c]]]
+        if f1 != f2 and f1 >= 0 and f2 >= 0:
+            depth = max(depth, -float(d.contact.dist[c]))
+    return depth
+
+
+def _ray_to_surface(sdf: GridSdf, start: np.ndarray, direction: np.ndarray, far: float = 1.0) -> float:
+    """Distance [m] along the unit `direction` from `start` (inside the object) to its surface (bisection)."""
+    lo, hi = 0.0, far
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if sdf.distance((start + mid * direction)[None])[0][0] < 0 else (lo, mid)
+    return hi
+
+
+def _sparse_backprop(hk: HandKinematics, points: Any, world: np.ndarray, grad: np.ndarray, xpos: np.ndarray,
+                     jp: np.ndarray, jr: np.ndarray) -> np.ndarray:
+    """`hk.backprop` over the (restart, point) pairs with a non-zero gradient only."""
+    out = np.zeros((len(world), jp.shape[-1]))
+    rows, cols = np.nonzero(np.any(grad != 0.0, axis=2))
+    if len(rows) == 0:
+        return out
+    slot = hk._slot[points.bodies[cols]]
+    g = grad[rows, cols]
+    torque = np.cross(world[rows, cols] - xpos[rows, slot], g)
+    contrib = np.einsum("ni,nij->nj", g, jp[rows, slot]) + np.einsum("ni,nij->nj", torque, jr[rows, slot])
+    np.add.at(out, rows, contrib)
+    return out
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) cross-product matrices of the last axis of `v`."""
+    out = np.zeros(v.shape + (3,))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def _mat_quats(mats: np.ndarray) -> np.ndarray:
+    """(n, 4) unit quaternions (w, x, y, z) of rotation matrices (n, 3, 3)."""
+    out = np.zeros((len(mats), 4))
+    for i, mat in enumerate(mats):
+        mujoco.mju_mat2Quat(out[i], np.ascontiguousarray(mat, float).ravel())
+    return out
+
+
+def _quat_mat(quat: np.ndarray) -> np.ndarray:
+    out = np.zeros(9)
+    mujoco.mju_quat2Mat(out, np.asarray(quat, float))
+    return out.reshape(3, 3)

@@ -1,0 +1,177 @@
+"""The `dexopt` planner: its signed-distance grid, force shares, hand kinematics, descent and candidates."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp.errors import ConfigError
+from manigrasp.hands.registry import load as load_hand
+from manigrasp.planners import Observation
+from manigrasp.planners import registry as planner_registry
+from manigrasp.planners.collision import HandProbe
+from manigrasp.planners.dexopt import Box, GridSdf, Sphere
+from manigrasp.planners.dexopt_hand import HandKinematics
+from manigrasp.planners.dexopt_planner import DexOptPlanner, _probe_contacts, choose_pads, force_shares
+
+
+def _sphere_grid(centre=(0.0, 0.0, 0.3), radius=0.04) -> GridSdf:
+    mesh = trimesh.creation.icosphere(subdivisions=4, radius=radius)
+    return GridSdf.from_convex_parts([mesh.vertices + np.asarray(centre)], 0.0025, 0.03)
+
+
+def test_grid_sdf_of_convex_parts_matches_the_exact_distances_near_the_surface() -> None:
+    box = trimesh.creation.box(extents=[0.06, 0.1, 0.04])
+    grid = GridSdf.from_convex_parts([box.vertices], 0.0025, 0.03)
+    exact = Box((0.0, 0.0, 0.0), (0.03, 0.05, 0.02))
+    points = np.random.default_rng(0).uniform(-0.06, 0.06, (3000, 3))
+    d, g = grid.distance(points)
+    d0, g0, _ = exact.sdf(points)
+    near = np.abs(d0) < 0.01
+    assert np.abs(d - d0)[near].max() < 1e-3  # trilinear error, largest where the field curves: edges, corners
+    excess = np.sort(np.abs(points) - [0.03, 0.05, 0.02], axis=1)
+    faces = near & (excess[:, 2] > 0.003) & (excess[:, 1] < -0.005)  # in front of a face, away from its edges
+    assert faces.sum() > 50
+    np.testing.assert_allclose(g[faces], g0[faces], atol=1e-6)
+    sphere = _sphere_grid((0.0, 0.0, 0.0), 0.04)
+    d, g = sphere.distance(points)
+    d0, g0, _ = Sphere((0.0, 0.0, 0.0), 0.04).sdf(points)
+    near = np.abs(d0) < 0.01
+    assert np.abs(d - d0)[near].max() < 3e-4  # the icosphere's facets lie up to 0.1 mm inside the sphere
+    assert np.linalg.norm(g - g0, axis=1)[near & (d0 > 0.003)].max() < 0.05
+    # Union of two overlapping boxes: inside either, outside both; beyond the grid, distance grows.
+    other = box.copy().apply_translation([0.05, 0.0, 0.0])
+    union = GridSdf.from_convex_parts([box.vertices, other.vertices], 0.0025, 0.02)
+    d, _ = union.distance(np.array([[0.0, 0.0, 0.0], [0.06, 0.0, 0.0], [0.025, 0.08, 0.0], [0.5, 0.0, 0.0]]))
+    assert d[0] == pytest.approx(-0.02, abs=1e-9) and d[1] == pytest.approx(-0.02, abs=1e-9)
+    assert d[2] == pytest.approx(0.03, abs=1e-6) and d[3] == pytest.approx(0.42, abs=1e-6)
+    which, depth, _ = union.penetrating(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.05], [0.2, 0.0, 0.0]]))
+    assert which.tolist() == [0] and depth[0] < 0
+
+
+def test_force_shares_let_a_thumb_balance_three_fingers() -> None:
+    """Thumb normal +x against three finger normals tilted about -x: equal unit forces cannot balance, shares can."""
+    normals = np.array([[1.0, 0.0, 0.0], [-0.9, 0.3, 0.0], [-0.9, -0.3, 0.0], [-1.0, 0.0, 0.0]])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    wrenches = np.concatenate([normals, np.zeros((4, 3))], axis=1)[None]
+    shares = force_shares(wrenches, 0.3)[0]
+    assert shares.sum() == pytest.approx(4.0) and shares.min() >= 0.3 - 1e-12
+    assert np.linalg.norm(shares @ normals) < 1e-3
+    assert shares[0] == pytest.approx(shares[1:] @ -normals[1:, 0], rel=1e-3)  # the thumb pushes as much as all
+    assert np.linalg.norm(np.ones(4) @ normals) > 1.5  # equal forces leave a large imbalance
+    np.testing.assert_array_equal(force_shares(wrenches, 1.0), np.ones((1, 4)))
+
+
+@pytest.fixture(scope="module")
+def inspire() -> HandKinematics:
+    return HandKinematics(load_hand("inspire_right"))
+
+
+def test_hand_kinematics_maps_joints_to_commands_and_back(inspire: HandKinematics) -> None:
+    hand = inspire.hand
+    np.testing.assert_allclose(inspire.ctrl(inspire.q_open)[0], hand.open_ctrl, atol=1e-9)
+    q = inspire.low + 0.4 * (inspire.high - inspire.low)
+    ctrl, jac = inspire.ctrl(q)
+    np.testing.assert_allclose(inspire.q_from_ctrl(ctrl), q, atol=1e-9)
+    h = 1e-6
+    numeric = np.stack([(inspire.ctrl(q + h * e)[0] - inspire.ctrl(q - h * e)[0]) / (2 * h)
+                        for e in np.eye(inspire.n_q)], axis=1)
+    np.testing.assert_allclose(jac, numeric, atol=1e-6)
+    assert inspire.n_q == hand.n_actuators == 6  # the distal joints follow their couplings
+    # One pad set per finger, on finger links only.
+    assert sorted(set(inspire.pad_finger.tolist())) == list(range(len(hand.finger_bodies)))
+    assert np.all(inspire.body_finger[inspire.contacts.bodies] == inspire.pad_finger)
+
+
+def test_backprop_matches_finite_differences_through_the_free_joint_and_couplings(inspire: HandKinematics) -> None:
+    """E = sum_j a_j . p_j over the hand's surface samples: the chain rule over (root twist, joints)."""
+    rng = np.random.default_rng(2)
+    weights = rng.normal(size=(len(inspire.samples.bodies), 3))
+    pos, quat = np.array([[0.01, -0.02, 0.3]]), np.array([[0.9, 0.1, -0.3, 0.2]])
+    quat /= np.linalg.norm(quat)
+    q = (inspire.low + 0.3 * (inspire.high - inspire.low))[None]
+
+    def value(p, qu, j) -> float:
+        xpos, xmat, *_ = inspire.evaluate(p, qu, j)
+        return float(np.sum(weights * inspire.world(inspire.samples, xpos, xmat)[0]))
+
+    xpos, xmat, jp, jr, _ = inspire.evaluate(pos, quat, q)
+    world = inspire.world(inspire.samples, xpos, xmat)
+    analytic = inspire.backprop(inspire.samples, world, weights[None], xpos, jp, jr)[0]
+    numeric = np.zeros_like(analytic)
+    for k in range(len(analytic)):
+        out = []
+        for sign in (1.0, -1.0):
+            p, qu, j = pos.copy(), quat.copy(), q.copy()
+            if k < 3:
+                p[0, k] += sign * 1e-6
+            elif k < 6:
+                twist = np.zeros(3)
+                twist[k - 3] = sign * 1e-6
+                mujoco.mju_quatIntegrate(qu[0], twist, 1.0)
+            else:
+                j[0, k - 6] += sign * 1e-6
+            out.append(value(p, qu, j))
+        numeric[k] = (out[0] - out[1]) / 2e-6
+    np.testing.assert_allclose(analytic, numeric, rtol=1e-5, atol=1e-6)
+
+
+def test_descent_lowers_the_energy_and_brings_pads_onto_a_sphere_without_penetration(
+        inspire: HandKinematics) -> None:
+    planner = DexOptPlanner(restarts=8, iterations=150)
+    planner._hands[inspire.hand.name] = inspire
+    sdf, centre = _sphere_grid(), np.array([0.0, 0.0, 0.3])
+    rng = np.random.default_rng(0)
+    pos, quat, q = planner.initial(inspire, sdf, centre, inspire.hand.max_width, rng, table_z=0.0)
+    before, _, _ = planner.energy(inspire, sdf, centre, 0.04, 0.0, pos, quat, q, gradient=False)
+    pos, quat, q, after, terms = planner.descend(inspire, sdf, centre, 0.04, 0.0, pos, quat, q)
+    assert np.all(after < before)
+    best = int(np.argmin(after))
+    xpos, xmat, *_ = inspire.evaluate(pos[best:best + 1], quat[best:best + 1], q[best:best + 1])
+    pads = inspire.world(inspire.contacts, xpos, xmat)
+    chosen = choose_pads(sdf, pads, inspire.pad_finger)[0]
+    d = np.abs(Sphere(tuple(centre), 0.04).sdf(pads[0, chosen])[0])
+    assert np.sum(d < 0.002) >= 3  # at least three fingers' pads on the surface (within 2 mm)
+    assert terms["penetration"][best] < 1e-4 and terms["table"][best] == 0.0  # [m] summed over samples
+    assert terms["force_closure"][best] < 0.5 < np.median(before)
+
+
+def test_bad_parameters_are_refused() -> None:
+    with pytest.raises(ConfigError, match="restarts"):
+        DexOptPlanner(restarts=0)
+    with pytest.raises(ConfigError, match="weights"):
+        DexOptPlanner(weights={"nonsense": 1.0})
+    planner = planner_registry.load("dexopt", weights={"distance": 50.0})
+    assert planner.weights.distance == 50.0 and planner.name == "dexopt"
+
+
+@pytest.mark.slow
+def test_planner_returns_deterministic_valid_grasps_that_do_not_penetrate(tmp_path) -> None:
+    from manigrasp.objects import build_object
+
+    asset = build_object(trimesh.creation.cylinder(0.033, 0.10, sections=48), name="dexopt_test_can", mass=0.35,
+                         cache_root=tmp_path).asset
+    observation = Observation.from_asset(asset)
+    hand = load_hand("inspire_right")
+    planner = DexOptPlanner(restarts=12, iterations=100)
+    first = planner.synthesise(observation, hand, 3, np.random.default_rng(5))
+    again = planner.synthesise(observation, hand, 3, np.random.default_rng(5))
+    assert 1 <= len(first) <= 3
+    assert [s.energy for s in first] == [s.energy for s in again]
+    np.testing.assert_array_equal(first[0].pose, again[0].pose)
+    hk = planner.kinematics(hand)
+    probe = HandProbe(hand, observation, clearance=0.0)
+    addresses = probe.hand_qpos_addresses()
+    for s in first:
+        assert np.all(np.isfinite(s.pose)) and np.allclose(s.pose[:3, :3] @ s.pose[:3, :3].T, np.eye(3), atol=1e-9)
+        assert s.joints.shape == (2, hand.n_actuators)
+        assert np.all(s.joints >= hk.ctrl_low - 1e-12) and np.all(s.joints <= hk.ctrl_high + 1e-12)
+        # Independently re-measured in MuJoCo: the planned configuration penetrates at most 1 mm.
+        qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0, 0, 0]), s.q)
+        hand_q = {addresses[hk.model.joint(j).name]: float(qpos[hk.model.jnt_qposadr[j]]) for j in hk.joints}
+        assert _probe_contacts(probe, s.pose, hand_q)[0] <= 0.001
+        assert s.penetration <= 0.001
+    candidates = planner.plan(observation, hand, 2, np.random.default_rng(5))
+    assert candidates and all(c.planner == "dexopt" and 0 < c.score <= 1 for c in candidates)
