@@ -100,12 +100,14 @@ def plan_group(group: Group) -> Plan:
     Never raises for the group's fault: the failure is the returned plan's `status` and `error`.
     """
     from manigrasp import planners
-    from manigrasp.protocol import settle_object
+    from manigrasp.planners.context import PlanContext
+    from manigrasp.protocol import PROTOCOLS, settle_object
 
     start = time.perf_counter()
     stage = "setting up"
     try:
         scene = scene_for(group)
+        context = PlanContext.from_params(PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params)).params)
         stage = "settling the object"
         pose = settle_object(scene)
         stage = "observing"
@@ -115,7 +117,7 @@ def plan_group(group: Group) -> Plan:
         planner = planners.load(group.planner.name, **dict(group.planner.params))
         start = time.perf_counter()
         timed_start()
-        result = planners.plan(planner, observation, scene.hand, group.n_grasps, group.rng())
+        result = planners.plan(planner, observation, scene.hand, group.n_grasps, group.rng(), context=context)
         stage = "scoring the planned contacts"
         planned = _planned_metrics(group, scene, result.candidates, pose)
     except PerceptionError as exc:

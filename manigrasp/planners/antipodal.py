@@ -46,11 +46,12 @@ epsilon_L1 the Ferrari-Canny epsilon of the two contacts as soft fingers
 grasp through the centre of mass with mu = 0.5, gamma = 5 mm, on a 5 cm object.
 
 h is the hold margin (`hold`): G is the grip force the protocol closes to
-(`grip_fraction` x the hand's max_grip_force, 35 N for parallel_jaw), and
-G_required the smallest grip force with which the two contacts, as soft
-fingers (mu, gamma) squeezed along the grasp line, hold the object's weight
-m g and the weight plus each perturbation (`perturbation` m g along +-x, +-y,
-+-z) at its centre of mass: the tangential load and its tipping couple, and
+(`PlanContext.grip_force_for`: by default half the hand's max_grip_force, 35 N
+for parallel_jaw), and G_required the smallest grip force with which the two
+contacts, as soft fingers (mu, gamma) squeezed along the grasp line, hold the
+object's weight m g and the weight plus each of the protocol's perturbations
+(`PlanContext.perturbation` m g along +-x, +-y, +-z; 1 m g for the standard
+protocol) at its centre of mass: the tangential load and its tipping couple, and
 the gravity torque about the grasp line (m g d for a grasp a distance d from
 the centre of mass) that only the contacts' torsional friction gamma f can
 resist. h >= 1 holds every load; hold_ref (3) asks for a safety factor, since
@@ -70,9 +71,10 @@ from manigrasp.errors import ConfigError, PlannerError
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.hands.base import Hand
 from manigrasp.objects.pipeline import DEFAULT_DENSITY
-from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.base import GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.cloud import cloud_pairs, collision_hull, complete, hull_volume
 from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
+from manigrasp.planners.context import PlanContext, resolve
 from manigrasp.planners.free_space import DEFAULT_TAU
 from manigrasp.planners.geometry import SmoothNormals, sample_surface
 from manigrasp.planners.hold import hold_margin, loads, required_grip
@@ -123,10 +125,13 @@ class AntipodalPlanner:
         epsilon_ref: epsilon that counts as full marks in the score [scaled N].
         nms_distance: [m]; nms_angle: [rad] (non-maximum suppression thresholds).
         clearance: hand-object/table distance that counts as a collision [m].
-        pregrasp_offset: pre-grasp distance back along the approach [m].
+        pregrasp_offset: pre-grasp distance back along the approach [m] where the open hand is checked for
+            collisions; None: the protocol's (`PlanContext.pregrasp_offset`).
         max_checks: the most poses tested for collision per plan.
-        grip_fraction: the protocol's grip force as a fraction of the hand's max_grip_force [-] (the hold margin).
-        perturbation: the protocol's perturbation force in units of the object's weight [-] (the hold margin).
+        grip_fraction: grip force as a fraction of the hand's max_grip_force for the hold margin [-]; None: the
+            protocol's grip force (`PlanContext.grip_force_for`).
+        perturbation: load beyond the weight in units of the object's weight for the hold margin [-]; None: the
+            protocol's (`PlanContext.perturbation`).
         hold_ref: hold margin that counts as full marks in the score (a safety factor) [-].
         density: of an object without a built asset (mesh or point cloud), for its mass [kg/m^3].
         completion: how a point cloud's unseen side is handled: "free_space" (visible and single-sided pairs,
@@ -169,11 +174,11 @@ class AntipodalPlanner:
     nms_distance: float = DEFAULT_DISTANCE
     nms_angle: float = DEFAULT_ANGLE
     clearance: float = DEFAULT_CLEARANCE
-    pregrasp_offset: float = PREGRASP_OFFSET
+    pregrasp_offset: float | None = None
     max_checks: int = 20_000
     pair_cell: float = 0.01
-    grip_fraction: float = 0.5
-    perturbation: float = 1.0
+    grip_fraction: float | None = None
+    perturbation: float | None = None
     hold_ref: float = 3.0
     density: float = DEFAULT_DENSITY
     completion: str = "free_space"
@@ -200,8 +205,12 @@ class AntipodalPlanner:
             object.__setattr__(self, key, fractions)
         if self.epsilon_ref <= 0 or self.clearance < 0 or self.dense_below < 0:
             raise ConfigError("antipodal: epsilon_ref must be > 0, clearance and dense_below >= 0")
-        if not (0 < self.grip_fraction <= 1 and self.perturbation >= 0 and self.hold_ref > 0 and self.density > 0):
-            raise ConfigError("antipodal: grip_fraction must be in (0, 1], perturbation >= 0, hold_ref and density > 0")
+        if not (self.hold_ref > 0 and self.density > 0):
+            raise ConfigError("antipodal: hold_ref and density must be > 0")
+        try:
+            resolve(None, self.pregrasp_offset, self.grip_fraction, self.perturbation)
+        except ConfigError as exc:
+            raise ConfigError(f"antipodal: {exc}") from None
         if self.completion not in COMPLETIONS:
             raise ConfigError(f"antipodal: unknown completion {self.completion!r}; valid: {', '.join(COMPLETIONS)}")
         if self.cloud_radius <= 0 or self.cloud_margin < 0:
@@ -211,12 +220,15 @@ class AntipodalPlanner:
             raise ConfigError("antipodal: hidden_weight must be in (0, 1], hidden_uncertainty, region_margin and "
                               "hidden_margin >= 0, free_space_tau > 0")
 
-    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
-        """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first.
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
+             context: PlanContext | None = None) -> list[GraspCandidate]:
+        """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first, for the protocol
+        described by `context` (None: the standard protocol's defaults).
 
         Plans on the mesh when the observation has one, else on its point cloud: by default visible and
         single-sided pairs against the depth views' free space (`partial`), or a completed cloud (`cloud`).
         """
+        context = resolve(context, self.pregrasp_offset, self.grip_fraction, self.perturbation)
         if hand.kind != "parallel":
             raise PlannerError(f"antipodal plans two-jaw grasps; hand {hand.name!r} is {hand.kind} "
                                "(use the 'power' planner)")
@@ -224,7 +236,7 @@ class AntipodalPlanner:
         pairs, center, scale, mass, probe, confidence = target(observation, hand, rng)
         eps = grasp_metrics(*self._contacts(pairs), center, scale,
                             ContactModel(self.contact.mu, self.contact.gamma, min_friction=False)).epsilon_l1
-        score = self.score(pairs, eps, self.hold(pairs, center, mass, hand))
+        score = self.score(pairs, eps, self.hold(pairs, center, mass, hand, context))
         if confidence is not None:
             score = score * confidence
         extents = probe.finger_extents()
@@ -232,17 +244,18 @@ class AntipodalPlanner:
                               observation.table_height, rng)
         nms = Suppressor(self.nms_distance, self.nms_angle, symmetric=True, capacity=max(n, 1))
         select = select_clear if isinstance(probe, SpaceProbe) else select_free
-        chosen = ranked.order[select(probe, nms, ranked.poses[ranked.order], n, self.pregrasp_offset,
+        chosen = ranked.order[select(probe, nms, ranked.poses[ranked.order], n, context.pregrasp_offset,
                                      self.max_checks)]
         if len(chosen) < min(n, self.dense_below) and len(pairs):
             dense = ranked_poses(pairs, score, self.dense_grid, extents, hand.max_width, self.max_approach_z,
                                  observation.table_height, rng, keep_unclear=False)
             checks = min(self.dense_checks, DENSE_CHECKS) if isinstance(probe, SpaceProbe) else self.dense_checks
             packed = dense.order[pack_free(probe, dense.poses[dense.order], n, self.nms_distance, self.nms_angle,
-                                           True, self.pregrasp_offset, checks)]
+                                           True, context.pregrasp_offset, checks)]
             if len(packed) > len(chosen):
                 ranked, chosen = dense, packed
-        return self._candidates(pairs, score, eps, ranked.poses, ranked.pair_of, chosen, center, scale)
+        return self._candidates(pairs, score, eps, ranked.poses, ranked.pair_of, chosen, center, scale,
+                                context.pregrasp_offset)
 
     def _mesh_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
         """Pairs on the mesh; centre of mass = the object frame's origin; the asset's mass (else volume x density)."""
@@ -281,13 +294,16 @@ class AntipodalPlanner:
         """The denser grid of step 6."""
         return PoseGrid(self.dense_approaches, self.dense_depth_fractions, self.dense_lateral_fractions)
 
-    def hold(self, pairs: Pairs, center: np.ndarray, mass: float, hand: Hand) -> np.ndarray:
-        """(m,) hold margin h of each pair at the protocol's grip force (module docstring, `hold`)."""
+    def hold(self, pairs: Pairs, center: np.ndarray, mass: float, hand: Hand,
+             context: PlanContext | None = None) -> np.ndarray:
+        """(m,) hold margin h of each pair at the protocol's grip force and loads (module docstring, `hold`;
+        `context` None: the standard protocol's, with this planner's own settings)."""
+        context = resolve(context, grip_fraction=self.grip_fraction, perturbation=self.perturbation)
         tilt = np.arccos(np.clip(np.stack([-np.einsum("ij,ij->i", pairs.n_p, pairs.axis),
                                            np.einsum("ij,ij->i", pairs.n_q, pairs.axis)], axis=1), -1.0, 1.0))
-        required = required_grip(pairs.p, pairs.q, center, loads(mass, self.perturbation), self.contact.mu,
+        required = required_grip(pairs.p, pairs.q, center, loads(mass, context.perturbation), self.contact.mu,
                                  self.contact.gamma, tilt)
-        return hold_margin(self.grip_fraction * hand.max_grip_force, required)
+        return hold_margin(context.grip_force_for(hand), required)
 
     # ------------------------------------------------------------ steps
     def pairs(self, mesh: trimesh.Trimesh, hand: Hand, rng: np.random.Generator) -> Pairs:
@@ -316,7 +332,7 @@ class AntipodalPlanner:
 
     def _candidates(self, pairs: Pairs, score: np.ndarray, eps: np.ndarray, poses: np.ndarray,
                     pair_of: np.ndarray, chosen: np.ndarray, center: np.ndarray,
-                    scale: float) -> list[GraspCandidate]:
+                    scale: float, pregrasp_offset: float) -> list[GraspCandidate]:
         used = pair_of[chosen]
         unique, inverse = np.unique(used, return_inverse=True)
         positions, normals = self._contacts(pairs.take(unique))
@@ -331,5 +347,5 @@ class AntipodalPlanner:
                 contacts=positions[u], contact_normals=normals[u], epsilon_l1=float(eps[j]),
                 force_closure=bool(eps[j] > EPSILON_TOLERANCE),
                 min_friction=None if np.isnan(min_mu[u]) else float(min_mu[u]),
-                pregrasp_offset=self.pregrasp_offset, planner=self.name))
+                pregrasp_offset=pregrasp_offset, planner=self.name))
         return out

@@ -7,7 +7,10 @@ and a method
 
     plan(observation, hand, n, rng) -> Sequence[GraspCandidate]
 
-that returns at most `n` candidates, best first. It takes every random draw
+that returns at most `n` candidates, best first; it may also take a
+``context`` keyword (`manigrasp.planners.context.PlanContext`: the executing
+protocol's pre-grasp offset, grip force and loads, which the harness passes
+to every planner that accepts it). It takes every random draw
 from `rng` (a `numpy.random.Generator`) and reads no clock: `manigrasp.planners.run.plan`
 times the call, validates what comes back and reports a failure as a `PlannerError`.
 

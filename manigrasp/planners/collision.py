@@ -16,7 +16,8 @@ import trimesh
 
 from manigrasp.geometry import mat_to_quat, pose_matrix, pregrasp_pose
 from manigrasp.hands.base import Hand
-from manigrasp.planners.base import PREGRASP_OFFSET, Observation
+from manigrasp.planners.base import Observation
+from manigrasp.planners.context import resolve
 from manigrasp.sim import SceneConfig, build_scene
 
 DEFAULT_CLEARANCE = 0.001  # [m]
@@ -131,9 +132,10 @@ class HandProbe:
             out[i] = self.touching()
         return out
 
-    def free(self, pose: np.ndarray, offset: float = PREGRASP_OFFSET) -> bool:
-        """True if the open hand is clear of object and table at `pose` (4, 4) and at its pre-grasp pose."""
-        poses = np.stack([pose, pregrasp_pose(pose, offset)])
+    def free(self, pose: np.ndarray, offset: float | None = None) -> bool:
+        """True if the open hand is clear of object and table at `pose` (4, 4) and at its pre-grasp pose
+        `offset` [m] back (None: the standard protocol's `pregrasp_offset`)."""
+        poses = np.stack([pose, pregrasp_pose(pose, resolve(None, offset).pregrasp_offset)])
         pos, quat = self.roots(poses)
         for i in range(2):
             self.place(pos[i], quat[i])

@@ -56,9 +56,9 @@ from scipy.spatial import cKDTree
 from manigrasp.errors import PlannerError
 from manigrasp.geometry import pregrasp_pose
 from manigrasp.hands.base import Hand
-from manigrasp.planners.base import PREGRASP_OFFSET
 from manigrasp.planners.cloud import CompletedCloud
 from manigrasp.planners.collision import HandProbe
+from manigrasp.planners.context import resolve
 from manigrasp.planners.free_space import OCCUPIED, UNKNOWN, FreeSpace
 from manigrasp.planners.pairs import Pairs
 
@@ -316,8 +316,10 @@ class SpaceProbe(HandProbe):
         out[rest] = super().collides(np.asarray(poses)[rest])
         return out
 
-    def free(self, pose: np.ndarray, offset: float = PREGRASP_OFFSET) -> bool:
-        """True if the open hand is clear of blocked space and table at `pose` (4, 4) and its pre-grasp pose."""
+    def free(self, pose: np.ndarray, offset: float | None = None) -> bool:
+        """True if the open hand is clear of blocked space and table at `pose` (4, 4) and its pre-grasp pose
+        `offset` [m] back (None: the standard protocol's `pregrasp_offset`)."""
+        offset = resolve(None, offset).pregrasp_offset
         both = np.stack([pose, pregrasp_pose(pose, offset)])
         return bool(self.clear(both).all()) and super().free(pose, offset)
 

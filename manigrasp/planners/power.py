@@ -48,9 +48,10 @@ import numpy as np
 from manigrasp.errors import ConfigError
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.hands.base import Hand
-from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.base import GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.closing import ClosingPath, Closure, FingerSweep, closing_path
 from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
+from manigrasp.planners.context import PlanContext, resolve
 from manigrasp.planners.geometry import fibonacci_sphere, perpendicular_basis, tcp_frames
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
@@ -84,7 +85,8 @@ class PowerPlanner:
         palm_ref: palm-object gap [m] at which the palm term reaches 0 (1 at contact).
         nms_distance: [m]; nms_angle: [rad] (non-maximum suppression thresholds).
         clearance: hand-object/table distance that counts as a collision [m].
-        pregrasp_offset: pre-grasp distance back along the approach [m].
+        pregrasp_offset: pre-grasp distance back along the approach [m] where the open hand is checked for
+            collisions; None: the protocol's (`PlanContext.pregrasp_offset`).
     """
 
     name: ClassVar[str] = "power"
@@ -104,7 +106,7 @@ class PowerPlanner:
     nms_distance: float = DEFAULT_DISTANCE
     nms_angle: float = DEFAULT_ANGLE
     clearance: float = DEFAULT_CLEARANCE
-    pregrasp_offset: float = PREGRASP_OFFSET
+    pregrasp_offset: float | None = None
     _paths: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -121,13 +123,16 @@ class PowerPlanner:
             raise ConfigError(f"power: palm_weight must be in [0, 1] and palm_ref > 0, got {self.palm_weight}, "
                               f"{self.palm_ref}")
 
-    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
-        """At most `n` enveloping grasps, best first."""
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
+             context: PlanContext | None = None) -> list[GraspCandidate]:
+        """At most `n` enveloping grasps, best first, for the protocol described by `context` (None: the
+        standard protocol's defaults)."""
+        offset = resolve(context, self.pregrasp_offset).pregrasp_offset
         mesh = observation.world_mesh()
         center = observation.center_of_mass
         scale = torque_scale(mesh.vertices, center)
         probe = HandProbe(hand, observation, self.clearance)
-        poses = self.standoff_poses(probe, self.directions(rng), center, scale, hand.max_width)
+        poses = self.standoff_poses(probe, self.directions(rng), center, scale, hand.max_width, offset)
         sweep = FingerSweep(probe, self._path(hand))
         pos, quat = probe.roots(poses)
         closures = [sweep.close(pos[i], quat[i]) for i in range(len(poses))]
@@ -143,7 +148,7 @@ class PowerPlanner:
         grip = 0.5 * np.clip(eps / self.epsilon_ref, 0.0, 1.0) + 0.5 * fraction
         palm = np.zeros(len(top)) if self.palm_weight == 0 else self._palm_term(probe, poses[top])
         score = (1.0 - self.palm_weight) * grip + self.palm_weight * palm
-        return [self._candidate(poses[top[k]], score[k], closures[top[k]], eps[k], min_mu[k])
+        return [self._candidate(poses[top[k]], score[k], closures[top[k]], eps[k], min_mu[k], offset)
                 for k in np.argsort(-score, kind="stable")[:n]]
 
     def _path(self, hand: Hand) -> ClosingPath:
@@ -167,14 +172,16 @@ class PowerPlanner:
         return np.repeat(approach, self.n_rolls, axis=0), closing.reshape(-1, 3)
 
     def standoff_poses(self, probe: HandProbe, directions: tuple[np.ndarray, np.ndarray], center: np.ndarray,
-                       radius: float, width: float = 0.0) -> np.ndarray:
-        """Collision-free TCP poses (m, 4, 4) backed off from the first touch along each approach (step 2).
+                       radius: float, width: float = 0.0, pregrasp_offset: float | None = None) -> np.ndarray:
+        """Collision-free TCP poses (m, 4, 4) backed off from the first touch along each approach (step 2), the
+        open hand clear at each and at its pre-grasp pose `pregrasp_offset` [m] back (None: the standard protocol's).
 
         Each approach line runs through the centre shifted by each lateral offset (x `width` [m], along
         the closing axis y), so the object's centre lies that far toward the fingers in the TCP frame.
         """
         approach, closing = directions
         far = radius + FAR  # [m] TCP distance from the centre at which the hand is clear of the object
+        offset = resolve(None, pregrasp_offset).pregrasp_offset
         out = []
         for a, y in zip(approach, closing, strict=True):
             base = tcp_frames(center[None], a[None], y[None])[0]
@@ -187,7 +194,7 @@ class PowerPlanner:
                 for gap in self.standoffs:
                     pose = frame.copy()
                     pose[:3, 3] = frame[:3, 3] - (touch + gap) * a
-                    if probe.free(pose, self.pregrasp_offset):
+                    if probe.free(pose, offset):
                         out.append(pose)
         return np.array(out).reshape(-1, 4, 4)
 
@@ -229,10 +236,10 @@ class PowerPlanner:
         return eps, min_mu
 
     def _candidate(self, pose: np.ndarray, score: float, closure: Closure, eps: float,
-                   min_mu: float) -> GraspCandidate:
+                   min_mu: float, pregrasp_offset: float) -> GraspCandidate:
         return GraspCandidate(
             pose=pose, score=float(score), width=None, preshape=0.0, contacts=closure.positions,
             contact_normals=closure.normals, epsilon_l1=float(eps), force_closure=bool(eps > EPSILON_TOLERANCE),
             min_friction=None if np.isnan(min_mu) else float(min_mu),
-            pregrasp_offset=self.pregrasp_offset, planner=self.name)
+            pregrasp_offset=pregrasp_offset, planner=self.name)
 

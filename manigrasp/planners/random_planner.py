@@ -17,7 +17,8 @@ import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.hands.base import Hand
-from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.base import GraspCandidate, Observation, ObservationKind
+from manigrasp.planners.context import PlanContext, resolve
 from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
 
 
@@ -27,21 +28,24 @@ class RandomPlanner:
 
     Attributes:
         spread: radius of the TCP ball as a fraction of the object's radius [-].
-        pregrasp_offset: pre-grasp distance back along the approach [m].
+        pregrasp_offset: pre-grasp distance back along the approach [m] given to the candidates; None: the
+            protocol's (`PlanContext.pregrasp_offset`).
     """
 
     name: ClassVar[str] = "random"
     needs: ClassVar[ObservationKind] = "mesh"
 
     spread: float = 0.5
-    pregrasp_offset: float = PREGRASP_OFFSET
+    pregrasp_offset: float | None = None
 
     def __post_init__(self) -> None:
         if not self.spread >= 0:
             raise ConfigError(f"random: spread must be >= 0, got {self.spread}")
 
-    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
-        """`n` random poses, all scored 0."""
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
+             context: PlanContext | None = None) -> list[GraspCandidate]:
+        """`n` random poses, all scored 0 (their pre-grasp offset: `context`'s, None: the standard protocol's)."""
+        back = resolve(context, self.pregrasp_offset).pregrasp_offset
         center = observation.center_of_mass
         vertices = np.asarray(observation.world_mesh().vertices)
         radius = float(np.max(np.linalg.norm(vertices - center, axis=1)))
@@ -54,5 +58,5 @@ class RandomPlanner:
         roll = rng.random(n) * 2.0 * np.pi
         closing = np.cos(roll)[:, None] * a + np.sin(roll)[:, None] * b
         poses = tcp_frames(center + offset, approach, closing)
-        return [GraspCandidate(pose=p, score=0.0, preshape=0.0, pregrasp_offset=self.pregrasp_offset,
+        return [GraspCandidate(pose=p, score=0.0, preshape=0.0, pregrasp_offset=back,
                                planner=self.name) for p in poses]

@@ -20,6 +20,7 @@ from manigrasp.errors import PlannerError
 from manigrasp.geometry import rigid_defect
 from manigrasp.hands.base import Hand
 from manigrasp.planners.base import GraspCandidate, Observation, Planner
+from manigrasp.planners.context import PlanContext, takes_context
 
 
 @dataclass(frozen=True)
@@ -49,8 +50,13 @@ def accepted_kinds(planner: object) -> tuple[str, ...]:
     return (needs,) if isinstance(needs, str) else tuple(needs)
 
 
-def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> PlanResult:
+def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
+         context: PlanContext | None = None) -> PlanResult:
     """Run `planner` for at most `n` grasps of `hand`; validated, ranked and timed.
+
+    `context`: the parameters of the protocol that will execute the grasps (`PlanContext.from_params`),
+    passed on to a planner whose ``plan`` takes a ``context`` keyword; None: each planner's default
+    (the standard protocol's).
 
     Raises:
         PlannerError: the planner raised, needs an observation it was not
@@ -67,7 +73,8 @@ def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np
                            f"{', '.join(observation.kinds)}")
     start = time.perf_counter()
     try:
-        returned = planner.plan(observation, hand, n, rng)
+        extra = {"context": context} if context is not None and takes_context(planner) else {}
+        returned = planner.plan(observation, hand, n, rng, **extra)
     except (Exception, SystemExit) as exc:  # a planner's failure (even sys.exit) is reported, never swallowed
         raise PlannerError(f"planner {name!r} raised {type(exc).__name__}: {exc}") from exc
     elapsed = time.perf_counter() - start

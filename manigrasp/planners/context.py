@@ -1,0 +1,120 @@
+"""What the protocol that will execute a plan tells its planner: `PlanContext`.
+
+A planner that checks the open hand for collisions must check it where the
+protocol will put it (the pre-grasp pose, `pregrasp_offset` back along the
+approach), and a planner that ranks grasps by how well they hold must know the
+grip force the protocol closes to and the loads it applies. These are the
+protocol's parameters, not the planner's: the harness passes them to
+`manigrasp.planners.plan`, which hands them to every planner whose ``plan``
+accepts a ``context`` keyword (older planners are called without it).
+Without a protocol (``manigrasp plan``, a planner called directly) the
+context is the standard protocol's defaults (`PlanContext.standard`).
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from dataclasses import dataclass, replace
+from functools import cache
+from typing import Any
+
+from manigrasp.errors import ConfigError
+from manigrasp.hands.base import Hand
+from manigrasp.planners.hold import GRAVITY
+
+
+@dataclass(frozen=True)
+class PlanContext:
+    """The execution parameters a plan is made for (from the protocol's parameters: `from_params`).
+
+    Attributes:
+        pregrasp_offset: the open hand starts this far back along the approach axis [m]; a planner
+            checks the hand for collisions there as well as at the grasp.
+        grip_force: the grip force the protocol closes to [N], or None: `grip_fraction` of the
+            hand's maximum (`grip_force_for`).
+        grip_fraction: the protocol's grip force as a fraction of the hand's `max_grip_force` when
+            `grip_force` is None [-].
+        perturbation: the largest load beyond the object's weight that the protocol applies, in units
+            of the object's weight m g, taken along each of +-x, +-y, +-z [-] (0: the weight only).
+    """
+
+    pregrasp_offset: float
+    grip_force: float | None
+    grip_fraction: float
+    perturbation: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.pregrasp_offset) and self.pregrasp_offset >= 0):
+            raise ConfigError(f"pregrasp_offset must be a finite distance >= 0 [m], got {self.pregrasp_offset}")
+        if self.grip_force is not None and not self.grip_force > 0:
+            raise ConfigError(f"grip_force must be > 0 or None, got {self.grip_force}")
+        if not 0 < self.grip_fraction <= 1:
+            raise ConfigError(f"grip_fraction must be in (0, 1], got {self.grip_fraction}")
+        if not (math.isfinite(self.perturbation) and self.perturbation >= 0):
+            raise ConfigError(f"perturbation must be >= 0, got {self.perturbation}")
+
+    def grip_force_for(self, hand: Hand) -> float:
+        """The grip force [N] the protocol closes `hand` to (capped at its maximum, as the close phase does)."""
+        target = self.grip_force if self.grip_force is not None else self.grip_fraction * hand.max_grip_force
+        return min(target, hand.max_grip_force)
+
+    @classmethod
+    def from_params(cls, params: Any) -> PlanContext:
+        """The context of a protocol's parameters (a `protocol.execution.GraspParams` or a subclass).
+
+        The perturbation is the protocol's own load in units of m g: `perturb_force_multiple` (standard),
+        `force_multiple` (six_direction), the peak acceleration of the shaking over g
+        (`shake_amplitude` (2 pi `shake_frequency`)^2 / g, shake), else 0 (lift: the weight only).
+        """
+        if hasattr(params, "perturb_force_multiple"):
+            perturbation = float(params.perturb_force_multiple)
+        elif hasattr(params, "force_multiple"):
+            perturbation = float(params.force_multiple)
+        elif hasattr(params, "shake_amplitude"):
+            omega = 2 * math.pi * float(params.shake_frequency)
+            perturbation = float(params.shake_amplitude) * omega * omega / GRAVITY
+        else:
+            perturbation = 0.0
+        return cls(pregrasp_offset=float(params.pregrasp_offset), grip_force=params.grip_force,
+                   grip_fraction=float(params.grip_force_fraction), perturbation=perturbation)
+
+    @staticmethod
+    def standard() -> PlanContext:
+        """The context of the standard protocol at its defaults (the benchmark's protocol)."""
+        return _standard()
+
+
+@cache
+def _standard() -> PlanContext:
+    from manigrasp.protocol.standard import StandardParams
+
+    return PlanContext.from_params(StandardParams())
+
+
+def resolve(context: PlanContext | None, pregrasp_offset: float | None = None, grip_fraction: float | None = None,
+            perturbation: float | None = None) -> PlanContext:
+    """`context` (None: `PlanContext.standard()`) with a planner's own settings where it has them (not None).
+
+    A planner's own `grip_fraction` replaces the protocol's grip force as well as its fraction.
+    """
+    out = context if context is not None else PlanContext.standard()
+    if pregrasp_offset is not None:
+        out = replace(out, pregrasp_offset=float(pregrasp_offset))
+    if grip_fraction is not None:
+        out = replace(out, grip_force=None, grip_fraction=float(grip_fraction))
+    if perturbation is not None:
+        out = replace(out, perturbation=float(perturbation))
+    return out
+
+
+def takes_context(planner: object) -> bool:
+    """Whether `planner.plan` accepts a ``context`` keyword (planners written before it existed do not)."""
+    try:
+        parameters = inspect.signature(planner.plan).parameters  # type: ignore[attr-defined]
+    except (AttributeError, TypeError, ValueError):
+        return False
+    named = parameters.get("context")
+    if named is not None:
+        return named.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    return any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values())
