@@ -12,6 +12,7 @@ from manigrasp.bench import plots, twins
 from manigrasp.bench.plots import method_label
 from manigrasp.bench.report import POOLED, Method, Rate, Report, format_auc, format_planning_time, format_rate
 from manigrasp.bench.store import TrialKey
+from manigrasp.bench.trials import REST_LABEL
 from manigrasp.protocol.result import PoseRecord, TrialResult
 from manigrasp.runfiles import REPORT_NAME
 
@@ -205,7 +206,7 @@ def _rests(results: list[tuple[TrialKey, TrialResult]], meta: dict) -> list[str]
     if isinstance(k, int):
         per_object: dict[str, int] = defaultdict(int)
         for row in rows:
-            per_object[str(row[0]).rpartition("@rest")[0] or str(row[0])] += 1
+            per_object[str(row[0]).rpartition(REST_LABEL)[0] or str(row[0])] += 1
         fewer = [f"{name} ({n})" for name, n in sorted(per_object.items()) if n < k]
         text += f" rest_k = {k}." + (f" Fewer stable poses than {k}, so as many groups as poses: {', '.join(fewer)}."
                                      if fewer else "")
