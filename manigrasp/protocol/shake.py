@@ -19,8 +19,9 @@ import numpy as np
 
 from manigrasp.errors import ConfigError
 from manigrasp.geometry import axis_angle_to_mat
-from manigrasp.protocol.base import Grasp, Protocol, register
+from manigrasp.protocol.base import Protocol, register
 from manigrasp.protocol.execution import TrialRun
+from manigrasp.protocol.grasp import Grasp
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
 from manigrasp.protocol.phases import require_fingers
 from manigrasp.protocol.result import Phase, Status

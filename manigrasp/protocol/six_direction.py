@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from manigrasp.errors import ConfigError
-from manigrasp.protocol.base import Grasp, Protocol, register
+from manigrasp.protocol.base import Protocol, register
 from manigrasp.protocol.execution import GraspParams, TrialRun
+from manigrasp.protocol.grasp import Grasp
 from manigrasp.protocol.phases import close, place_pregrasp, require_fingers
 from manigrasp.protocol.result import Phase, Status
 from manigrasp.protocol.standard import DIRECTIONS

@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from manigrasp.errors import ConfigError
-from manigrasp.protocol.base import Grasp, Protocol, register
+from manigrasp.protocol.base import Protocol, register
 from manigrasp.protocol.execution import TrialRun
+from manigrasp.protocol.grasp import Grasp
 from manigrasp.protocol.lift import LiftParams, grasp_and_lift
 from manigrasp.protocol.phases import require_fingers
 from manigrasp.protocol.result import DIRECTIONS as DIRECTION_NAMES
