@@ -115,4 +115,24 @@ def test_a_non_unit_quaternion_is_a_file_error_naming_the_grasp(tmp_path):
 def test_joints_of_a_set_on_a_parallel_hand_are_invalid_grasp():
     grasps = _set(np.zeros((2, 2, 6)), hand_kind=None)
     assert "parallel hand" in placement_defect(grasps, 0, "parallel_jaw", "parallel", 0.1, transfer=True)
-    assert placement_defect(grasps, 0, HAND, "dexterous", 0.1) is None
+    assert placement_defect(grasps, 0, HAND, "dexterous", 0.1, n_actuators=6) is None
+    assert "needs (2, 16)" in placement_defect(grasps, 0, "allegro_right", "dexterous", 0.1, True, 16)
+
+
+def test_a_file_grasp_whose_joints_do_not_fit_the_hand_is_an_invalid_candidate_not_a_planner_error(tmp_path):
+    from manigrasp import planners
+    from manigrasp.planners.file import FilePlanner
+
+    joints = np.stack([np.zeros((2, 6)), np.zeros((2, 6))])
+    joints[1, 1] = 0.5  # grasp 1: a path the hand can take (rows differ)
+    grasps = GraspSet(np.tile(np.eye(4), (2, 1, 1)), np.full(2, np.nan), np.zeros(2), np.array([1.0, 0.5]),
+                      hand_kind="dexterous", joints=joints)
+    path = native.write(grasps, tmp_path / "six.json")
+    observation = planners.Observation(object_pose=np.eye(4), mesh=trimesh.creation.box((0.05,) * 3))
+    allegro = hands.load("allegro_right")  # 16 actuators: neither grasp fits
+    result = planners.plan(FilePlanner(str(path)), observation, allegro, 2, np.random.default_rng(0))
+    assert all("needs (2, 16)" in c.invalid for c in result.candidates)
+    fourier = hands.load(HAND)
+    result = planners.plan(FilePlanner(str(path)), observation, fourier, 2, np.random.default_rng(0))
+    assert [c.invalid for c in result.candidates] == ["", ""]
+    np.testing.assert_array_equal(result.candidates[1].joints, joints[1])

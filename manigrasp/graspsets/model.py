@@ -135,12 +135,13 @@ def rotation_defect(pose: np.ndarray) -> str | None:
 
 
 def placement_defect(grasps: GraspSet, index: int, hand_name: str, hand_kind: str, max_width: float,
-                     transfer: bool = False) -> str | None:
+                     transfer: bool = False, n_actuators: int | None = None) -> str | None:
     """Why grasp `index` of `grasps` cannot be executed by the hand `hand_name` (of `hand_kind`, opening at
     most `max_width` [m]), as a sentence, or None.
 
     `transfer`: accept a set made for another hand of the same kind (the TCP convention is the same
-    for every hand of a kind, so a parallel-jaw set can run on any parallel jaw).
+    for every hand of a kind, so a parallel-jaw set can run on any parallel jaw). `n_actuators`: the
+    hand's, which a grasp's joints must match ((2, n_actuators)); None: not checked.
     """
     prefix = f"grasp {index} of {grasps.source or 'the grasp set'}"
     if grasps.hand_kind is not None and grasps.hand_kind != hand_kind:
@@ -159,6 +160,9 @@ def placement_defect(grasps: GraspSet, index: int, hand_name: str, hand_kind: st
     if joints is not None:
         if hand_kind != "dexterous":
             return f"{prefix} has joints, but hand {hand_name!r} is a {hand_kind} hand (joints are for dexterous hands)"
+        if n_actuators is not None and joints.shape != (2, n_actuators):
+            return (f"{prefix}: joints have shape {joints.shape}; hand {hand_name!r} needs (2, {n_actuators}) "
+                    "(pre-shape and squeeze rows of its actuator commands)")
         if not np.all(np.isfinite(joints)):
             return f"{prefix}: joints contain NaN or inf"
     return None

@@ -107,7 +107,8 @@ class FilePlanner:
         base = observation.object_pose @ mesh_to_object(grasps, asset)
         out = []
         for index in grasps.ranked()[:n]:
-            defect = placement_defect(grasps, int(index), hand.name, hand.kind, hand.max_width, self.transfer)
+            defect = placement_defect(grasps, int(index), hand.name, hand.kind, hand.max_width, self.transfer,
+                                      hand.n_actuators)
             width = float(grasps.widths[index])
             fields = dict(score=float(grasps.scores[index]), width=width if np.isfinite(width) else None,
                           planner=self.name)

@@ -108,7 +108,8 @@ def candidate_defect(candidate: GraspCandidate, hand: Hand | None = None) -> str
 
     The pose must be rigid within `manigrasp.geometry.RIGID_TOLERANCE` (the protocol's own check);
     `joints`, if given, a finite (2, n_actuators) array for a dexterous `hand` (`protocol.grasp.joints_defect`;
-    whether they lie in the actuators' ranges is the protocol's check, on the compiled scene)."""
+    whether the path can be executed, rows that differ inside the actuators' ranges, is the protocol's check
+    on the compiled scene: `invalid_grasp`)."""
     for key in ("score", "preshape", "pregrasp_offset", "width"):
         value = getattr(candidate, key)
         if not (value is None and key == "width") and (isinstance(value, bool) or not isinstance(value, Real)):
@@ -137,5 +138,5 @@ def candidate_defect(candidate: GraspCandidate, hand: Hand | None = None) -> str
     if candidate.joints is not None:
         from manigrasp.protocol.grasp import joints_defect
 
-        return joints_defect(candidate.joints, hand)
+        return joints_defect(candidate.joints, hand, executable=False)
     return None

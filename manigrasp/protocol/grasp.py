@@ -110,13 +110,16 @@ def check_grasp(grasp: Grasp, hand: Hand | None = None, ctrlrange: np.ndarray | 
     return None
 
 
-def joints_defect(joints: Any, hand: Hand | None = None, ctrlrange: np.ndarray | None = None) -> str | None:
+def joints_defect(joints: Any, hand: Hand | None = None, ctrlrange: np.ndarray | None = None, *,
+                  executable: bool = True) -> str | None:
     """Why `joints` is not a valid per-grasp hand path for `hand` (a sentence), or None.
 
     Valid: a finite (2, hand.n_actuators) array (row 0 pre-shape, row 1 squeeze target) of a
     dexterous hand, inside `ctrlrange` (n_act, 2) [lower, upper] where given (NaN rows: unlimited),
     with at least one actuator that moves between the rows. Without `hand` only the shape
-    (2, n) and finiteness are checked.
+    (2, n) and finiteness are checked. `executable` False: only the structure (hand kind, shape,
+    finiteness), as a planner's output is checked; whether the path can be executed (rows that differ,
+    inside `ctrlrange`) is then the protocol's to decide (`invalid_grasp`).
     """
     try:
         values = np.asarray(joints, dtype=float)
@@ -130,6 +133,8 @@ def joints_defect(joints: Any, hand: Hand | None = None, ctrlrange: np.ndarray |
         return f"joints must be {want} (pre-shape row, squeeze row), got shape {values.shape}"
     if not np.all(np.isfinite(values)):
         return "joints contain NaN or inf"
+    if not executable:
+        return None
     if not np.any(values[0] != values[1]):
         return "joints: the pre-shape and squeeze rows are equal (no actuator closes)"
     if ctrlrange is not None:
