@@ -175,3 +175,6 @@ def test_planner_returns_deterministic_valid_grasps_that_do_not_penetrate(tmp_pa
         assert s.penetration <= 0.001
     candidates = planner.plan(observation, hand, 2, np.random.default_rng(5))
     assert candidates and all(c.planner == "dexopt" and 0 < c.score <= 1 for c in candidates)
+    for c, s in zip(candidates, first, strict=False):
+        np.testing.assert_array_equal(c.joints, s.joints)  # the hand path travels with the candidate
+        np.testing.assert_array_equal(c.pose, s.pose)

@@ -45,9 +45,10 @@ class EnergyWeights:
     table: float = 100.0
     joints: float = 10.0
     self_penetration: float = 100.0
+    centroid: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("force_closure", "distance", "penetration", "table", "joints", "self_penetration"):
+        for name in ("force_closure", "distance", "penetration", "table", "joints", "self_penetration", "centroid"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise ConfigError(f"EnergyWeights.{name} must be finite and >= 0, got {value}")

@@ -12,7 +12,8 @@
 - pad contact candidates: on every collision body of each finger (`Hand.finger_bodies`) that moves when the
   hand closes, the surface samples farthest along the direction it moves (open -> closed command), the part of
   the link that a squeeze presses on the object (the optimiser uses, per finger, the candidate nearest the
-  object, re-chosen as it goes, as DexGraspNet switches contact points);
+  object, re-chosen as it goes, as DexGraspNet switches contact points); with `palm`, the palm's front
+  (its surface samples farthest along the TCP approach) is one more contact;
 - spheres along each finger's collision geoms (for the fingers' mutual penetration).
 
 `evaluate` places a batch of configurations and returns every point in the world with the Jacobians of their
@@ -34,6 +35,8 @@ from manigrasp.hands.base import Hand
 
 SAMPLE_SPACING = 0.005  # [m] mean spacing of the surface samples on the hand's collision geoms
 PAD_FRACTION = 0.4  # the part of a finger link's surface samples farthest along its closing motion are its pads
+PALM_BAND = 0.003  # [m] palm samples within this of its front (along the TCP approach) are its pads
+PAD_LINKS = 1  # pads on this many links of each finger, from the tip
 SAMPLE_SEED = 0  # the hand's surface samples are a property of the hand: fixed, not drawn from the planner's rng
 _ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
@@ -49,7 +52,8 @@ class Points:
 class HandKinematics:
     """A dexterous hand on a free joint, as the optimiser sees it (module docstring)."""
 
-    def __init__(self, hand: Hand, spacing: float = SAMPLE_SPACING) -> None:
+    def __init__(self, hand: Hand, spacing: float = SAMPLE_SPACING, palm: bool = False) -> None:
+        self.palm = palm
         if hand.kind != "dexterous":
             raise PlannerError(f"dexopt plans for dexterous hands; {hand.name!r} is a {hand.kind} hand")
         self.hand = hand
@@ -281,7 +285,7 @@ class HandKinematics:
             if not links:
                 raise PlannerError(f"hand {self.hand.name!r}: finger {self.hand.finger_bodies[f]!r} has no "
                                    "collision geometry")
-            for link in sorted(links, key=self._depth, reverse=True):  # the tip first
+            for link in sorted(links, key=self._depth, reverse=True)[:PAD_LINKS]:  # the tip first
                 pts = self.samples.local[self.samples.bodies == link]
                 k = self._slot_of(link)
                 before = xpos0[0, k] + pts @ xmat0[0, k].T
@@ -296,6 +300,16 @@ class HandKinematics:
             if not finger or finger[-1] != f:
                 raise PlannerError(f"hand {self.hand.name!r}: finger {self.hand.finger_bodies[f]!r} does not move "
                                    "when the hand closes; no pad direction")
+        if self.palm:  # the palm as one more contact: its samples farthest along the TCP approach (z)
+            on_palm = np.flatnonzero(self.body_finger[self.samples.bodies] < 0)
+            tcp_in_root = np.linalg.inv(self.root_in_tcp)
+            rel = xpos0[0, self._slot[self.samples.bodies[on_palm]]] + np.einsum(
+                "nij,nj->ni", xmat0[0, self._slot[self.samples.bodies[on_palm]]], self.samples.local[on_palm])
+            along = (rel - tcp_in_root[:3, 3]) @ tcp_in_root[:3, 2]
+            front = on_palm[along >= along.max() - PALM_BAND]
+            bodies.extend(self.samples.bodies[front])
+            local.extend(self.samples.local[front])
+            finger.extend([len(self.hand.finger_bodies)] * len(front))
         self.pad_finger = np.array(finger, int)
         return Points(np.array(bodies, int), np.array(local))
 

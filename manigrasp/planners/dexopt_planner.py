@@ -19,7 +19,9 @@
      that balance best (`force_shares`; 1 for all is Liu et al.'s estimate);
    - the pads' distance to the surface sum |d_i| (L1, as DexGraspNet: a constant pull);
    - the depth of the hand's surface samples inside the object and below the table top + `table_clearance`;
-   - the fingers' mutual penetration (spheres along their links); joint limits.
+   - the fingers' mutual penetration (spheres along their links); joint limits;
+   - the pads' centroid away from the centre of mass, |mean_i (x_i - c) / r|^2: the weight then hangs
+     between the fingers instead of twisting out of them (the lifts' `slipped_lift` at 15 deg).
 4. Selection, lowest energy first: at least `min_contacts` pads within `contact_tolerance` of the surface;
    a MuJoCo check at the planned configuration in the real scene (hand geoms vs object parts and table,
    `mj_collision`, no margin): a hand that penetrates is first moved out along the contact normals (a few
@@ -30,7 +32,10 @@
    least-norm joint motion moving each pad its distance along its normal, damped least squares): the contact
    command. The squeeze is the actuator forces f that best produce the joint torques sum_i J_i^T n_i pushing
    every pad into the object (least squares through the joint -> command map), as a command offset f / kp
-   scaled so the most loaded actuator reaches its force limit: row 1 = contact command + offset. Row 0, the
+   scaled so the most loaded actuator reaches its force limit: row 1 = contact command + `SQUEEZE_REACH`
+   offsets, within the command ranges (the protocol's grip regulation stops along the line where the grip
+   force is reached; a short line would leave the close slow: its command may run only a fixed fraction of
+   the line ahead of the fingers). Row 0, the
    pre-shape, lies on the same line backwards, far enough that the pads back off `preshape_backoff` [m]
    (first order, within the command ranges); it must be clear (penetration at most `max_penetration`) at the
    grasp pose and along the approach from the pre-grasp pose; if not, the back-off is doubled (up to
@@ -54,23 +59,26 @@ from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.hands.base import Hand
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.collision import HandProbe
+from manigrasp.planners.context import PlanContext, resolve
 from manigrasp.planners.dexopt import EnergyWeights, GridSdf
 from manigrasp.planners.dexopt_hand import HandKinematics
 from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
 
+CENTROID_WEIGHT = 1.0  # the pads' centroid one object radius from the centre of mass costs one unit imbalance
 # Weights of the energy's terms for this planner [-] (DexGraspNet's relative scale, distances in m): a pad 1 cm
 # off the surface costs as much as a unit force imbalance of the normals; 1 mm of summed sample depth (object,
 # table, fingers) costs 1.
 DEFAULT_WEIGHTS = EnergyWeights(force_closure=1.0, distance=100.0, penetration=1000.0, table=1000.0, joints=10.0,
-                                self_penetration=1000.0)
+                                self_penetration=1000.0, centroid=CENTROID_WEIGHT)
 GRID_MARGIN = 0.03  # [m] the SDF grid extends this far beyond the object's parts
 # Adam's moment decays: a short second-moment memory, so the early penetration gradients (100 x the late ones)
 # do not freeze the end of the descent.
 ADAM_BETAS = (0.9, 0.95)
 PRESHAPE_TRIES = 4  # pre-shape back-offs tried: 1, 2, 4, 8 x preshape_backoff
 SWITCH_EVERY = 10  # descent steps between re-choosing each finger's pad (the candidate nearest the object)
+SQUEEZE_REACH = 3.0  # the squeeze row lies this many saturating offsets past contact (`hand_path`)
 GAP_DAMPING = 1e-4  # [m^2] damping of the least-squares gap closure of the pads (`hand_path`)
 BACK_OFF_STEPS = 4  # moves of a penetrating hand out of the object and table (`_back_off`)
 BACK_OFF_EXTRA = 2e-4  # [m] each move goes this much past the deepest penetration
@@ -117,6 +125,7 @@ class DexOptPlanner:
         table_clearance: [m] the hand's samples are penalised below the table top + this.
         init_closure: largest fraction of the open -> closed pre-shape of the initial fingers [-].
         max_approach_z: largest z component of the initial approach direction (0: horizontal or from above).
+        palm: the palm's front is one more contact of the energy (a power grasp), besides one pad per finger.
         min_force_share: smallest force of a pad relative to the mean in the force-closure term (1: all
             pads push equally, Liu et al.; `force_shares`).
         contact_tolerance: [m] a pad this close to the surface is in contact.
@@ -124,7 +133,8 @@ class DexOptPlanner:
         max_penetration: [m] deepest penetration allowed in the MuJoCo check.
         preshape_backoff: [m] how far the pre-shape opens the pads from the object (first order).
         nms_distance: [m]; nms_angle: [rad] (non-maximum suppression thresholds).
-        pregrasp_offset: pre-grasp distance back along the approach [m].
+        pregrasp_offset: pre-grasp distance back along the approach [m] over which the pre-shape is checked;
+            None: the protocol's (`PlanContext.pregrasp_offset`).
     """
 
     name: ClassVar[str] = "dexopt"
@@ -141,13 +151,14 @@ class DexOptPlanner:
     init_closure: float = 0.3
     max_approach_z: float = 0.0
     min_force_share: float = 0.3
+    palm: bool = False
     contact_tolerance: float = 0.02
     min_contacts: int = 3
     max_penetration: float = 0.001
     preshape_backoff: float = 0.02
     nms_distance: float = DEFAULT_DISTANCE
     nms_angle: float = DEFAULT_ANGLE
-    pregrasp_offset: float = PREGRASP_OFFSET
+    pregrasp_offset: float | None = None
     _hands: dict = field(default_factory=dict, init=False, repr=False, compare=False)
     last: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -169,9 +180,11 @@ class DexOptPlanner:
             raise ConfigError("dexopt: max_penetration and table_clearance must be >= 0, init_closure in [0, 1]")
 
     # ------------------------------------------------------------------ planner interface
-    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator) -> list[GraspCandidate]:
-        """At most `n` grasps, lowest energy first."""
-        found = self.synthesise(observation, hand, n, rng)
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
+             context: PlanContext | None = None) -> list[GraspCandidate]:
+        """At most `n` grasps, lowest energy first, for the protocol described by `context` (None: standard)."""
+        offset = resolve(context, self.pregrasp_offset).pregrasp_offset
+        found = self.synthesise(observation, hand, n, rng, offset)
         center = observation.center_of_mass
         scale = torque_scale(observation.world_mesh().vertices, center)
         out = []
@@ -184,13 +197,13 @@ class DexOptPlanner:
                 pose=s.pose, score=1.0 / (1.0 + s.energy), width=None, preshape=0.0, contacts=s.contacts,
                 contact_normals=s.normals, epsilon_l1=eps,
                 force_closure=None if eps is None else bool(eps > EPSILON_TOLERANCE),
-                pregrasp_offset=self.pregrasp_offset, planner=self.name, **_joints_field(s.joints)))
+                pregrasp_offset=offset, planner=self.name, joints=s.joints))
         return out
 
     def kinematics(self, hand: Hand) -> HandKinematics:
         """The hand's kinematic model, built once per hand name."""
         if hand.name not in self._hands:
-            self._hands[hand.name] = HandKinematics(hand)
+            self._hands[hand.name] = HandKinematics(hand, palm=self.palm)
         return self._hands[hand.name]
 
     def object_sdf(self, observation: Observation) -> GridSdf:
@@ -205,16 +218,19 @@ class DexOptPlanner:
         return GridSdf.from_convex_parts(parts, self.grid_spacing, GRID_MARGIN)
 
     # ------------------------------------------------------------------ synthesis
-    def synthesise(self, observation: Observation, hand: Hand, n: int,
-                   rng: np.random.Generator) -> list[Synthesis]:
-        """Optimise `restarts` configurations and return at most `n` that pass the checks, best first."""
+    def synthesise(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
+                   pregrasp_offset: float | None = None) -> list[Synthesis]:
+        """Optimise `restarts` configurations and return at most `n` that pass the checks, best first; the
+        pre-shape is checked over `pregrasp_offset` [m] (None: this planner's, else the standard protocol's)."""
+        offset = resolve(None, pregrasp_offset if pregrasp_offset is not None else self.pregrasp_offset
+                         ).pregrasp_offset
         hk = self.kinematics(hand)
         sdf = self.object_sdf(observation)
         center = observation.center_of_mass
         scale = torque_scale(observation.world_mesh().vertices, center)
         pos, quat, q = self.initial(hk, sdf, center, hand.max_width, rng, observation.table_height)
         pos, quat, q, energy, terms = self.descend(hk, sdf, center, scale, observation.table_height, pos, quat, q)
-        return self.select(hk, sdf, observation, pos, quat, q, energy, terms, n)
+        return self.select(hk, sdf, observation, pos, quat, q, energy, terms, n, offset)
 
     def initial(self, hk: HandKinematics, sdf: GridSdf, center: np.ndarray, width: float,
                 rng: np.random.Generator, table_z: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -278,7 +294,10 @@ class DexOptPlanner:
         g_fc = 2.0 * share[..., None] * (np.einsum("rkji,rj->rki", d_normal, force)
                                          + np.einsum("rkji,rj->rki", d_cross, torque))
         e_dis = np.abs(d).sum(axis=1)
-        g_pad = w.force_closure * g_fc + w.distance * np.sign(d)[..., None] * g
+        offset = arm.mean(axis=1)  # (R, 3) the pads' centroid from the centre of mass, over the object's radius
+        e_cen = (offset**2).sum(axis=1)
+        g_pad = (w.force_closure * g_fc + w.distance * np.sign(d)[..., None] * g
+                 + w.centroid * 2.0 * offset[:, None] / (k * scale))
         # Surface samples: object and table penetration.
         p = hk.world(hk.samples, xpos, xmat)  # (R, m, 3)
         which, ds, gs = sdf.penetrating(p.reshape(-1, 3))
@@ -301,9 +320,9 @@ class DexOptPlanner:
         over, under = np.maximum(q - hk.high, 0.0), np.maximum(hk.low - q, 0.0)
         e_jnt = (over + under).sum(axis=1)
         total = (w.force_closure * e_fc + w.distance * e_dis + w.penetration * e_pen + w.table * e_tab
-                 + w.self_penetration * e_self + w.joints * e_jnt)
+                 + w.self_penetration * e_self + w.joints * e_jnt + w.centroid * e_cen)
         terms = {"force_closure": e_fc, "distance": e_dis, "penetration": e_pen, "table": e_tab,
-                 "self_penetration": e_self, "joints": e_jnt}
+                 "self_penetration": e_self, "joints": e_jnt, "centroid": e_cen}
         if not gradient:
             return total, terms, None
         torque = np.cross(x - xpos[rows, slot], g_pad)
@@ -343,7 +362,7 @@ class DexOptPlanner:
     # ------------------------------------------------------------------ checks and the hand path
     def select(self, hk: HandKinematics, sdf: GridSdf, observation: Observation, pos: np.ndarray,
                quat: np.ndarray, q: np.ndarray, energy: np.ndarray, terms: dict[str, np.ndarray],
-               n: int) -> list[Synthesis]:
+               n: int, offset: float = PREGRASP_OFFSET) -> list[Synthesis]:
         """The restarts that pass the checks, lowest energy first, diverse (module docstring, steps 4-5)."""
         probe = HandProbe(hk.hand, observation, clearance=0.0)
         addresses = probe.hand_qpos_addresses()
@@ -380,7 +399,7 @@ class DexOptPlanner:
                 continue
             normal = -g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
             joints = self.hand_path(hk, probe, tcp, q[i], x, hk.contacts.bodies[chosen], normal, d, jp[0],
-                                    jr[0], xpos[0], addresses, names)
+                                    jr[0], xpos[0], addresses, names, offset)
             if joints is None:
                 rejected["preshape"] = rejected.get("preshape", 0) + 1
                 continue
@@ -394,7 +413,8 @@ class DexOptPlanner:
 
     def hand_path(self, hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray, x: np.ndarray,
                   bodies: np.ndarray, normal: np.ndarray, dist: np.ndarray, jp: np.ndarray, jr: np.ndarray,
-                  xpos: np.ndarray, addresses: dict[str, int], names: list[str]) -> np.ndarray | None:
+                  xpos: np.ndarray, addresses: dict[str, int], names: list[str],
+                  offset: float = PREGRASP_OFFSET) -> np.ndarray | None:
         """(2, n_act) pre-shape and squeeze commands (module docstring, step 5), or None if no pre-shape of the
         first `PRESHAPE_TRIES` back-offs is collision-free along the approach."""
         slot = hk._slot[bodies]
@@ -412,7 +432,7 @@ class DexOptPlanner:
         if not load > 0:
             return None
         direction = force / load / hk.kp  # command offset past contact at which the most loaded actuator saturates
-        squeeze = np.clip(ctrl_c + direction, hk.ctrl_low, hk.ctrl_high)
+        squeeze = np.clip(ctrl_c + SQUEEZE_REACH * direction, hk.ctrl_low, hk.ctrl_high)
         dq = np.linalg.lstsq(a, direction, rcond=None)[0]
         motion = np.linalg.norm(np.einsum("kij,j->ki", jac, dq), axis=1).max()
         beta = self.preshape_backoff / max(motion, 1e-9)
@@ -423,7 +443,7 @@ class DexOptPlanner:
             hand_q = {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]])
                       for nm, j in zip(names, hk.joints, strict=True)}
             if all(_probe_contacts(probe, pose, hand_q)[0] <= self.max_penetration
-                   for pose in _approach_poses(tcp, self.pregrasp_offset)):
+                   for pose in _approach_poses(tcp, offset)):
                 return np.stack([pre, squeeze])
         return None
 
@@ -463,12 +483,6 @@ def force_shares(wrenches: np.ndarray, floor: float, iterations: int = FORCE_SHA
         theta = css[np.arange(r), rho - 1] / rho
         lam = np.maximum(y - theta[:, None], 0.0) + floor
     return lam
-
-
-def _joints_field(joints: np.ndarray) -> dict[str, Any]:
-    """``{"joints": joints}`` when `GraspCandidate` carries a hand path, else nothing."""
-    names = {f.name for f in dataclasses.fields(GraspCandidate)}
-    return {"joints": joints} if "joints" in names else {}
 
 
 def _approach_poses(tcp: np.ndarray, offset: float) -> list[np.ndarray]:

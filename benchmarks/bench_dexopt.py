@@ -1,0 +1,135 @@
+"""The `dexopt` planner per hand: planning time per grasp on one core, penetration, diversity, optionally success.
+
+For each hand and object, the object is settled on the table in the hand's scene (as `manigrasp bench` does),
+one planning call asks for --grasps grasps (ground truth, planning seed --seed) and each returned grasp is
+measured:
+
+- time/grasp [s]: CPU time of the planning call (one thread: OMP_NUM_THREADS=1) / grasps returned, and the
+  wall time of the call (the machine may be shared);
+- penetration [mm]: deepest hand-object/table penetration at the planned configuration, re-measured here in
+  MuJoCo (`mj_collision` in the real scene, no margin; independent of the planner's own check), max and mean;
+- diversity: mean pairwise distance between the grasps' TCP poses: translation [mm] and rotation [deg];
+- pads<2mm: mean number of fingers whose pad is within 2 mm of the object's collision parts;
+- with --trials: each grasp run through the `standard` protocol (grip force 10 N, as configs/dexterous.yaml)
+  in the same scene: successes / grasps and the failure statuses.
+
+    .venv/bin/python benchmarks/bench_dexopt.py                               # 3 hands x 3 objects x 5 grasps
+    .venv/bin/python benchmarks/bench_dexopt.py --hands allegro_right --objects 025_mug --grasps 10 --trials
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import time  # noqa: E402
+from collections import Counter  # noqa: E402
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+from manigrasp.hands.registry import load as load_hand  # noqa: E402
+from manigrasp.objects import catalog  # noqa: E402
+from manigrasp.planners.base import Observation  # noqa: E402
+from manigrasp.planners.collision import HandProbe  # noqa: E402
+from manigrasp.planners.dexopt_planner import DexOptPlanner, _probe_contacts, choose_pads  # noqa: E402
+from manigrasp.protocol import PROTOCOLS, settle_object  # noqa: E402
+from manigrasp.protocol.grasp import as_grasp  # noqa: E402
+from manigrasp.sim import build_scene  # noqa: E402
+
+HANDS = ("allegro_right", "inspire_right", "fourier_right")
+OBJECTS = ("005_tomato_soup_can", "025_mug", "004_sugar_box")
+
+
+def pairwise_diversity(poses: np.ndarray) -> tuple[float, float]:
+    """Mean pairwise TCP translation [mm] and rotation [deg] distances of poses (n, 4, 4) (NaN if n < 2)."""
+    if len(poses) < 2:
+        return float("nan"), float("nan")
+    i, j = np.triu_indices(len(poses), 1)
+    shift = np.linalg.norm(poses[i, :3, 3] - poses[j, :3, 3], axis=1)
+    relative = np.einsum("nji,njk->nik", poses[i, :3, :3], poses[j, :3, :3])
+    angle = np.arccos(np.clip((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
+    return 1e3 * float(shift.mean()), float(np.degrees(angle).mean())
+
+
+def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
+    hand = load_hand(hand_name)
+    asset = catalog.build(catalog.shipped(obj)).asset
+    scene = build_scene(hand, asset, None)
+    rest = settle_object(scene)
+    observation = Observation.from_asset(asset, rest)
+    planner = DexOptPlanner(restarts=args.restarts, iterations=args.iterations)
+    planner.kinematics(hand)  # the hand's model is built once per process, not per call: not timed
+    cpu, wall = time.process_time(), time.perf_counter()
+    found = planner.synthesise(observation, hand, args.grasps, np.random.default_rng(args.seed))
+    cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+    hk, sdf = planner.kinematics(hand), planner.object_sdf(observation)
+    probe = HandProbe(hand, observation, clearance=0.0)
+    addresses = probe.hand_qpos_addresses()
+    depths, pads = [], []
+    for s in found:
+        qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), s.q)
+        hand_q = {addresses[hk.model.joint(j).name]: float(qpos[hk.model.jnt_qposadr[j]]) for j in hk.joints}
+        depths.append(_probe_contacts(probe, s.pose, hand_q)[0])
+        root = s.pose @ hk.root_in_tcp
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, root[:3, :3].ravel())
+        xpos, xmat, *_ = hk.evaluate(root[None, :3, 3], quat[None], s.q[None])
+        world = hk.world(hk.contacts, xpos, xmat)
+        chosen = choose_pads(sdf, world, hk.pad_finger)[0]
+        pads.append(int(np.sum(np.abs(sdf.distance(world[0, chosen])[0]) < 0.002)))
+    out = {"hand": hand_name, "object": obj, "n": len(found), "cpu": cpu, "wall": wall,
+           "pen_max": 1e3 * max(depths, default=float("nan")), "pen_mean": 1e3 * float(np.mean(depths)) if depths
+           else float("nan"), "div": pairwise_diversity(np.array([s.pose for s in found]).reshape(-1, 4, 4)),
+           "pads": float(np.mean(pads)) if pads else float("nan"), "rejected": dict(planner.last["rejected"]),
+           "statuses": Counter()}
+    if args.trials and found:
+        protocol = PROTOCOLS.load("standard", grip_force=10.0)
+        for k, candidate in enumerate(planner.plan(observation, hand, args.grasps, np.random.default_rng(args.seed))):
+            result = protocol.run(scene, as_grasp(candidate), np.random.default_rng(k), object_pose=rest)
+            out["statuses"][str(result.status.value)] += 1
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--hands", nargs="+", default=list(HANDS))
+    parser.add_argument("--objects", nargs="+", default=list(OBJECTS))
+    parser.add_argument("--grasps", type=int, default=5)
+    parser.add_argument("--restarts", type=int, default=DexOptPlanner.restarts)
+    parser.add_argument("--iterations", type=int, default=DexOptPlanner.iterations)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--trials", action="store_true", help="run each grasp through the standard protocol")
+    args = parser.parse_args()
+    print(f"# dexopt: restarts {args.restarts}, iterations {args.iterations}, {args.grasps} grasps per call, seed "
+          f"{args.seed}; {platform.processor() or platform.machine()}, OMP_NUM_THREADS="
+          f"{os.environ['OMP_NUM_THREADS']}")
+    header = (f"{'hand':<14} {'object':<20} {'grasps':>6} {'cpu/grasp':>9} {'wall':>6} {'pen max':>7} {'mean':>5} "
+              f"{'div mm':>6} {'deg':>5} {'pads<2mm':>8}  success / statuses; rejected restarts")
+    print(header)
+    totals: dict[str, list] = {}
+    for hand in args.hands:
+        for obj in args.objects:
+            r = run(hand, obj, args)
+            per = r["cpu"] / r["n"] if r["n"] else float("nan")
+            success = r["statuses"].get("success", 0)
+            trials = f"{success}/{sum(r['statuses'].values())} {dict(r['statuses'])}" if args.trials else "-"
+            print(f"{hand:<14} {obj:<20} {r['n']:>6} {per:>9.2f} {r['wall']:>6.1f} {r['pen_max']:>7.2f} "
+                  f"{r['pen_mean']:>5.2f} {r['div'][0]:>6.0f} {r['div'][1]:>5.0f} {r['pads']:>8.1f}  {trials}; "
+                  f"{r['rejected']}", flush=True)
+            t = totals.setdefault(hand, [0, 0.0, 0, 0])
+            t[0] += r["n"]
+            t[1] += r["cpu"]
+            t[2] += success
+            t[3] += sum(r["statuses"].values())
+    for hand, (n, cpu, success, trials) in totals.items():
+        rate = f", success {success}/{trials}" if args.trials else ""
+        print(f"{hand}: {n} grasps, {cpu / max(n, 1):.2f} s CPU per grasp{rate}")
+
+
+if __name__ == "__main__":
+    main()
