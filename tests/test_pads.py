@@ -207,7 +207,7 @@ def test_a_trial_executes_its_pose_as_the_store_keeps_it() -> None:
 def test_a_compliant_pad_run_replays_to_its_stored_statuses(tmp_path) -> None:
     """A replay of a compliant-pad mug trial ended `dropped_perturb` where its run stored `success`: the run
     executed the planner's pose, the replay the stored quaternion's, 2e-16 apart, and a grasp on the edge of
-    holding is chaotic (here trial 7 flipped). The run now executes the pose as stored."""
+    holding is chaotic (one of the 20 flipped). The run now executes the pose as stored."""
     from manigrasp.bench.config import parse_config
     from manigrasp.bench.replay import replay_trial, stored_trials
     from manigrasp.bench.runner import run_benchmark
