@@ -20,6 +20,7 @@ from manigrasp.cli import main
 from manigrasp.control import GripController, ImpedanceController, default_gains
 from manigrasp.errors import HandError
 from manigrasp.hands import allegro
+from manigrasp.hands.placement import side_power_grasp
 from manigrasp.objects import build_object
 from manigrasp.sim import build_scene, grip_force, read_hand_contacts
 
@@ -105,11 +106,7 @@ def wide_can_scene(right: hands.Hand, tmp_path_factory: pytest.TempPathFactory):
 
 
 def _side_grasp(scene) -> np.ndarray:
-    """Side power grasp of the standing can at mid-height, can axis along the TCP x axis, thumb side up."""
-    pose = np.eye(4)
-    pose[:3, 3] = [0.0, 0.0, scene.object_rest_height]
-    pose[:3, :3] = np.column_stack([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
-    return pose
+    return side_power_grasp(scene.hand, [0.0, 0.0, scene.object_rest_height])
 
 
 def _run(scene, pose: np.ndarray, steps: int, grip: GripController | None = None) -> None:

@@ -16,6 +16,7 @@ import trimesh
 from manigrasp import hands
 from manigrasp.control import GripController, ImpedanceController, default_gains
 from manigrasp.errors import UnknownNameError
+from manigrasp.hands.placement import side_power_grasp, top_grasp
 from manigrasp.objects import build_object
 from manigrasp.sim import Scene, build_scene, grip_force, read_hand_contacts
 
@@ -55,16 +56,8 @@ def _scene(name: str, objects: dict) -> Scene:
 
 def grasp_pose(scene: Scene) -> np.ndarray:
     """Hand-placed grasp: top grasp at the box centre, or side power grasp on the can, thumb side up."""
-    pose = np.eye(4)
-    pose[:3, 3] = [0.0, 0.0, scene.object_rest_height]
-    if scene.hand.kind == "parallel":
-        pose[:3, :3] = np.diag([1.0, -1.0, -1.0])  # approach down, closing along -y of the world
-        return pose
-    tcp = scene.tcp_pose()
-    thumb = scene.model.body(f"hand/{scene.hand.finger_bodies[0]}").id
-    side = np.sign((tcp[:3, :3].T @ (scene.data.xipos[thumb] - tcp[:3, 3]))[0]) or 1.0
-    pose[:3, :3] = np.column_stack([[0.0, 0.0, side], [0.0, -side, 0.0], [1.0, 0.0, 0.0]])
-    return pose
+    centre = [0.0, 0.0, scene.object_rest_height]
+    return top_grasp(centre) if scene.hand.kind == "parallel" else side_power_grasp(scene.hand, centre)
 
 
 def _hold(scene: Scene, pose: np.ndarray) -> ImpedanceController:
@@ -239,3 +232,19 @@ def test_lift_and_hold_two_seconds(name: str, objects: dict) -> None:
     assert np.linalg.norm(rel[:3, 3] - rel0[:3, 3]) < 0.01, "object slipped more than 1 cm during the hold"
     assert len(read_hand_contacts(scene).fingers_touching) >= 2
     assert scene.warnings() == {}
+
+
+@pytest.mark.parametrize("name", [n for n in hands.names() if n.startswith(("inspire", "fourier", "allegro"))])
+def test_side_power_grasp_puts_the_thumb_above_the_palm_facing_the_object(name: str, objects: dict) -> None:
+    """The hand-placed power grasp (`manigrasp.hands.placement`): approach along world +x, thumb up, for both
+    sides of each hand (the left hands' thumbs lie on the other side of the TCP's x axis)."""
+    scene = _scene(name, objects)
+    centre = np.array([0.0, 0.0, scene.object_rest_height])
+    pose = side_power_grasp(scene.hand, centre)
+    np.testing.assert_allclose(pose[:3, :3] @ pose[:3, :3].T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(pose[:3, :3]) == pytest.approx(1.0)
+    np.testing.assert_allclose(pose[:3, 2], [1.0, 0.0, 0.0])  # approach
+    scene.reset(mount=pose)
+    np.testing.assert_allclose(scene.tcp_pose(), pose, atol=1e-9)
+    thumb = scene.data.xipos[scene.model.body(f"hand/{scene.hand.finger_bodies[0]}").id]
+    assert thumb[2] > centre[2] + 0.01
