@@ -5,25 +5,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-import mujoco
 import numpy as np
 
+from manigrasp.hands.placement import side_power_grasp
 from manigrasp.planners import GraspCandidate
 
 
 def side_grasp(hand, object_pose: np.ndarray) -> np.ndarray:
     """TCP pose of a side power grasp of a standing can through its centre: can axis along TCP x, thumb side up."""
-    model = hand.build_spec().compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    tcp = model.site(hand.tcp_site).id
-    rot, origin = data.site_xmat[tcp].reshape(3, 3), data.site_xpos[tcp]
-    thumb = data.xipos[model.body(hand.finger_bodies[0]).id]
-    side = np.sign((rot.T @ (thumb - origin))[0]) or 1.0
-    pose = np.eye(4)
-    pose[:3, 3] = object_pose[:3, 3]
-    pose[:3, :3] = np.column_stack([[0.0, 0.0, side], [0.0, -side, 0.0], [1.0, 0.0, 0.0]])
-    return pose
+    return side_power_grasp(hand, object_pose[:3, 3])
 
 
 def own_path(hand) -> np.ndarray:
