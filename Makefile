@@ -37,7 +37,8 @@ regression: setup
 test: setup
 	$(BIN)/python -m pytest
 
-# Everything but the tests marked slow (every shipped object built and planned, kill -9, Ray, hard time-outs).
+# Everything but the tests marked slow (each over ~1.5 s of CPU: every shipped object built and planned, benchmark
+# runs, CoACD builds, worker processes, kill -9, Ray, hard time-outs): about 100 s of CPU.
 test-fast: setup
 	$(BIN)/python -m pytest -m "not slow"
 

@@ -47,6 +47,14 @@ def isolated_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 @pytest.fixture(scope="session")
+def jaw():
+    """The `parallel_jaw` hand (`manigrasp.hands.Hand`)."""
+    from manigrasp import hands
+
+    return hands.load("parallel_jaw")
+
+
+@pytest.fixture(scope="session")
 def box_asset(tmp_path_factory: pytest.TempPathFactory):
     """The shared 5 cm, 0.3 kg cube (`manigrasp.objects.ObjectAsset`), built once per session."""
     import trimesh

@@ -34,6 +34,7 @@ def _rows(run_dir: Path) -> list[dict]:
         return list(store.rows())
 
 
+@pytest.mark.slow
 def test_every_trial_is_stored_once_with_its_status(tmp_path):
     summary = run_benchmark(parse_config(SMALL), tmp_path / "run", progress=False)
     rows = _rows(tmp_path / "run")
@@ -51,6 +52,7 @@ def test_every_trial_is_stored_once_with_its_status(tmp_path):
     assert again.ran == 0 and again.already_done == 12 and len(_rows(tmp_path / "run")) == 12
 
 
+@pytest.mark.slow
 def test_same_config_and_seed_give_identical_rows(tmp_path):
     run_benchmark(parse_config(SMALL), tmp_path / "a", progress=False)
     run_benchmark(parse_config(SMALL), tmp_path / "b", progress=False, in_process=True)  # same rows either way
@@ -86,6 +88,7 @@ def test_kill_9_then_resume_loses_and_duplicates_nothing(tmp_path):
     assert len(rows) == 12 and len({r["trial_id"] for r in rows}) == 12
 
 
+@pytest.mark.slow
 def test_a_planner_that_raises_or_returns_nan_is_a_recorded_status(tmp_path):
     data = dict(SMALL, objects=["004_sugar_box"], planners=["faulty_planners:Raises", "faulty_planners:ReturnsNaN"])
     run_benchmark(parse_config(data), tmp_path / "run", progress=False)
@@ -110,6 +113,7 @@ def test_bad_names_fail_before_any_trial(tmp_path, change, error):
     assert not (tmp_path / "run" / "results.sqlite").exists()
 
 
+@pytest.mark.slow
 def test_a_different_config_is_not_mixed_into_an_existing_run(tmp_path):
     small = dict(SMALL, objects=["004_sugar_box"], planners=["random"], grasps_per_object=1)
     run_benchmark(parse_config(small), tmp_path / "run", progress=False)
@@ -117,6 +121,7 @@ def test_a_different_config_is_not_mixed_into_an_existing_run(tmp_path):
         run_benchmark(parse_config(small, ["seed=5"]), tmp_path / "run", progress=False)
 
 
+@pytest.mark.slow
 def test_two_workers_give_the_same_rows_as_one(tmp_path):
     one = run_benchmark(parse_config(SMALL), tmp_path / "one", progress=False)
     two = run_benchmark(parse_config(SMALL), tmp_path / "two", jobs=2, progress=False)
@@ -141,6 +146,7 @@ def test_ray_executor_runs_the_same_trials(tmp_path):
         r["detail"] for r in ray_rows]
 
 
+@pytest.mark.slow
 def test_recording_keeps_the_chosen_trials_and_changes_no_result(tmp_path):
     small = dict(SMALL, objects=["004_sugar_box"], planners=["random"], grasps_per_object=4)
     run_benchmark(parse_config(small), tmp_path / "plain", progress=False)

@@ -96,6 +96,7 @@ def _rows(run_dir: Path) -> list[dict]:
         return list(store.rows())
 
 
+@pytest.mark.slow
 def test_stable_k_end_to_end_stores_each_trials_resting_pose_and_resumes(tmp_path, isolated_cache):
     """k = 7 on a box with 6 stable poses: 6 groups, each trial stored with its pose (rank, probability, rotation,
     height), the box settling where it was put; the report lists the poses and says the box has fewer than 7."""
@@ -129,6 +130,7 @@ def test_stable_k_end_to_end_stores_each_trials_resting_pose_and_resumes(tmp_pat
     assert "| tall_box@rest0 | 0 |" in section and "| 10.0 |" in section and "| 50.0 |" in section
 
 
+@pytest.mark.slow
 def test_two_protocols_end_to_end_side_by_side_on_the_same_grasps(tmp_path):
     """A box under `lift` and `six_direction`: the same planned grasps under both, a report with both protocols
     side by side (rates with intervals, paired outcomes), and a resumed run that adds nothing."""

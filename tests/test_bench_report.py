@@ -142,6 +142,7 @@ def _read_only_runner(folder: Path) -> list[str]:
     return prefix
 
 
+@pytest.mark.slow
 def test_report_and_compare_read_a_read_only_run_directory(tmp_path):
     """The store is opened read-only: report, report --json, compare and export (to a writable --out) work on
     a run directory that cannot be written, and nothing is written there."""

@@ -109,6 +109,7 @@ def test_the_report_shows_each_setup_in_its_own_row_with_its_views(tmp_path):
                     ["point_cloud@10views", "10", "1.00 [0.51, 1.00]"]]
 
 
+@pytest.mark.slow
 def test_a_run_stores_each_setup_with_its_cameras_and_resumes(tmp_path):
     """End to end in simulation: every setup's trials are stored under their label with their camera count."""
     pytest.importorskip("open3d")

@@ -22,6 +22,7 @@ def _sphere_grid(centre=(0.0, 0.0, 0.3), radius=0.04) -> GridSdf:
     return GridSdf.from_convex_parts([mesh.vertices + np.asarray(centre)], 0.0025, 0.03)
 
 
+@pytest.mark.slow
 def test_grid_sdf_of_convex_parts_matches_the_exact_distances_near_the_surface() -> None:
     box = trimesh.creation.box(extents=[0.06, 0.1, 0.04])
     grid = GridSdf.from_convex_parts([box.vertices], 0.0025, 0.03)
@@ -118,6 +119,7 @@ def test_backprop_matches_finite_differences_through_the_free_joint_and_coupling
     np.testing.assert_allclose(analytic, numeric, rtol=1e-5, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_descent_lowers_the_energy_and_brings_pads_onto_a_sphere_without_penetration(
         inspire: HandKinematics) -> None:
     planner = DexOptPlanner(restarts=8, iterations=150)

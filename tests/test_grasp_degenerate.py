@@ -168,6 +168,7 @@ def test_epsilon_of_near_degenerate_pad_grasps_matches_an_independent_computatio
     assert 0.1 * count < lp.sum() < 0.95 * count  # both outcomes occur: the comparison can fail
 
 
+@pytest.mark.slow
 def test_flat_pads_of_four_soft_contacts_each_like_the_drill() -> None:
     """40 grasps of the reproducer's kind (two pads of four soft contacts, 80 primitives, where Qhull
     without joggling stops on about a third): too large for the reference, so epsilon is checked
@@ -186,6 +187,7 @@ def test_flat_pads_of_four_soft_contacts_each_like_the_drill() -> None:
     assert 5 <= (eps > 0).sum() < 40
 
 
+@pytest.mark.slow
 def test_qhull_on_flat_pads_matches_the_enumeration() -> None:
     """Two pads of two soft contacts each (24 primitives, every contact on a pad in one plane):
     the Qhull path that "auto" picks equals the facet enumeration, which never calls Qhull."""

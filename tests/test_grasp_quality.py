@@ -76,6 +76,7 @@ def test_volume_and_singular_values_of_the_twelve_contact_cube() -> None:
     assert isotropy(cube_twelve(), ORIGIN, 1.0) == pytest.approx(1.0, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_enumerated_epsilon_matches_qhull_facets_on_random_grasps() -> None:
     """Independent cross-check: the enumeration (candidate normals + support
     function) against Qhull's facet offsets of the same primitive wrenches."""

@@ -180,6 +180,7 @@ def _sugar_box_grasps(tmp_path: Path) -> Path:
                                                  "grasps": grasps})
 
 
+@pytest.mark.slow
 def test_native_grasps_on_a_box_succeed_or_fail_as_placed(tmp_path):
     from manigrasp.bench.store import ResultsStore
     from manigrasp.cli import main
@@ -249,6 +250,7 @@ def test_acronym_mesh_paths_resolve_from_the_dataset_root(tmp_path):
     assert mesh_path(read(path)) == tmp_path / "meshes" / "Mug" / "m.obj"
 
 
+@pytest.mark.slow
 def test_evaluate_an_acronym_file_end_to_end(tmp_path, shifted_box):
     from manigrasp.bench.store import ResultsStore
     from manigrasp.cli import main

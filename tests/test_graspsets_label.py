@@ -29,6 +29,7 @@ def labelled(tmp_path_factory) -> tuple:
     return run_dir, summary
 
 
+@pytest.mark.slow
 def test_label_writes_every_grasp_with_its_label_in_the_object_frame(labelled):
     run_dir, summary = labelled
     assert summary.ran == 6 and summary.skipped == 0 and len(summary.exported) == 2
@@ -54,6 +55,7 @@ def test_label_writes_every_grasp_with_its_label_in_the_object_frame(labelled):
     assert n == 6 and ok == sum(s == "success" for s in _statuses(run_dir).values())
 
 
+@pytest.mark.slow
 def test_round_trip_gives_the_same_statuses_trial_for_trial(labelled, tmp_path):
     run_dir, summary = labelled
     files = {Path(item.files[0]).stem.split("__")[2]: item.files for item in summary.exported}
@@ -70,6 +72,7 @@ def test_round_trip_gives_the_same_statuses_trial_for_trial(labelled, tmp_path):
     assert len(set(original.values())) > 1  # the comparison covers successes and failures
 
 
+@pytest.mark.slow
 def test_label_cli_resumes_and_prints_the_summary(labelled, tmp_path, capsys):
     config = tmp_path / "c.yaml"
     config.write_text("objects: [004_sugar_box]\nplanners: [random]\ngrasps_per_object: 2\nprotocol: lift\n")

@@ -37,6 +37,7 @@ def _snapshot(root: Path) -> dict[str, tuple[int, int]]:
     return {str(p.relative_to(root)): (p.stat().st_ino, p.stat().st_mtime_ns) for p in root.rglob("*")}
 
 
+@pytest.mark.slow
 def test_object_xml_names_its_meshes_relative_to_itself(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     asset = build_object(_ring(), name="ring", mass=MASS, cache_root=tmp_path / "cache").asset
@@ -45,6 +46,7 @@ def test_object_xml_names_its_meshes_relative_to_itself(tmp_path, monkeypatch):
     assert str(tmp_path) not in asset.mjcf_path.read_text()
 
 
+@pytest.mark.slow
 def test_a_moved_cache_works_and_a_copy_reads_its_own_files(tmp_path, monkeypatch):
     monkeypatch.chdir("/")
     first = build_object(_ring(), name="ring", mass=MASS, cache_root=tmp_path / "a").asset
@@ -60,6 +62,7 @@ def test_a_moved_cache_works_and_a_copy_reads_its_own_files(tmp_path, monkeypatc
 
 
 @pytest.mark.parametrize("damage", ["garbage_xml", "no_meta", "mass_edited", "part_deleted", "no_checksums"])
+@pytest.mark.slow
 def test_a_damaged_or_edited_entry_is_rebuilt(tmp_path, damage):
     cache = tmp_path / "cache"
     asset = build_object(_ring(), name="ring", mass=MASS, cache_root=cache).asset

@@ -47,6 +47,7 @@ def open_cap(tmp_path):
     return path
 
 
+@pytest.mark.slow
 def test_meshfix_stderr_becomes_a_warning_of_the_object(open_cap, isolated_cache, capfd):
     asset = build_object(open_cap, name="cap", mass=0.1, convex_hull_fallback=True).asset
     assert asset.metadata["warnings"] == ["MeshFix: could not fix everything"]
@@ -62,6 +63,7 @@ def test_a_watertight_mesh_has_no_warnings(isolated_cache):
         "warnings"] == []
 
 
+@pytest.mark.slow
 def test_a_benchmark_says_which_object_it_builds_before_the_trials(tmp_path, isolated_cache, capsys):
     args = ["bench", "quick", "objects=004_sugar_box", "planners=random", "grasps_per_object=1", "protocol=lift"]
     assert main([*args, "--out", str(tmp_path / "a")]) == 0

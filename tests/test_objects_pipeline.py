@@ -138,6 +138,7 @@ def _count_coacd_calls(monkeypatch) -> list[int]:
     return calls
 
 
+@pytest.mark.slow
 def test_second_build_calls_coacd_zero_times(isolated_cache, monkeypatch):
     calls = _count_coacd_calls(monkeypatch)
     mesh = trimesh.creation.annulus(0.03, 0.05, 0.02)
@@ -148,6 +149,7 @@ def test_second_build_calls_coacd_zero_times(isolated_cache, monkeypatch):
 
 
 @pytest.mark.parametrize("damage", ["truncate", "garbage", "flip_bytes"])
+@pytest.mark.slow
 def test_corrupted_cache_entry_is_detected_and_rebuilt(isolated_cache, monkeypatch, damage):
     calls = _count_coacd_calls(monkeypatch)
     mesh = trimesh.creation.annulus(0.03, 0.05, 0.02)

@@ -42,6 +42,7 @@ def _true_pose(asset, rng):
     return pose
 
 
+@pytest.mark.slow
 def test_symmetric_objects_are_the_expected_ones(database):
     assert {m.name for m in database.models.values() if not m.symmetric} == ASYMMETRIC
 

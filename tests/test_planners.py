@@ -25,11 +25,6 @@ SPHERE_RADIUS = 0.03  # [m]
 
 
 @pytest.fixture(scope="module")
-def jaw() -> hands.Hand:
-    return hands.load("parallel_jaw")
-
-
-@pytest.fixture(scope="module")
 def box_obs(tall_box_asset) -> planners.Observation:
     return planners.Observation.from_asset(tall_box_asset)
 
@@ -146,6 +141,7 @@ def test_a_vertical_line_through_a_thin_plate_cannot_clear_the_table():
 
 
 # ------------------------------------------------------------ power and random
+@pytest.mark.slow
 def test_power_on_the_sphere_with_a_dexterous_hand(sphere_obs):
     hand = hands.load("inspire_right")
     result = planners.plan(planners.load("power"), sphere_obs, hand, 10, np.random.default_rng(0))

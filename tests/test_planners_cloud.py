@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from manigrasp import hands, planners
+from manigrasp import planners
 from manigrasp.objects import catalog
 from manigrasp.perception.cloud import estimate_normals
 from manigrasp.planners.cloud import complete
@@ -63,11 +63,6 @@ def view_cloud(mesh: trimesh.Trimesh, camera: np.ndarray, rng: np.random.Generat
 def cloud_observation(truth: planners.Observation, azimuth_deg: float, seed: int) -> planners.Observation:
     points, normals = view_cloud(truth.world_mesh(), camera_at(azimuth_deg), np.random.default_rng(seed))
     return planners.Observation(object_pose=np.eye(4), points=points, normals=normals)
-
-
-@pytest.fixture(scope="module")
-def jaw() -> hands.Hand:
-    return hands.load("parallel_jaw")
 
 
 @pytest.fixture(scope="module")

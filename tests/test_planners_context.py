@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from manigrasp import hands, planners
+from manigrasp import planners
 from manigrasp.bench import worker
 from manigrasp.bench.config import NamedEntry
 from manigrasp.bench.trials import Group
@@ -25,11 +25,6 @@ from manigrasp.protocol import PROTOCOLS
 from manigrasp.sim import SceneConfig
 
 UPWARD = 0.7  # largest z of the approach: the planner may approach from below, where a pre-grasp meets the table
-
-
-@pytest.fixture(scope="module")
-def jaw() -> hands.Hand:
-    return hands.load("parallel_jaw")
 
 
 @pytest.fixture(scope="module")

@@ -36,11 +36,6 @@ def viewed(table, setup: CameraSetup, seed: int = 0) -> ViewedObservation:
 
 
 @pytest.fixture(scope="module")
-def jaw() -> hands.Hand:
-    return hands.load("parallel_jaw")
-
-
-@pytest.fixture(scope="module")
 def one_view(box_table) -> ViewedObservation:
     return viewed(box_table, CameraSetup(width=640, height=480))
 

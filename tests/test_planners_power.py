@@ -47,6 +47,7 @@ def test_closing_path_stays_within_the_joint_stops_and_closes_every_finger(name:
 
 
 @pytest.mark.parametrize("name", DEXTEROUS)
+@pytest.mark.slow
 def test_power_wraps_a_can_with_at_least_three_fingers(name: str) -> None:
     asset = build_object(trimesh.creation.cylinder(0.033, 0.10, sections=48), name="power_test_can", mass=0.35).asset
     obs = planners.Observation.from_asset(asset)

@@ -125,6 +125,7 @@ def test_labels_are_readable_and_distinct():
         labels([NamedEntry("random", {"spread": 0.2}), NamedEntry("random", {"spread": 0.2})])
 
 
+@pytest.mark.slow
 def test_one_planner_twice_with_different_params_gives_two_sets_of_trials(tmp_path):
     data = dict(ONE, grasps_per_object=2, planners=[{"name": "faulty_planners:TopDown", "params": {"lift": 0.0}},
                                                     {"name": "faulty_planners:TopDown", "params": {"lift": 0.04}}])
@@ -136,6 +137,7 @@ def test_one_planner_twice_with_different_params_gives_two_sets_of_trials(tmp_pa
     assert heights["TopDown[lift=0.04]"] - heights["TopDown[lift=0.0]"] == pytest.approx(0.04, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_worker_processes_and_in_process_give_the_same_rows(tmp_path):
     config = parse_config(dict(ONE, planners=["antipodal"], grasps_per_object=2))
     run_benchmark(config, tmp_path / "pool", progress=False)
@@ -146,6 +148,7 @@ def test_worker_processes_and_in_process_give_the_same_rows(tmp_path):
     assert pool == here and len(pool) == 2
 
 
+@pytest.mark.slow
 def test_a_rerun_with_other_values_names_the_keys(tmp_path):
     run_benchmark(parse_config(ONE), tmp_path / "run", progress=False)
     meta = json.loads((tmp_path / "run" / "run.json").read_text())
@@ -157,6 +160,7 @@ def test_a_rerun_with_other_values_names_the_keys(tmp_path):
 
 
 @pytest.mark.parametrize("damage", ["delete", "garbage", "list", "directory"])
+@pytest.mark.slow
 def test_results_without_a_readable_run_json_are_not_adopted(tmp_path, damage):
     run_benchmark(parse_config(ONE), tmp_path / "run", progress=False)
     meta = tmp_path / "run" / "run.json"
@@ -173,6 +177,7 @@ def test_results_without_a_readable_run_json_are_not_adopted(tmp_path, damage):
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated"])
+@pytest.mark.slow
 def test_a_damaged_results_store_is_a_one_line_error(tmp_path, damage):
     run_benchmark(parse_config(ONE), tmp_path / "run", progress=False)
     store = tmp_path / "run" / "results.sqlite"
@@ -184,6 +189,7 @@ def test_a_damaged_results_store_is_a_one_line_error(tmp_path, damage):
         run_benchmark(parse_config(ONE), tmp_path / "run", progress=False)
 
 
+@pytest.mark.slow
 def test_an_edited_mesh_file_is_refused_on_resume(tmp_path):
     mesh = tmp_path / "block.stl"
     trimesh.creation.box((0.05, 0.05, 0.05)).export(mesh)
@@ -200,6 +206,7 @@ def test_out_pointing_at_a_file_is_a_config_error(tmp_path):
         run_benchmark(parse_config(ONE), tmp_path / "file", progress=False)
 
 
+@pytest.mark.slow
 def test_a_second_process_on_the_same_run_directory_is_refused(tmp_path):
     with rundir.locked(tmp_path / "run"):
         with pytest.raises(ConfigError, match=rf"in use by pid {os.getpid()} on "):
@@ -225,6 +232,7 @@ def test_a_perception_failure_is_recorded_for_its_group(monkeypatch):
     assert result.status is Status.PLANNER_ERROR and "not in view" in result.detail
 
 
+@pytest.mark.slow
 def test_a_harness_bug_is_harness_fault_with_its_traceback(tmp_path):
     run_benchmark(parse_config(dict(ONE, protocol="faulty_planners:raising_protocol")), tmp_path / "run",
                   progress=False)
@@ -273,6 +281,7 @@ def test_config_code_of_the_wrong_kind_is_refused_before_it_is_called(tmp_path, 
 FAULTY = ["Exits", "Segfaults", "CallsSysExit", "WideWidth", "NoPreshape", "FactoryRaises"]
 
 
+@pytest.mark.slow
 def test_crashing_and_malformed_planners_are_recorded_and_the_run_completes(tmp_path, capsys):
     data = dict(ONE, planners=[f"faulty_planners:{name}" for name in FAULTY] + ["random"])
     summary = run_benchmark(parse_config(data), tmp_path / "run", jobs=1000, progress=False)

@@ -185,7 +185,7 @@ def test_a_cache_that_is_a_file_is_a_one_line_error(tmp_path, monkeypatch, capsy
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "is a file, not a folder" in err and "MANIGRASP_CACHE" in err
     (tmp_path / "out").write_text("x")
-    monkeypatch.delenv("MANIGRASP_CACHE")
+    monkeypatch.setenv("MANIGRASP_CACHE", str(tmp_path / "good_cache"))  # never the user's own cache
     assert main(["bench", "quick", "objects=004_sugar_box", "--out", str(tmp_path / "out")]) == 2
     assert "is a file, not a run directory" in capsys.readouterr().err
 

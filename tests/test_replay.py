@@ -23,6 +23,7 @@ def run_dir(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_every_replayed_trial_ends_with_its_stored_status(run_dir):
     trials = stored_trials(run_dir)
     assert len(trials) == 4
@@ -35,6 +36,7 @@ def test_every_replayed_trial_ends_with_its_stored_status(run_dir):
     assert Status.SUCCESS in statuses and len(statuses) > 1  # both outcomes are replayed
 
 
+@pytest.mark.slow
 def test_replay_cli_records_and_exits_zero_when_the_status_agrees(run_dir, tmp_path, capsys):
     trial_id = sorted(stored_trials(run_dir))[0]
     rrd = tmp_path / "trial.rrd"
@@ -61,6 +63,7 @@ def test_record_failures_of_a_finished_run(run_dir, tmp_path):
     assert again.replays == () and {t for t, _ in again.skipped} == failures
 
 
+@pytest.mark.slow
 def test_a_trial_that_executed_no_grasp_is_not_replayed_and_says_why(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(Path(__file__).parent))
     config = {"objects": ["004_sugar_box"], "planners": ["faulty_planners:Raises"], "grasps_per_object": 1,

@@ -37,6 +37,7 @@ def test_scans_are_shipped_names() -> None:
         scans.get("004_sugar_box_scan")
 
 
+@pytest.mark.slow
 def test_an_open_scan_is_repaired_and_keeps_its_shape(tmp_path) -> None:
     """The gelatin box scan has open seams: the pipeline closes them without changing its size,
     and its thinnest side is within 3 mm of its recipe twin's (28 mm)."""
