@@ -1,8 +1,8 @@
-"""Grips that hold: `FingerHold` (stiffened finger servos after closing) and linkage-coupled fingers.
+"""Grips that hold: `FingerHold` (finger servos held one-sided after closing) and linkage-coupled fingers.
 
-Closed loop: a can grasped by hand (side power grasp) under the `standard` protocol with ``finger_hold_gain=20``
-(close, lift 10 cm, hold, six 1 x m g perturbations) creeps less than 2 mm in the hand, for every right
-dexterous hand.
+Closed loop: a can grasped by hand (side power grasp) under the `standard` protocol at its defaults (the hold
+on, ``finger_hold_gain`` 40: close, lift 10 cm, hold, six 1 x m g perturbations) creeps less than 2 mm in the
+hand, for every right dexterous hand.
 """
 
 from __future__ import annotations
@@ -16,7 +16,9 @@ import trimesh
 
 from manigrasp import hands
 from manigrasp.control import FingerHold
+from manigrasp.control.hold import FLOOR, HOLD_GAIN
 from manigrasp.errors import ConfigError
+from manigrasp.hands.placement import side_power_grasp
 from manigrasp.objects import build_object
 from manigrasp.planners.base import GraspCandidate
 from manigrasp.protocol import PROTOCOLS, settle_object
@@ -57,35 +59,60 @@ def _pushed() -> tuple[mujoco.MjModel, mujoco.MjData]:
     return model, data
 
 
+CLOSING = np.array([-1.0, 0.0])  # the servo closes toward negative angles (onto the stop); the motor takes no part
+
+
 def test_engage_keeps_the_force_stiffens_the_servo_and_release_restores_it() -> None:
     model, data = _pushed()
     gains0, bias0 = model.actuator_gainprm.copy(), model.actuator_biasprm.copy()
+    range0 = model.actuator_forcerange.copy()
     force0 = float(data.actuator_force[0])
-    assert 0.1 < abs(force0) < 0.6  # pressing on the stop, below the force limit
+    assert -0.6 < force0 < -0.1  # pressing on the stop (closing: negative), below the force limit
     hold = FingerHold(model, np.array([0, 1]), gain=20.0)
     assert hold.ids.tolist() == [0]  # the motor is no position servo: left alone
-    ctrl = hold.engage(data)
+    ctrl = hold.engage(data, CLOSING)
     assert model.actuator_gainprm[0, 0] == pytest.approx(10.0)
     assert model.actuator_biasprm[0, 1] == pytest.approx(-10.0)
     assert model.actuator_biasprm[0, 2] == pytest.approx(-0.05 * np.sqrt(20.0))
-    assert ctrl[0] == pytest.approx(data.actuator_length[0] + force0 / 10.0)
+    assert ctrl[0] == pytest.approx(data.actuator_length[0] + force0 / 10.0, rel=1e-3)
+    # The force stays within [FLOOR x the force it had, the force limit] in the closing direction (negative).
+    np.testing.assert_allclose(model.actuator_forcerange[0], [-0.6, FLOOR * force0], rtol=1e-3)
     mujoco.mj_step(model, data, nstep=500)
     assert float(data.actuator_force[0]) == pytest.approx(force0, rel=0.02)  # same push, now stiff
     hold.release()
     np.testing.assert_array_equal(model.actuator_gainprm, gains0)
     np.testing.assert_array_equal(model.actuator_biasprm, bias0)
+    np.testing.assert_array_equal(model.actuator_forcerange, range0)
 
 
-def test_held_servo_resists_being_pushed_open_twenty_times_harder() -> None:
-    """Moving the joint 0.01 rad off its held angle changes the servo torque by 10 x 0.01 = 0.1 N m (not 0.005)."""
+def test_held_servo_resists_being_pushed_open_and_keeps_pushing_where_the_object_yields() -> None:
+    """Pushed open 0.01 rad, the held servo's torque grows by 10 x 0.01 = 0.1 N m (not 0.005); where the stop
+    gives way 0.05 rad, a two-sided spring would pull back 0.5 - |f| N m; the held servo still pushes FLOOR |f|."""
     model, data = _pushed()
-    FingerHold(model, np.array([0]), gain=20.0).engage(data)
+    force0 = float(data.actuator_force[0])
+    FingerHold(model, np.array([0]), gain=20.0).engage(data, CLOSING[:1])
     mujoco.mj_forward(model, data)
-    before = float(data.actuator_force[0])
-    data.qpos[0] += 0.01
     data.qvel[:] = 0.0
+    q0 = float(data.qpos[0])
+    data.qpos[0] = q0 + 0.01  # away from the stop: opening
     mujoco.mj_forward(model, data)
-    assert before - float(data.actuator_force[0]) == pytest.approx(0.1, rel=1e-6)
+    assert float(data.actuator_force[0]) - force0 == pytest.approx(-0.1, abs=1e-3)
+    data.qpos[0] = q0 - 0.005  # 0.005 rad further closed: the stiff spring loses 10 x 0.005 = 0.05 N m
+    mujoco.mj_forward(model, data)
+    assert float(data.actuator_force[0]) - force0 == pytest.approx(0.05, abs=1e-3)
+    data.qpos[0] = q0 - 0.05  # further closed, as if the object moved away
+    mujoco.mj_forward(model, data)
+    assert float(data.actuator_force[0]) == pytest.approx(FLOOR * force0, abs=1e-3)
+
+
+def test_actuators_that_take_no_part_in_the_squeeze_are_left_alone() -> None:
+    model, data = _pushed()
+    gains0 = model.actuator_gainprm.copy()
+    hold = FingerHold(model, np.array([0, 1]), gain=20.0)
+    hold.engage(data, np.array([0.0, 1.0]))
+    np.testing.assert_array_equal(model.actuator_gainprm, gains0)
+    with pytest.raises(ConfigError, match="closing"):
+        hold.engage(data, np.array([1.0]))
 
 
 def test_hold_gain_below_one_is_refused() -> None:
@@ -101,21 +128,17 @@ def can(tmp_path_factory: pytest.TempPathFactory):
 
 
 def _side_power_grasp(scene, object_pose: np.ndarray) -> np.ndarray:
-    """TCP pose of a side power grasp of the standing can at mid-height, can axis along TCP x, thumb side up."""
-    scene.reset(mount=np.eye(4))
-    tcp = scene.tcp_pose()
-    thumb = scene.model.body(f"hand/{scene.hand.finger_bodies[0]}").id
-    side = np.sign((tcp[:3, :3].T @ (scene.data.xipos[thumb] - tcp[:3, 3]))[0]) or 1.0
-    pose = np.eye(4)
-    pose[:3, 3] = [object_pose[0, 3], object_pose[1, 3], scene.object_rest_height]
-    pose[:3, :3] = np.column_stack([[0.0, 0.0, side], [0.0, -side, 0.0], [1.0, 0.0, 0.0]])
-    return pose
+    return side_power_grasp(scene.hand, [object_pose[0, 3], object_pose[1, 3], scene.object_rest_height])
 
 
-def _standard_trial(scene, pose: np.ndarray, object_pose: np.ndarray, hold_gain: float = 20.0):
-    protocol = PROTOCOLS.load("standard", finger_hold_gain=hold_gain)
+def _standard_trial(scene, pose: np.ndarray, object_pose: np.ndarray, **params):
+    protocol = PROTOCOLS.load("standard", **params)
     return protocol.run(scene, GraspCandidate(pose=pose, score=1.0), np.random.default_rng(0),
                         deadline=time.monotonic() + 120, object_pose=object_pose, seed=0)
+
+
+def test_the_standard_protocol_holds_dexterous_grasps_by_default() -> None:
+    assert PROTOCOLS.load("standard").params.finger_hold_gain == HOLD_GAIN
 
 
 @pytest.mark.slow
@@ -127,17 +150,19 @@ def test_held_can_creeps_less_than_2_mm_under_lift_and_six_perturbations(name: s
     first = _standard_trial(scene, pose, object_pose)
     assert first.status.value == "success", first.detail
     assert first.max_translation_m < 0.002, f"the can crept {1000 * first.max_translation_m:.1f} mm"
-    assert _HOLDS[scene].engaged  # the grasp was held stiffly after closing
+    hold = _HOLDS[scene]
+    assert hold.engaged and len(hold.held) > 0  # the grasp was held after closing
     # The next trial on the same scene starts from the closing gains again: it repeats the first exactly.
     again = _standard_trial(scene, pose, settle_object(scene))
     assert again.max_translation_m == first.max_translation_m and again.grip_force_n == first.grip_force_n
-    # With the hold off (the protocols' default), the next trial gives the gains back and leaves them.
-    _HOLDS[scene].release()
-    gains = scene.model.actuator_gainprm.copy()
-    _HOLDS[scene].engage(scene.data)
-    _standard_trial(scene, pose, settle_object(scene), hold_gain=0.0)
-    assert not _HOLDS[scene].engaged
+    # With the hold off, the next trial gives the gains and force ranges back and leaves them.
+    hold.release()
+    gains, ranges = scene.model.actuator_gainprm.copy(), scene.model.actuator_forcerange.copy()
+    hold.engage(scene.data, scene.hand.closed_ctrl - scene.hand.open_ctrl)
+    _standard_trial(scene, pose, settle_object(scene), finger_hold_gain=0.0)
+    assert not hold.engaged
     np.testing.assert_array_equal(scene.model.actuator_gainprm, gains)
+    np.testing.assert_array_equal(scene.model.actuator_forcerange, ranges)
 
 
 def test_hold_gain_of_the_protocol_is_validated() -> None:
@@ -148,11 +173,7 @@ def test_hold_gain_of_the_protocol_is_validated() -> None:
 def test_parallel_jaw_grasp_is_never_stiffened(box_scene) -> None:
     scene = box_scene.scene
     gains = scene.model.actuator_gainprm.copy()
-    object_pose = box_scene.rest
-    pose = np.eye(4)
-    pose[:3, :3] = np.diag([1.0, -1.0, -1.0])
-    pose[:3, 3] = [object_pose[0, 3], object_pose[1, 3], scene.object_rest_height]
-    result = _standard_trial(scene, pose, object_pose)
+    result = _standard_trial(scene, box_scene.top_grasp, box_scene.rest)
     assert result.status.value == "success", result.detail
     assert scene not in _HOLDS
     np.testing.assert_array_equal(scene.model.actuator_gainprm[scene.hand_actuators], gains[scene.hand_actuators])

@@ -58,7 +58,8 @@ def test_a_grasp_with_its_own_joints_drives_that_path_and_holds_the_can(scene) -
     joints = own_path(scene.hand)
     watch = _Commands()
     candidate = GraspCandidate(pose=side_grasp(scene.hand, rest), score=1.0, joints=joints)
-    result = PROTOCOLS.load("lift").run(scene, candidate, np.random.default_rng(0), object_pose=rest, observer=watch)
+    result = PROTOCOLS.load("lift", finger_hold_gain=0.0).run(scene, candidate, np.random.default_rng(0),
+                                                           object_pose=rest, observer=watch)
     assert result.status is Status.SUCCESS, result.detail
     np.testing.assert_allclose(watch.at["approach"], joints[0], atol=1e-12)  # the pre-shape is row 0
     # After closing, the command lies on the segment from row 0 toward row 1, strictly inside it.

@@ -8,7 +8,7 @@
 - `HybridController`: selection-matrix hybrid position/force control (PI with anti-windup).
 - `GuardedApproach`: approach that stops pushing at a contact-force threshold.
 - `GripController`: close on position until contact, then regulate the grip force.
-- `FingerHold`: after closing, stiffen a hand's finger servos around the grasp they reached.
+- `FingerHold`: after closing, hold a hand's finger servos around the grasp they reached (stiff against opening).
 """
 
 from manigrasp.control.hold import FingerHold

@@ -1,16 +1,34 @@
-"""Hold a closed grasp: stiffen the hand's finger servos around the configuration and forces they reached.
+"""Hold a closed grasp: each finger servo stiff against being pushed open, still pushing where the object yields.
 
 The dexterous hands close with soft position servos (a blocked finger pushes with kp (u - L), kp small) so that
-the grip force can be regulated through the synergy (`GripController`). Left that way after closing, a finger
-keeps the command u about 1 rad past its contact: when the object shifts under a load (the lift, a push), every
-finger follows it, curling further at almost the same force, and the object rolls along the curling fingers
-and out of the palm (`slipped_lift`, the main failure of `manigrasp bench dexterous`).
+the grip force can be regulated through the synergy (`GripController`). Left that way after closing, every
+finger is a soft spring wound well past its contact: under a load (the lift, a push) the fingers and the thumb
+trade the object between them at almost constant forces, the fingers curl on, and the object rolls along them
+and out of the palm (`slipped_lift`, the main failure of `manigrasp bench dexterous`; a can grasped by hand
+creeps 12-20 mm in the five-finger hands under the standard protocol).
 
-`FingerHold.engage` switches each position servo of the hand to a stiffness `gain` times its own and sets its
-command just past where the finger stands, u' = L + f / kp', so every finger keeps the force f it had when the
-grip was regulated (the target grip force) but now holds its joint configuration: a finger pushed open gains
-force at kp', one that would curl on loses it. `release` restores the model's gains (the scene's model is
-reused by the next trial).
+A plain stiff hold (each servo `gain` times stiffer, its command just past where the finger stands so that it
+keeps its force f) stops the creep but is fragile: its pre-load spans only f / (gain kp) of joint travel
+(0.3 N m at 20 N m/rad: 0.015 rad, under a millimetre at a fingertip), so the millimetre an object settles in
+its contacts when the lift starts unloads the fingers and the grip falls to nothing. On the `power` planner's
+grasps it lost successes (3 objects x 10 grasps, `standard`, 10 N: allegro_right 4/30 held vs 10/30 not held,
+inspire_right 7 vs 10).
+
+`FingerHold.engage` therefore holds each servo that closes with the squeeze one-sided:
+
+- stiffness kp' = `gain` kp, command just past where the finger stands, u = L + f / kp', so it keeps the force
+  f it had when the grip was regulated (the target grip force);
+- its force kept within [f_min, f_max] in the closing direction (MuJoCo's actuator force range; f_max the
+  servo's own limit), f_min = `FLOOR` f: pushed open, the finger resists at kp' up
+  to its limit; where the object moves away, the finger follows it with at least f_min instead of letting go.
+  The floor is a fraction of f: fingers following at their full force overpower a thumb already near its limit
+  (a hand-placed can then creeps 11 mm in the Inspire hand); at `FLOOR` the squeeze stays on the object and the
+  can creeps under 2 mm in every hand (`benchmarks/bench_grip_hold.py`).
+
+The closing direction of each actuator is given to `engage` (the closed row of the hand's path minus its open
+row); actuators that do not move with the squeeze (finger spread, thumb rotation: they hold the pre-shape and
+are stiff already) are left as they are. `release` restores the model's gains and force ranges (the scene's
+model is reused by the next trial).
 
 Only actuators that are position servos (bias = -kp L - kv dL/dt, MuJoCo's ``position``) are changed;
 anything else (motors, a user's custom actuators) is left alone.
@@ -23,20 +41,20 @@ import numpy as np
 
 from manigrasp.errors import ConfigError
 
-# Stiffness of the held grasp relative to the closing servo's [-] (the protocols' `finger_hold_gain` is off by
-# default): the robosuite hands' 0.5 N m/rad tendons hold at 10 N m/rad, the Allegro's 1 N m/rad joints at 20 (a
-# finger moving 0.03 rad then changes its force by its whole 0.6-0.7 N m range). A can grasped by hand creeps
-# about 1 mm at 20 (3-4 mm at 5, 12-20 mm without); but on the power planner's grasps of `bench dexterous` the
-# held fingers stop following the object and more grasps drop under the perturbations (replayed, same grasps:
-# inspire_right 21/80 held at 20 vs 32/80 not held, fourier_right 36 vs 39, allegro_right 2 vs 4).
-HOLD_GAIN = 20.0
+# Stiffness of the held grasp relative to the closing servo's [-] (the protocols' default `finger_hold_gain`): the
+# robosuite hands' 0.5 N m/rad tendons hold at 20 N m/rad, the Allegro's 1 N m/rad joints at 40 (a finger pushed
+# open 0.01 rad then gains 0.2-0.4 N m of its 0.6-0.9 N m).
+HOLD_GAIN = 40.0
+# Force floor of a held servo in its closing direction, as a fraction of the force it had when engaged [-].
+FLOOR = 0.4
 
 
 class FingerHold:
-    """Stiffen (and restore) the position servos among `actuators` of `model`.
+    """Hold (and release) the position servos among `actuators` of `model`.
 
     Args:
-        model: the scene's model (its gains are edited in place by `engage`, restored by `release`).
+        model: the scene's model (its gains and force ranges are edited in place by `engage`, restored by
+            `release`).
         actuators: ids of the hand's actuators.
         gain: stiffness multiple of the held grasp [-] (>= 1).
     """
@@ -50,36 +68,67 @@ class FingerHold:
         servo = (model.actuator_gaintype[ids] == mujoco.mjtGain.mjGAIN_FIXED) & (
             model.actuator_biastype[ids] == mujoco.mjtBias.mjBIAS_AFFINE) & (kp > 0) & np.isclose(bias[:, 1], -kp) & (
             bias[:, 0] == 0)
+        self.actuators, self.servo = ids, servo
         self.ids = ids[servo]
         self.kp = model.actuator_gainprm[self.ids, 0].copy()
         self.kv = -model.actuator_biasprm[self.ids, 2].copy()
+        self.forcerange = model.actuator_forcerange[self.ids].copy()
+        self.forcelimited = model.actuator_forcelimited[self.ids].copy()
+        self.held = np.zeros(0, dtype=int)
         self.engaged = False
 
-    def engage(self, data: mujoco.MjData) -> np.ndarray:
-        """Stiffen the servos and set their commands so each keeps its current force; returns the commands.
+    def engage(self, data: mujoco.MjData, closing: np.ndarray) -> np.ndarray:
+        """Hold the servos that close with the squeeze; returns the new commands of all servos (`ids` order).
 
-        The commands are clamped to each actuator's control range (a finger already past its range keeps the
-        range's end); the damping grows with sqrt(gain), keeping each servo's damping ratio.
+        Args:
+            data: the scene's data, with the grasp closed and its grip force regulated.
+            closing: (n,) command change from open to closed of each of the `actuators` given at construction
+                (its sign is the closing direction; 0: the actuator does not take part in the squeeze and is
+                left alone).
+
+        Each held servo keeps its current spring force f = kp (u - L) (clamped to its force range): its command
+        becomes u' = L + f / kp' (clamped to the control range), its stiffness kp' = gain kp, its damping
+        sqrt(gain) kv (same damping ratio), and its force range [f_min, f_max] in the closing direction,
+        f_min = `FLOOR` f (a servo pushed to its limit keeps a margin of stiffness).
         """
-        m, ids = self.model, self.ids
-        force = data.actuator_force[ids].copy()
-        length = data.actuator_length[ids].copy()
-        kp = self.gain * self.kp
+        m = self.model
+        closing = np.asarray(closing, dtype=float)
+        if closing.shape != self.actuators.shape or not np.all(np.isfinite(closing)):
+            raise ConfigError(f"closing must be ({len(self.actuators)},) finite, got shape {closing.shape}")
+        sign = np.sign(closing[self.servo])
+        take = sign != 0
+        ids, kp0, kv0, sign = self.ids[take], self.kp[take], self.kv[take], sign[take]
+        low, high = self.forcerange[take, 0], self.forcerange[take, 1]
+        limited = self.forcelimited[take].astype(bool)
+        length = data.actuator_length[ids]
+        spring = kp0 * (data.ctrl[ids] - length)
+        spring = np.where(limited, np.clip(spring, low, high), spring)
+        push = np.maximum(sign * spring, 0.0)  # force in the closing direction [N or N m]
+        limit = np.where(limited, np.where(sign > 0, high, -low), np.inf)
+        floor = FLOOR * push
+        kp = self.gain * kp0
         m.actuator_gainprm[ids, 0] = kp
         m.actuator_biasprm[ids, 1] = -kp
-        m.actuator_biasprm[ids, 2] = -np.sqrt(self.gain) * self.kv
-        ctrl = length + force / kp
-        limited = m.actuator_ctrllimited[ids].astype(bool)
-        low, high = m.actuator_ctrlrange[ids, 0], m.actuator_ctrlrange[ids, 1]
-        ctrl = np.where(limited, np.clip(ctrl, low, high), ctrl)
+        m.actuator_biasprm[ids, 2] = -np.sqrt(self.gain) * kv0
+        m.actuator_forcelimited[ids] = 1
+        big = np.where(np.isfinite(limit), limit, np.finfo(float).max)
+        m.actuator_forcerange[ids] = np.where((sign > 0)[:, None], np.column_stack([floor, big]),
+                                              np.column_stack([-big, -floor]))
+        ctrl = length + sign * push / kp
+        ctrl_limited = m.actuator_ctrllimited[ids].astype(bool)
+        ctrl = np.where(ctrl_limited, np.clip(ctrl, m.actuator_ctrlrange[ids, 0], m.actuator_ctrlrange[ids, 1]), ctrl)
         data.ctrl[ids] = ctrl
+        self.held = ids
         self.engaged = True
-        return ctrl
+        return data.ctrl[self.ids].copy()
 
     def release(self) -> None:
-        """Restore the closing gains (idempotent)."""
+        """Restore the closing gains and force ranges (idempotent)."""
         m, ids = self.model, self.ids
         m.actuator_gainprm[ids, 0] = self.kp
         m.actuator_biasprm[ids, 1] = -self.kp
         m.actuator_biasprm[ids, 2] = -self.kv
+        m.actuator_forcerange[ids] = self.forcerange
+        m.actuator_forcelimited[ids] = self.forcelimited
+        self.held = np.zeros(0, dtype=int)
         self.engaged = False

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from manigrasp.control import GripController, NativeImpedance, default_gains
+from manigrasp.control.hold import HOLD_GAIN
 from manigrasp.errors import ConfigError
 from manigrasp.geometry import pose_distance, relative_pose
 from manigrasp.protocol.grasp import Grasp
@@ -78,8 +79,9 @@ class GraspParams:
         regulate_grip_after_close: keep the grip-force loop running after the close phase
             (reading contacts every tick); False: the finger command is held where the loop
             left it, and the finger servos hold the grip with no Python in the loop.
-        finger_hold_gain: after a dexterous hand closes, stiffen its finger servos this many times
-            around the forces they reached (`manigrasp.control.FingerHold`); 0: off [-].
+        finger_hold_gain: after a dexterous hand closes, hold each finger servo that closes with the
+            squeeze this many times stiffer against being pushed open, keeping the force it reached
+            (`manigrasp.control.FingerHold`; default `HOLD_GAIN`, 40); 0: off [-].
         metric_edges: edges of the linearised friction cones in the metrics.
         metric_friction_tol: tolerance of the smallest-friction-for-closure bisection [-].
         simulated_min_friction: also compute the smallest friction for closure of the simulated
@@ -107,7 +109,7 @@ class GraspParams:
     control_period_s: float = 0.01
     check_period_s: float = 0.02
     regulate_grip_after_close: bool = False
-    finger_hold_gain: float = 0.0
+    finger_hold_gain: float = HOLD_GAIN
     metric_edges: int = 8
     metric_friction_tol: float = 0.01
     simulated_min_friction: bool = False

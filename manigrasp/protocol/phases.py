@@ -87,9 +87,9 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     The grip loop (`GripController`) runs at the control rate while closing; afterwards
     the finger command stays where it left it (unless `regulate_grip_after_close`), so
     the finger servos hold the grip with no Python in the loop; with `finger_hold_gain`, a
-    dexterous hand's servos are then stiffened around the configuration and forces they reached
-    (`FingerHold`: each finger keeps its force but stops following the object); the next
-    pre-grasp or close gives the gains back. The object's pose in the
+    dexterous hand's servos that close along its path are then held around the forces they
+    reached (`FingerHold`: stiff against opening, still pushing where the object yields); the
+    next pre-grasp or close gives the gains back. The object's pose in the
     hand is the reference of all later motion, and (with `metrics`) the grip force and
     simulated-contact metrics are recorded. `detail` goes to the observer's phase call.
     """
@@ -123,7 +123,7 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
     if grip.mode == "position" or len(contacts.fingers_touching) == 0:
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
     if hand.kind == "dexterous" and run.grip is None and p.finger_hold_gain > 0:
-        finger_hold(run, p.finger_hold_gain).engage(run.scene.data)
+        finger_hold(run, p.finger_hold_gain).engage(run.scene.data, np.diff(run.scene.hand_path, axis=0)[0])
     if metrics:
         run.grip_force_n = grip_force(contacts)
         run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,

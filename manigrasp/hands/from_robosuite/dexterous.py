@@ -14,7 +14,7 @@ finger, one for the thumb's bend, one for its rotation):
   a can grasped by hand crept 12 mm (Inspire) and 36 mm (Fourier, dropped) in
   the hand under the standard protocol's lift and perturbations, and slipped
   out in the lift with the stiffened hold; coupled, 20 and 12 mm without the
-  hold and about 1 mm with it (`manigrasp.control.FingerHold`);
+  hold and 1-1.5 mm with it (`manigrasp.control.FingerHold`);
 - one force-limited position servo per tendon, plus one for thumb rotation;
   the bending servos are soft (`KP`), so a blocked finger's force grows
   gradually with the command and the grip force can be regulated through the
