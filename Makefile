@@ -26,12 +26,14 @@ $(STAMP): pyproject.toml constraints.txt
 bench: setup
 	$(BIN)/manigrasp bench quick --out $(RUN) --jobs $(JOBS)
 
-# Regression gate: a fresh quick run compared with the committed baseline (exit 1 on a
-# significantly lower success rate). CI runs it.
+# Regression gate: fresh runs of quick (parallel jaw) and regression_dexterous (a five-finger hand) compared
+# with their committed baselines (exit 1 on a significantly lower success rate). CI runs it.
 regression: setup
-	rm -rf runs/regression
+	rm -rf runs/regression runs/regression_dexterous
 	$(BIN)/manigrasp bench quick --out runs/regression --jobs $(JOBS) --quiet
+	$(BIN)/manigrasp bench regression_dexterous --out runs/regression_dexterous --jobs $(JOBS) --quiet
 	$(BIN)/manigrasp compare runs/regression benchmarks/baselines/quick.json
+	$(BIN)/manigrasp compare runs/regression_dexterous benchmarks/baselines/dexterous.json
 
 # The whole suite (what CI runs).
 test: setup

@@ -39,7 +39,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.__class__ = _IntermixedParser
     p.add_argument("config",
                    help="a YAML config file, or the name of a shipped one "
-                        "(quick, standard, dexterous, perception, scans)")
+                        "(quick, standard, dexterous, perception, scans, regression_dexterous)")
     p.add_argument("overrides", nargs="*", metavar="key=value",
                    help="config overrides, anywhere on the line, dotted for nested keys (grasps_per_object=5 "
                         "scene.timestep=0.001); a list field takes one value or a list (objects=mug, "
