@@ -84,6 +84,14 @@ def test_hand_kinematics_maps_joints_to_commands_and_back(inspire: HandKinematic
     # One pad set per finger, on finger links only.
     assert sorted(set(inspire.pad_finger.tolist())) == list(range(len(hand.finger_bodies)))
     assert np.all(inspire.body_finger[inspire.contacts.bodies] == inspire.pad_finger)
+    # A wrap: one contact per moving finger link (3 on the thumb, 2 on each finger) and the palm's front.
+    wrap = HandKinematics(hand, palm=True, wrap=True)
+    groups = np.unique(wrap.pad_finger)
+    palm = wrap.pad_finger == groups[-1]
+    links = wrap.contacts.bodies[~palm]
+    assert len(groups) == len(np.unique(links)) + 1 == 3 + 2 * 4 + 1
+    assert all(len(set(links[wrap.pad_finger[~palm] == g])) == 1 for g in groups[:-1])  # one link per contact
+    assert np.all(wrap.body_finger[wrap.contacts.bodies[palm]] < 0) and np.all(wrap.body_finger[links] >= 0)
 
 
 def test_backprop_matches_finite_differences_through_the_free_joint_and_couplings(inspire: HandKinematics) -> None:

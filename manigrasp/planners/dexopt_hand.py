@@ -12,8 +12,9 @@
 - pad contact candidates: on every collision body of each finger (`Hand.finger_bodies`) that moves when the
   hand closes, the surface samples farthest along the direction it moves (open -> closed command), the part of
   the link that a squeeze presses on the object (the optimiser uses, per finger, the candidate nearest the
-  object, re-chosen as it goes, as DexGraspNet switches contact points); with `palm`, the palm's front
-  (its surface samples farthest along the TCP approach) is one more contact;
+  object, re-chosen as it goes, as DexGraspNet switches contact points); with `wrap`, every moving link of
+  every finger is a contact of its own (a wrap, not a fingertip grasp); with `palm`, the palm's front (its
+  surface samples farthest along the TCP approach) is one more contact (`pad_finger` numbers the contacts);
 - spheres along each finger's collision geoms (for the fingers' mutual penetration).
 
 `evaluate` places a batch of configurations and returns every point in the world with the Jacobians of their
@@ -52,8 +53,8 @@ class Points:
 class HandKinematics:
     """A dexterous hand on a free joint, as the optimiser sees it (module docstring)."""
 
-    def __init__(self, hand: Hand, spacing: float = SAMPLE_SPACING, palm: bool = False) -> None:
-        self.palm = palm
+    def __init__(self, hand: Hand, spacing: float = SAMPLE_SPACING, palm: bool = False, wrap: bool = False) -> None:
+        self.palm, self.wrap = palm, wrap
         if hand.kind != "dexterous":
             raise PlannerError(f"dexopt plans for dexterous hands; {hand.name!r} is a {hand.kind} hand")
         self.hand = hand
@@ -285,7 +286,8 @@ class HandKinematics:
             if not links:
                 raise PlannerError(f"hand {self.hand.name!r}: finger {self.hand.finger_bodies[f]!r} has no "
                                    "collision geometry")
-            for link in sorted(links, key=self._depth, reverse=True)[:PAD_LINKS]:  # the tip first
+            chosen_links = sorted(links, key=self._depth, reverse=True)  # the tip first
+            for link in chosen_links if self.wrap else chosen_links[:PAD_LINKS]:
                 pts = self.samples.local[self.samples.bodies == link]
                 k = self._slot_of(link)
                 before = xpos0[0, k] + pts @ xmat0[0, k].T
@@ -296,8 +298,8 @@ class HandKinematics:
                 front = pts[along >= np.quantile(along, 1.0 - PAD_FRACTION)]
                 bodies.extend([link] * len(front))
                 local.extend(front)
-                finger.extend([f] * len(front))
-            if not finger or finger[-1] != f:
+                finger.extend([len(set(finger)) if self.wrap else f] * len(front))
+            if not finger or (not self.wrap and finger[-1] != f):
                 raise PlannerError(f"hand {self.hand.name!r}: finger {self.hand.finger_bodies[f]!r} does not move "
                                    "when the hand closes; no pad direction")
         if self.palm:  # the palm as one more contact: its samples farthest along the TCP approach (z)
@@ -309,7 +311,7 @@ class HandKinematics:
             front = on_palm[along >= along.max() - PALM_BAND]
             bodies.extend(self.samples.bodies[front])
             local.extend(self.samples.local[front])
-            finger.extend([len(self.hand.finger_bodies)] * len(front))
+            finger.extend([len(set(finger))] * len(front))
         self.pad_finger = np.array(finger, int)
         return Points(np.array(bodies, int), np.array(local))
 

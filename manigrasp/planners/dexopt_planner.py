@@ -126,6 +126,7 @@ class DexOptPlanner:
         init_closure: largest fraction of the open -> closed pre-shape of the initial fingers [-].
         max_approach_z: largest z component of the initial approach direction (0: horizontal or from above).
         palm: the palm's front is one more contact of the energy (a power grasp), besides one pad per finger.
+        wrap: every moving finger link is a contact of its own (the fingers wrap), not only the fingertips.
         min_force_share: smallest force of a pad relative to the mean in the force-closure term (1: all
             pads push equally, Liu et al.; `force_shares`).
         contact_tolerance: [m] a pad this close to the surface is in contact.
@@ -152,6 +153,7 @@ class DexOptPlanner:
     max_approach_z: float = 0.0
     min_force_share: float = 0.3
     palm: bool = False
+    wrap: bool = False
     contact_tolerance: float = 0.02
     min_contacts: int = 3
     max_penetration: float = 0.001
@@ -203,7 +205,7 @@ class DexOptPlanner:
     def kinematics(self, hand: Hand) -> HandKinematics:
         """The hand's kinematic model, built once per hand name."""
         if hand.name not in self._hands:
-            self._hands[hand.name] = HandKinematics(hand, palm=self.palm)
+            self._hands[hand.name] = HandKinematics(hand, palm=self.palm, wrap=self.wrap)
         return self._hands[hand.name]
 
     def object_sdf(self, observation: Observation) -> GridSdf:
