@@ -239,7 +239,8 @@ def test_user_planner_from_module_attribute(monkeypatch, box_obs, jaw):
 
 def test_registry_errors_are_clear():
     assert {"antipodal", "power", "random"} <= set(planners.names())
-    with pytest.raises(UnknownNameError, match=r"did you mean 'antipodal'.*available: antipodal, file, power, random"):
+    listed = r"did you mean 'antipodal'.*available: antipodal, dexopt, file, power, random"
+    with pytest.raises(UnknownNameError, match=listed):
         planners.load("antipodl")
     with pytest.raises(UnknownNameError, match="cannot import module"):
         planners.load("no_such_module_xyz:Planner")
