@@ -1,4 +1,4 @@
-"""`dexopt` (in progress): the energy of optimisation-based dexterous grasp synthesis and its analytic gradient.
+"""`dexopt`: the energy of optimisation-based dexterous grasp synthesis and its analytic gradient.
 
 The energy follows DexGraspNet (Wang et al., 2023), with the differentiable force-closure estimate of Liu et al.
 (2021), over a hand configuration whose contact points x_i (n, 3) [m] are points fixed on the hand's links
@@ -15,14 +15,17 @@ The energy follows DexGraspNet (Wang et al., 2023), with the differentiable forc
 - table: E_table = sum_j max(0, z_table - p_j,z) (hand samples below the table top);
 - joint limits: E_joint = sum_k max(0, q_k - hi_k) + max(0, lo_k - q_k).
 
-Weights (`EnergyWeights`) default to DexGraspNet's relative scale (distance and penetration 100 x force closure).
+Weights (`EnergyWeights`) default to DexGraspNet's relative scale (distance and penetration 100 x force closure);
+they also weigh two terms the planner adds (the fingers' mutual penetration and the pads' centroid off the centre
+of mass, `dexopt_planner`), which has its own defaults.
 Every term returns its value and its gradient with respect to the points (or joints) in closed form, including
 the normals' dependence on the points through the signed distance's Hessian; `chain_to_dofs` takes a points'
 gradient to the hand's generalised coordinates with MuJoCo's Jacobians (`mj_jac`), so a descent step is
 ``mj_integratePos(model, qpos, -step * g, 1)`` on a hand mounted on a free joint.
 
-Status: the energy terms, the shapes (sphere, box) and the chain rule are implemented and tested; the planner
-itself (restarts, the descent loop, the squeeze direction, registration as a planner) is not written yet.
+The planner (restarts, the batched descent, the pads, the MuJoCo checks, the squeeze direction) is
+`manigrasp.planners.dexopt_planner` (registered as ``dexopt``); it evaluates these terms batched over restarts
+on `GridSdf`, the signed distance of the object's convex parts sampled on a grid.
 """
 
 from __future__ import annotations
