@@ -38,12 +38,11 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
 
 from manigrasp.control.impedance import ImpedanceGains
 from manigrasp.errors import ConfigError
-from manigrasp.geometry import check_rigid
+from manigrasp.geometry import axis_angle_to_mat, check_rigid
 from manigrasp.sim.scene import FloatingBase
 
 _FD_STEP = 1e-4  # [s] finite-difference step of the set-point rate
@@ -94,12 +93,8 @@ class BaseKinematics:
             return np.concatenate([self.mount_inv[:3, :3] @ twist[:3], np.zeros(3)])
         ahead = pose.copy()
         ahead[:3, 3] += _FD_STEP * twist[:3]
-        turn = np.empty(4)
-        mujoco.mju_axisAngle2Quat(turn, twist[3:] / max(np.linalg.norm(twist[3:]), 1e-300),
-                                  _FD_STEP * float(np.linalg.norm(twist[3:])))
-        mat = np.empty(9)
-        mujoco.mju_quat2Mat(mat, turn)
-        ahead[:3, :3] = mat.reshape(3, 3) @ pose[:3, :3]
+        spin = float(np.linalg.norm(twist[3:]))
+        ahead[:3, :3] = axis_angle_to_mat(twist[3:] / max(spin, 1e-300), _FD_STEP * spin) @ pose[:3, :3]
         return (self.joints(ahead) - self.joints(pose)) / _FD_STEP
 
 
