@@ -219,23 +219,39 @@ class GripController:
 
     Position phase (S = 1): the synergy command ramps toward 1 at
     `close_speed`. Contact (grip force >= `contact_force`) switches to the
-    force phase (S = 0) at the contact synergy s_c: the synergy follows
-    s = s_c + (kp e + ki z) / k with e = F_d - F [N] and z its time integral,
-    where k = full_force / (1 - s_c) [N per unit synergy] estimates how fast
-    the grip force grows with the command (linear from contact to `full_force`
-    at s = 1), so the loop bandwidth `bandwidth` [1/s] is the same for every
-    hand. The synergy is clamped to [0, 1]; the integral freezes while it is
-    clamped (anti-windup).
+    force phase (S = 0) at the contact synergy s_c, where the grip force
+    grows as k (s - s_c) [N] (k in N per unit synergy) until the hand's force
+    limit. The synergy follows
+
+        s = s_c + (f_ff + kp e + ki z) / k,  e = F_d - F [N], z = integral of e dt,
+
+    so the loop bandwidth `bandwidth` [1/s] is the same for every hand and width.
+
+    - A hand whose servo stiffness is known (`stiffness`, a hand's
+      `grip_stiffness`: kp x command span x transmission, e.g. 2000 N/m x
+      11.5 cm = 230 N for `parallel_jaw`) uses it as k at every width, s_c is
+      where the fingers are at contact (`hand_synergy`), and the feed-forward
+      f_ff = F_d commands the target force at once; the integral removes what
+      the model misses (the pads' compliance in series with the servo, a
+      transmission that varies over the stroke). This needs a closed command
+      past the closed stop (the servo reaches the force limit at any width).
+    - Otherwise k = full_force / (1 - s_c) estimates it (linear from contact
+      to `full_force` at s = 1), s_c is the command at contact and f_ff = 0.
+      The estimate holds when the hand's force grows over the remaining
+      synergy, as for the soft tendon servos of the dexterous hands
+      (`manigrasp.hands.from_robosuite.dexterous`: a blocked finger pushes
+      with kp (u - L), so the force spreads over a third of the command
+      range); a stiff servo that jumps to its force limit within a few
+      percent of the synergy would make the loop gain tens of times too high
+      and oscillate, and a position servo whose closed command is the closed
+      stop (force kp x width) would make it too low on narrow grips.
+
+    The synergy is clamped to [0, 1]; the integral freezes while it is clamped
+    (anti-windup).
 
     The grip force is `manigrasp.sim.grip_force`: the squeeze between the first
     finger (jaw 1, or the thumb) and the rest of the hand, so contact means a
-    two-sided grasp, not one finger pushing the object away. The estimate of k
-    holds when the hand's force grows over the remaining synergy, as for the
-    parallel jaws and for the soft tendon servos of the dexterous hands
-    (`manigrasp.hands.from_robosuite.dexterous`: a blocked finger pushes with
-    kp (u - L), so the force spreads over a third of the command range); a
-    stiff servo that jumps to its force limit within a few percent of the
-    synergy would make the loop gain tens of times too high and oscillate.
+    two-sided grasp, not one finger pushing the object away.
 
     Args:
         target_force: grip force to hold [N] (as `manigrasp.sim.grip_force` measures it).
@@ -246,14 +262,19 @@ class GripController:
         bandwidth: integral gain of the force loop, normalised by k [1/s].
         kp: proportional gain of the force loop, normalised by k [-].
         lead: how far the position-phase command may run ahead of the measured hand synergy.
+        stiffness: k [N per unit synergy] of the hand's servo (`Hand.grip_stiffness`); None: estimated.
     """
 
     def __init__(self, target_force: float, full_force: float, close_speed: float = 1.0,
-                 contact_force: float = 0.5, bandwidth: float = 10.0, kp: float = 0.1, lead: float = 0.1) -> None:
+                 contact_force: float = 0.5, bandwidth: float = 10.0, kp: float = 0.1, lead: float = 0.1,
+                 stiffness: float | None = None) -> None:
         if not 0 < target_force <= full_force or close_speed <= 0 or contact_force <= 0:
             raise ConfigError("need 0 < target_force <= full_force, close_speed > 0 and contact_force > 0")
+        if stiffness is not None and not (np.isfinite(stiffness) and stiffness > 0):
+            raise ConfigError(f"the grip stiffness must be finite and > 0 (or None), got {stiffness}")
         self.target_force, self.full_force, self.close_speed = target_force, full_force, close_speed
         self.contact_force, self.bandwidth, self.kp, self.lead = contact_force, bandwidth, kp, lead
+        self.servo_stiffness = stiffness
         self.reset()
 
     def reset(self, synergy: float = 0.0) -> None:
@@ -262,6 +283,7 @@ class GripController:
         self.mode = "position"
         self.contact_synergy = np.nan
         self.stiffness = np.nan
+        self.feedforward = 0.0
         self.pi = ForcePI(self.kp, self.bandwidth, np.inf)
 
     def update(self, grip_force: float, dt: float, hand_synergy: float | None = None) -> float:
@@ -269,16 +291,25 @@ class GripController:
 
         `hand_synergy` (e.g. `Scene.hand_synergy()`), if given, keeps the
         position-phase command at most `lead` ahead of where the fingers are, so
-        a slow hand does not find the command already closed at contact.
+        a slow hand does not find the command already closed at contact; with a
+        known `stiffness` it is also the contact synergy s_c.
         """
         if self.mode == "position":
             if grip_force < self.contact_force:
                 ceiling = 1.0 if hand_synergy is None else hand_synergy + self.lead
                 self.synergy = min(1.0, ceiling, self.synergy + self.close_speed * dt)
                 return self.synergy
-            self.mode, self.contact_synergy = "force", self.synergy
-            self.stiffness = self.full_force / max(1.0 - self.synergy, 0.05)
+            self.mode = "force"
+            if self.servo_stiffness is None:
+                self.contact_synergy = self.synergy
+                self.stiffness = self.full_force / max(1.0 - self.synergy, 0.05)
+            else:  # command the target at once; the force read at this tick is the position phase's: not integrated
+                self.contact_synergy = self.synergy if hand_synergy is None else min(self.synergy, hand_synergy)
+                self.stiffness = self.servo_stiffness
+                self.feedforward = self.target_force / self.stiffness
+                self.synergy = float(np.clip(self.contact_synergy + self.feedforward, 0.0, 1.0))
+                return self.synergy
         error = (self.target_force - grip_force) / self.stiffness
         out = self.pi.update(error, dt, push_up_blocked=self.synergy >= 1.0, push_down_blocked=self.synergy <= 0.0)
-        self.synergy = float(np.clip(self.contact_synergy + out[0], 0.0, 1.0))
+        self.synergy = float(np.clip(self.contact_synergy + self.feedforward + out[0], 0.0, 1.0))
         return self.synergy

@@ -53,6 +53,10 @@ class Hand:
         pad_backing: rigid geoms right behind the pads (a fingertip block) that lose
             their collisions with compliant pads: the pad elements then bottom out at
             their travel instead of the block taking the load after a fraction of a mm.
+        grip_stiffness: how fast the grip force of a hand blocked on an object grows with the
+            synergy below the force limit [N per unit synergy]: the servo's kp x the command span
+            (closed - open) x the transmission from actuator force to pad force; None: unknown
+            (`manigrasp.control.GripController` then estimates it from `max_grip_force`).
     """
 
     name: str
@@ -71,6 +75,7 @@ class Hand:
     notes: tuple[str, ...] = field(default_factory=tuple)
     pad_geoms: tuple[str, ...] = ()
     pad_backing: tuple[str, ...] = ()
+    grip_stiffness: float | None = None
 
     approach_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     closing_axis: tuple[float, float, float] = (0.0, 1.0, 0.0)

@@ -46,6 +46,10 @@ def _check_metadata(hand: Hand) -> None:
         value = getattr(hand, field)
         if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
             raise _fail(hand, f"{field} must be a positive finite number, got {value!r}")
+    stiffness = hand.grip_stiffness
+    if stiffness is not None and (not isinstance(stiffness, int | float) or not math.isfinite(stiffness)
+                                  or stiffness <= 0):
+        raise _fail(hand, f"grip_stiffness must be a positive finite number or None, got {stiffness!r}")
     for field in ("approach_axis", "closing_axis"):
         axis = np.asarray(getattr(hand, field), dtype=float)
         if axis.shape != (3,) or not np.isclose(np.linalg.norm(axis), 1.0):

@@ -102,7 +102,7 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
     p, hand = run.params, run.scene.hand
     target = p.grip_force if p.grip_force is not None else p.grip_force_fraction * hand.max_grip_force
     grip = GripController(min(target, hand.max_grip_force), hand.max_grip_force, close_speed=p.close_speed,
-                          contact_force=p.contact_force)
+                          contact_force=p.contact_force, stiffness=hand.grip_stiffness)
     grip.reset(preshape)
     release_hold(run)
     run.grip = grip

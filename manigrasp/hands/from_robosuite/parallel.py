@@ -57,6 +57,7 @@ def make_panda() -> Hand:
         tcp_site=build.TCP_SITE, finger_bodies=("leftfinger", "rightfinger"), actuators=("fingers",),
         open_ctrl=np.array([PANDA_STROKE]), closed_ctrl=np.array([-PANDA_GRIP_FORCE / PANDA_KP]),
         max_width=jaw_gap(model, data, build.TCP_SITE).width, max_grip_force=PANDA_GRIP_FORCE,
+        grip_stiffness=PANDA_KP * (PANDA_STROKE + PANDA_GRIP_FORCE / PANDA_KP),  # kp x span [N per synergy]
         mass=build.total_mass(model), source="robosuite",
         pad_geoms=("finger1_pad_collision", "finger2_pad_collision"),
         notes=load_gripper_spec("panda_gripper.xml")[1] + (
