@@ -132,6 +132,24 @@ def test_known_stiffness_regulates_at_the_same_rate_at_every_width() -> None:
     assert abs(estimated[10] - target) > 0.1 * target
 
 
+def test_a_brush_on_the_way_in_does_not_start_the_force_phase_early() -> None:
+    """A grip force pulse at synergy 0.15 (a pad brushing a rim), then none while the fingers move on: the
+    controller returns to the position phase and regulates from the real contact at 0.57 (static plant)."""
+    k, target, dt = 230.0, 35.0, 0.01
+    grip = GripController(target, 70.0, close_speed=2.0, stiffness=k)
+    grip.reset(0.0)
+    hand, s, modes, force = 0.0, 0.0, [], 0.0
+    for _ in range(100):
+        hand = min(s, 0.57)  # the fingers follow the command until the object stops them
+        force = 5.0 if 0.13 < hand < 0.17 else float(np.clip(k * (s - 0.57), 0.0, 70.0))
+        s = grip.update(force, dt, hand)
+        modes.append(grip.mode)
+    switches = [m for i, m in enumerate(modes) if i == 0 or m != modes[i - 1]]
+    assert switches == ["position", "force", "position", "force"]  # the brush, closing on, the object
+    assert grip.mode == "force" and grip.contact_synergy == pytest.approx(0.57)
+    assert force == pytest.approx(target, rel=1e-6)
+
+
 @pytest.mark.parametrize("bad", [0.0, -230.0, float("nan")])
 def test_a_hand_with_a_bad_grip_stiffness_is_refused(bad: float) -> None:
     from dataclasses import replace

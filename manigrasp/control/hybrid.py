@@ -214,6 +214,9 @@ class GuardedApproach:
         return u
 
 
+REARM_SYNERGY = 0.02  # [-] fingers this far past a lost contact (2.3 mm of parallel_jaw's width): close on
+
+
 class GripController:
     """Hybrid closing of a hand's synergy: position until contact, then grip-force regulation.
 
@@ -292,8 +295,14 @@ class GripController:
         `hand_synergy` (e.g. `Scene.hand_synergy()`), if given, keeps the
         position-phase command at most `lead` ahead of where the fingers are, so
         a slow hand does not find the command already closed at contact; with a
-        known `stiffness` it is also the contact synergy s_c.
+        known `stiffness` it is also the contact synergy s_c, and a contact that
+        is lost while the fingers move on past it by `REARM_SYNERGY` (a brush
+        of a rim or a handle on the way in) returns to the position phase, so
+        the force phase starts again where the fingers meet the object.
         """
+        if (self.mode == "force" and self.servo_stiffness is not None and hand_synergy is not None
+                and grip_force < self.contact_force and hand_synergy > self.contact_synergy + REARM_SYNERGY):
+            self.reset(min(self.synergy, hand_synergy + self.lead))  # the contact was a brush: close on
         if self.mode == "position":
             if grip_force < self.contact_force:
                 ceiling = 1.0 if hand_synergy is None else hand_synergy + self.lead

@@ -111,7 +111,9 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
     while elapsed < limit:
         run.step(chunk)
         elapsed += chunk
-        if grip.mode == "force" and touched_at is None:
+        if grip.mode != "force":  # (again: a contact lost on the way in, `GripController.update`)
+            touched_at = None
+        elif touched_at is None:
             touched_at = elapsed
         if touched_at is not None and elapsed - touched_at >= run.n_steps(p.close_settle_s):
             break
