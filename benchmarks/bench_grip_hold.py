@@ -7,7 +7,8 @@ lift 10 cm, hold 0.5 s, six 1 x m g perturbations). Printed per hand x gain: the
 displacement [mm] and rotation [deg] of the can in the hand over the whole trial, the grip force [N].
 `--adaptive` also runs the five-finger hands with adaptive (uncoupled) fingers, as they were before the
 fingers' joints were coupled. Measured (2 Dec 2026): creep at gains 0 / 20 / 40: inspire_right 19.5 / 2.4 /
-1.5 mm, fourier_right 12.0 / 1.5 / 1.1 mm, allegro_right 1.0 / 1.1 / 1.1 mm, every trial a success.
+1.5 mm, fourier_right 12.0 / 1.5 / 1.1 mm, allegro_right 1.0 / 1.1 / 1.1 mm, every trial a success; at 0 / 40
+the left hands: inspire_left 20.6 / 2.4 mm, fourier_left 12.5 / 1.0 mm, allegro_left 1.0 / 0.9 mm.
 
     .venv/bin/python benchmarks/bench_grip_hold.py
     .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right --gains 0 40 --adaptive
