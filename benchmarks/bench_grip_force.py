@@ -4,8 +4,9 @@ For each hand, pad model and width, a box `width` thick across the jaws (6 x 6 c
 stands on the table; the hand, its TCP at the box centre (top grasp), runs the standard protocol's
 close phase (`protocol.phases.close`: the grip loop `control.GripController` at the control rate, then
 the finger command held where it left it), then holds still `--hold` s. Printed: the grip force at
-the end of the close phase and after the hold [N], and the held force as a fraction of the target.
-An empty close (no object) is run too: its status and final jaw width.
+the end of the close phase and after the hold [N], the held force as a fraction of the target, and
+how long the close phase took. An empty close (no object) is run too: its status, duration and final
+jaw-actuator length (parallel_jaw, panda: the jaw width [m]; robotiq_2f85: the driver angle [rad]).
 
     .venv/bin/python benchmarks/bench_grip_force.py                                    # parallel_jaw
     .venv/bin/python benchmarks/bench_grip_force.py --hands parallel_jaw panda robotiq_2f85 --target 35
@@ -57,7 +58,8 @@ def rest_pose() -> np.ndarray:
 
 def close_on(hand: hands.Hand, width: float | None, pads: str, params: GraspParams,
              hold_s: float) -> tuple[str, float, float, float]:
-    """(status, grip force after the close phase [N], after `hold_s` more [N], final jaw-actuator length)."""
+    """(status and the close phase's duration, grip force after the close phase [N], after `hold_s` more [N],
+    final jaw-actuator length)."""
     scene = build_scene(hand, None if width is None else box_spec(width), SceneConfig(pads=pads))
     run = TrialRun(scene, params, None)
     run.reset(top_grasp(), rest_pose(), 0.0)
@@ -66,10 +68,10 @@ def close_on(hand: hands.Hand, width: float | None, pads: str, params: GraspPara
         phases.close(run, 0.0, metrics=False)
     except Abort as abort:
         status = abort.status.value
-    closed = current_grip_force(scene)
+    closed, close_s = current_grip_force(scene), run.sim_time
     run.hold_for(hold_s)
     length = float(scene.data.actuator_length[scene.hand_actuators][0])
-    return status, closed, current_grip_force(scene), length
+    return f"{status} in {close_s:.2f} s", closed, current_grip_force(scene), length
 
 
 def main() -> None:

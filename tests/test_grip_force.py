@@ -35,7 +35,8 @@ def _box(width: float) -> mujoco.MjSpec:
 
 
 def _close(hand: hands.Hand, width: float | None, pads: str, params: GraspParams) -> tuple[TrialRun, Status | None]:
-    """Close the standard protocol's way on a box of `width` (None: nothing), hold HOLD_S; (run, abort status)."""
+    """Close the standard protocol's way on a box of `width` (None: nothing), hold HOLD_S; (run, abort status).
+    `run.close_s` is how long the close phase took [s]."""
     scene = build_scene(hand, None if width is None else _box(width), SceneConfig(pads=pads))
     run = TrialRun(scene, params, None)
     grasp = np.diag([1.0, -1.0, -1.0, 1.0])  # approach down, closing along -y
@@ -48,6 +49,7 @@ def _close(hand: hands.Hand, width: float | None, pads: str, params: GraspParams
         phases.close(run, 0.0, metrics=False)
     except Abort as abort:
         status = abort.status
+    run.close_s = run.sim_time
     run.hold_for(HOLD_S)
     return run, status
 
@@ -82,6 +84,9 @@ def test_parallel_jaw_holds_a_set_grip_force_on_a_thin_and_a_wide_box(target: fl
 def test_parallel_jaw_empty_close_ends_at_the_joint_stop(pads: str) -> None:
     run, status = _close(hands.load("parallel_jaw"), None, pads, GraspParams())
     assert status is Status.NO_CONTACT  # not unstable: the stops take the closed command's push
+    # the jaw stops at width 0 (synergy 0.70, the closed command is past it): the close ends once the fingers
+    # stand still there (`GripController.stalled`), not at the protocol's 2 s timeout
+    assert run.close_s < 0.8
     scene = run.scene
     width = float(scene.data.actuator_length[scene.hand_actuators][0])
     assert -0.002 < width < 0.001  # the fingers at their closed stops (width 0), not through each other

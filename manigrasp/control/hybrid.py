@@ -215,6 +215,7 @@ class GuardedApproach:
 
 
 REARM_SYNERGY = 0.02  # [-] fingers this far past a lost contact (2.3 mm of parallel_jaw's width): close on
+STALL_SYNERGY, STALL_S = 1e-3, 0.1  # [-], [s] fingers that advance less than this for this long have stopped
 
 
 class GripController:
@@ -288,6 +289,14 @@ class GripController:
         self.stiffness = np.nan
         self.feedforward = 0.0
         self.pi = ForcePI(self.kp, self.bandwidth, np.inf)
+        self._furthest, self._still_s = -np.inf, 0.0
+
+    @property
+    def stalled(self) -> bool:
+        """True when a hand with a known `stiffness` is still closing on position but its fingers have not
+        moved on (by STALL_SYNERGY) for STALL_S: closed on nothing, they rest on their stops (a closed
+        command past the stop never reaches synergy 1), or on one side of an object that does not move."""
+        return self.mode == "position" and self._still_s >= STALL_S
 
     def update(self, grip_force: float, dt: float, hand_synergy: float | None = None) -> float:
         """New synergy command for the measured `grip_force` [N] after a step `dt` [s].
@@ -305,6 +314,10 @@ class GripController:
             self.reset(min(self.synergy, hand_synergy + self.lead))  # the contact was a brush: close on
         if self.mode == "position":
             if grip_force < self.contact_force:
+                if hand_synergy is not None and self.servo_stiffness is not None:
+                    moved = hand_synergy > self._furthest + STALL_SYNERGY
+                    self._furthest = hand_synergy if moved else self._furthest
+                    self._still_s = 0.0 if moved else self._still_s + dt
                 ceiling = 1.0 if hand_synergy is None else hand_synergy + self.lead
                 self.synergy = min(1.0, ceiling, self.synergy + self.close_speed * dt)
                 return self.synergy

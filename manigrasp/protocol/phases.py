@@ -117,7 +117,7 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
             touched_at = elapsed
         if touched_at is not None and elapsed - touched_at >= run.n_steps(p.close_settle_s):
             break
-        if grip.mode == "position" and run.scene.hand_synergy() > CLOSED_SYNERGY:
+        if grip.mode == "position" and (run.scene.hand_synergy() > CLOSED_SYNERGY or grip.stalled):
             break
     if not p.regulate_grip_after_close:
         run.grip = None
