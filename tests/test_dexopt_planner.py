@@ -178,6 +178,9 @@ def test_planner_returns_deterministic_valid_grasps_that_do_not_penetrate(tmp_pa
         assert np.all(np.isfinite(s.pose)) and np.allclose(s.pose[:3, :3] @ s.pose[:3, :3].T, np.eye(3), atol=1e-9)
         assert s.joints.shape == (2, hand.n_actuators)
         assert np.all(s.joints >= hk.ctrl_low - 1e-12) and np.all(s.joints <= hk.ctrl_high + 1e-12)
+        closing = np.sign(hand.closed_ctrl - hand.open_ctrl)
+        assert np.all((s.joints[1] - s.joints[0]) * closing >= -1e-12)  # close_only: the path only closes
+        assert np.any((s.joints[1] - s.joints[0]) * closing > 0.1)
         # Independently re-measured in MuJoCo: the planned configuration penetrates at most 1 mm.
         qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0, 0, 0]), s.q)
         hand_q = {addresses[hk.model.joint(j).name]: float(qpos[hk.model.jnt_qposadr[j]]) for j in hk.joints}

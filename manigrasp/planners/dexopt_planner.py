@@ -31,8 +31,9 @@
 5. Hand path (`GraspCandidate.joints`, actuator commands): first the pads' remaining gaps are closed (the
    least-norm joint motion moving each pad its distance along its normal, damped least squares): the contact
    command. The squeeze is the actuator forces f that best produce the joint torques sum_i J_i^T n_i pushing
-   every pad into the object (least squares through the joint -> command map), as a command offset f / kp
-   scaled so the most loaded actuator reaches its force limit: row 1 = contact command + `SQUEEZE_REACH`
+   every pad into the object (least squares through the joint -> command map; with `close_only`, a force
+   against the hand's own closing direction is dropped), as a command offset f / kp scaled so the most
+   loaded actuator reaches its force limit: row 1 = contact command + `SQUEEZE_REACH`
    offsets, within the command ranges (the protocol's grip regulation stops along the line where the grip
    force is reached; a short line would leave the close slow: its command may run only a fixed fraction of
    the line ahead of the fingers). Row 0, the
@@ -127,6 +128,10 @@ class DexOptPlanner:
         max_approach_z: largest z component of the initial approach direction (0: horizontal or from above).
         palm: the palm's front is one more contact of the energy (a power grasp), besides one pad per finger.
         wrap: every moving finger link is a contact of its own (the fingers wrap), not only the fingertips.
+        close_only: the squeeze moves each actuator only along the hand's own closing direction (open ->
+            closed command); an actuator whose best force would open it stays put. On (the default): on the
+            dexterous config it raised the successes from 22, 11, 5/80 to 26, 18, 8/80 (Inspire, Fourier,
+            Allegro; fewer stalled closes), README.
         min_force_share: smallest force of a pad relative to the mean in the force-closure term (1: all
             pads push equally, Liu et al.; `force_shares`).
         contact_tolerance: [m] a pad this close to the surface is in contact.
@@ -154,6 +159,7 @@ class DexOptPlanner:
     min_force_share: float = 0.3
     palm: bool = False
     wrap: bool = False
+    close_only: bool = True
     contact_tolerance: float = 0.02
     min_contacts: int = 3
     max_penetration: float = 0.001
@@ -430,6 +436,9 @@ class DexOptPlanner:
         ctrl_c, a = hk.ctrl(q_touch)
         tau = rows.sum(axis=0)  # joint torques of unit inward pushes at every pad
         force = np.linalg.lstsq(a.T, tau, rcond=None)[0]  # actuator forces f with A^T f = tau (least squares)
+        if self.close_only:  # no actuator squeezes against the hand's own closing direction
+            closing = np.sign(hk.hand.closed_ctrl - hk.hand.open_ctrl)
+            force = np.where(force * closing > 0, force, 0.0)
         load = np.max(np.abs(force) / hk.force_limit)
         if not load > 0:
             return None
