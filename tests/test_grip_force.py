@@ -155,6 +155,17 @@ def test_a_brush_on_the_way_in_does_not_start_the_force_phase_early() -> None:
     assert force == pytest.approx(target, rel=1e-6)
 
 
+def test_an_object_squeezed_out_of_the_grip_is_not_a_brush() -> None:
+    """A grip that carried the target and is then lost (the object squeezed out) stays in the force phase: the
+    protocol's lift judges it, the controller does not close on as if nothing had been touched."""
+    grip = GripController(35.0, 70.0, close_speed=2.0, stiffness=230.0)
+    grip.reset(0.5)
+    grip.update(5.0, 0.01, 0.5)
+    grip.update(40.0, 0.01, 0.5)
+    grip.update(0.0, 0.01, 0.6)
+    assert grip.mode == "force" and grip.contact_synergy == pytest.approx(0.5)
+
+
 @pytest.mark.parametrize("bad", [0.0, -230.0, float("nan")])
 def test_a_hand_with_a_bad_grip_stiffness_is_refused(bad: float) -> None:
     from dataclasses import replace

@@ -215,6 +215,7 @@ class GuardedApproach:
 
 
 REARM_SYNERGY = 0.02  # [-] fingers this far past a lost contact (2.3 mm of parallel_jaw's width): close on
+BRUSH_FRACTION = 0.5  # [-] a lost contact whose grip force never reached this fraction of the target was a brush
 STALL_SYNERGY, STALL_S = 1e-3, 0.1  # [-], [s] fingers that advance less than this for this long have stopped
 
 
@@ -289,7 +290,7 @@ class GripController:
         self.stiffness = np.nan
         self.feedforward = 0.0
         self.pi = ForcePI(self.kp, self.bandwidth, np.inf)
-        self._furthest, self._still_s = -np.inf, 0.0
+        self._furthest, self._still_s, self._peak = -np.inf, 0.0, 0.0
 
     @property
     def stalled(self) -> bool:
@@ -305,13 +306,18 @@ class GripController:
         position-phase command at most `lead` ahead of where the fingers are, so
         a slow hand does not find the command already closed at contact; with a
         known `stiffness` it is also the contact synergy s_c, and a contact that
-        is lost while the fingers move on past it by `REARM_SYNERGY` (a brush
-        of a rim or a handle on the way in) returns to the position phase, so
-        the force phase starts again where the fingers meet the object.
+        is lost while the fingers move on past it by `REARM_SYNERGY`, its grip
+        force never above `BRUSH_FRACTION` of the target (a brush of a rim or a
+        handle on the way in), returns to the position phase, so the force phase
+        starts again where the fingers meet the object. An object that was
+        gripped and squeezed out stays in the force phase (the protocol judges it).
         """
-        if (self.mode == "force" and self.servo_stiffness is not None and hand_synergy is not None
-                and grip_force < self.contact_force and hand_synergy > self.contact_synergy + REARM_SYNERGY):
-            self.reset(min(self.synergy, hand_synergy + self.lead))  # the contact was a brush: close on
+        if self.mode == "force":
+            self._peak = max(self._peak, grip_force)
+            if (self.servo_stiffness is not None and hand_synergy is not None and grip_force < self.contact_force
+                    and hand_synergy > self.contact_synergy + REARM_SYNERGY
+                    and self._peak < BRUSH_FRACTION * self.target_force):
+                self.reset(min(self.synergy, hand_synergy + self.lead))  # the contact was a brush: close on
         if self.mode == "position":
             if grip_force < self.contact_force:
                 if hand_synergy is not None and self.servo_stiffness is not None:
