@@ -20,8 +20,9 @@
    - the pads' distance to the surface sum |d_i| (L1, as DexGraspNet: a constant pull);
    - the depth of the hand's surface samples inside the object and below the table top + `table_clearance`;
    - the fingers' mutual penetration (spheres along their links); joint limits;
-   - the pads' centroid away from the centre of mass, |mean_i (x_i - c) / r|^2: the weight then hangs
-     between the fingers instead of twisting out of them (the lifts' `slipped_lift` at 15 deg).
+   - the pads' centroid away from the centre of mass, |mean_i (x_i - c) / r|^2, meant to let the weight
+     hang between the fingers rather than twist out of them (its effect on success not measured alone).
+   With `wrap`, every moving finger link is a pad of its own; with `palm`, the palm's front is one more.
 4. Selection, lowest energy first: at least `min_contacts` pads within `contact_tolerance` of the surface;
    a MuJoCo check at the planned configuration in the real scene (hand geoms vs object parts and table,
    `mj_collision`, no margin): a hand that penetrates is first moved out along the contact normals (a few
@@ -33,14 +34,13 @@
    command. The squeeze is the actuator forces f that best produce the joint torques sum_i J_i^T n_i pushing
    every pad into the object (least squares through the joint -> command map; with `close_only`, a force
    against the hand's own closing direction is dropped), as a command offset f / kp scaled so the most
-   loaded actuator reaches its force limit: row 1 = contact command + `SQUEEZE_REACH`
-   offsets, within the command ranges (the protocol's grip regulation stops along the line where the grip
-   force is reached; a short line would leave the close slow: its command may run only a fixed fraction of
-   the line ahead of the fingers). Row 0, the
-   pre-shape, lies on the same line backwards, far enough that the pads back off `preshape_backoff` [m]
-   (first order, within the command ranges); it must be clear (penetration at most `max_penetration`) at the
-   grasp pose and along the approach from the pre-grasp pose; if not, the back-off is doubled (up to
-   `PRESHAPE_TRIES` tries).
+   loaded actuator reaches its force limit: row 1 = contact command + `SQUEEZE_REACH` offsets, within the
+   command ranges (the protocol's grip regulation stops along the line where the grip force is reached; a
+   short line would leave the close slow: its command may run only a fixed fraction of the line ahead of
+   the fingers). Row 0, the pre-shape, lies on the same line backwards, far enough that the pads back off
+   `preshape_backoff` [m] (first order, within the command ranges); it must be clear (penetration at most
+   `max_penetration`) at the grasp pose and along the approach from the pre-grasp pose; if not, the back-off
+   is doubled (up to `PRESHAPE_TRIES` tries).
 
 Score = 1 / (1 + E) (in (0, 1], higher is better) with E the final energy.
 """
