@@ -118,7 +118,8 @@ class DexOptPlanner:
     After each call, `last["rejected"]` counts the restarts each check of step 4-5 turned down.
 
     Attributes:
-        restarts: random initial configurations optimised together.
+        restarts: random initial configurations optimised together (48: on the dexterous config 26, 22, 12/80
+            for Inspire, Fourier, Allegro against 26, 18, 8/80 with 32, where fewer than 10 grasps passed).
         iterations: descent steps.
         step_translation: [m], step_rotation: [rad], step_joints: [rad]: initial Adam steps.
         weights: the energy's weights (`dexopt.EnergyWeights`; a mapping of its fields in a config).
@@ -146,7 +147,7 @@ class DexOptPlanner:
     name: ClassVar[str] = "dexopt"
     needs: ClassVar[ObservationKind] = "mesh"
 
-    restarts: int = 32
+    restarts: int = 48
     iterations: int = 150
     step_translation: float = 0.003
     step_rotation: float = 0.03
