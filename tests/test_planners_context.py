@@ -100,7 +100,7 @@ def test_a_context_reaches_planners_that_take_it_and_old_planners_still_run(box_
     assert not takes_context(OldPlanner()) and takes_context(NewPlanner()) and takes_context(KeywordPlanner())
     context = _context(0.05)
     old = planners.plan(OldPlanner(), box_obs, jaw, 1, np.random.default_rng(0), context=context)
-    assert old.candidates[0].pregrasp_offset == planners.PREGRASP_OFFSET  # its own default, untouched
+    assert old.candidates[0].pregrasp_offset is None  # it said nothing: the protocol's offset holds
     for planner in (NewPlanner(), KeywordPlanner()):
         result = planners.plan(planner, box_obs, jaw, 1, np.random.default_rng(0), context=context)
         assert planner.seen == [context] and result.candidates[0].pregrasp_offset == 0.05
@@ -167,6 +167,21 @@ def test_the_protocol_starts_the_hand_at_its_own_offset_with_a_grasp_planned_for
                           observer=watcher)
     assert result.status.value == "success", result.detail
     np.testing.assert_allclose(watcher.start[:3, 3], grasp.position - offset * grasp.approach, atol=1e-6)
+
+
+def test_a_grasp_whose_planner_named_no_offset_starts_at_the_protocols(box_scene) -> None:
+    """A user planner that takes no context (and a grasp file) names no offset: the protocol's holds."""
+    protocol = PROTOCOLS.load("lift", pregrasp_offset=0.05)
+    observation = planners.Observation.from_asset(box_scene.asset, box_scene.rest)
+    planned = planners.plan(planners.load("antipodal"), observation, box_scene.scene.hand, 1,
+                            np.random.default_rng(0), context=PlanContext.from_params(protocol.params)).candidates[0]
+    grasp = planners.GraspCandidate(pose=planned.pose, score=1.0, width=planned.width)
+    assert grasp.pregrasp_offset is None
+    watcher = StartWatcher()
+    result = protocol.run(box_scene.scene, grasp, np.random.default_rng(0), object_pose=box_scene.rest,
+                          observer=watcher)
+    assert result.status.value == "success", result.detail
+    np.testing.assert_allclose(watcher.start[:3, 3], grasp.position - 0.05 * grasp.approach, atol=1e-6)
 
 
 def test_the_harness_plans_for_the_groups_protocol(tmp_path: Path) -> None:

@@ -148,7 +148,9 @@ class GraspCandidate:
         epsilon_l1: Ferrari-Canny epsilon (L1) of the planned contacts, or None if not computed.
         force_closure: whether the planned contacts are in force closure, or None.
         min_friction: smallest friction coefficient for force closure of the planned contacts, or None.
-        pregrasp_offset: distance [m] the pre-grasp pose lies back along the approach axis.
+        pregrasp_offset: distance [m] the pre-grasp pose lies back along the approach axis (the distance
+            the planner checked for collisions), or None: the protocol's `pregrasp_offset` (a planner that
+            does not take a `PlanContext` says nothing, so the protocol's setting holds).
         planner: name of the planner that made it.
         planning_time_s: wall time of the planning call that produced it [s]
             (set by `manigrasp.planners.run.plan`).
@@ -172,7 +174,7 @@ class GraspCandidate:
     epsilon_l1: float | None = None
     force_closure: bool | None = None
     min_friction: float | None = None
-    pregrasp_offset: float = PREGRASP_OFFSET
+    pregrasp_offset: float | None = None
     planner: str = ""
     planning_time_s: float = 0.0
     invalid: str = ""
@@ -219,8 +221,10 @@ class GraspCandidate:
 
     @property
     def pregrasp_pose(self) -> np.ndarray:
-        """(4, 4) the pose `pregrasp_offset` back along the approach axis."""
-        return pregrasp_pose(self.pose, self.pregrasp_offset)
+        """(4, 4) the pose `pregrasp_offset` back along the approach axis (`PREGRASP_OFFSET`, the standard
+        protocol's, when the candidate names none)."""
+        offset = PREGRASP_OFFSET if self.pregrasp_offset is None else self.pregrasp_offset
+        return pregrasp_pose(self.pose, offset)
 
 
 @runtime_checkable

@@ -112,7 +112,8 @@ def candidate_defect(candidate: GraspCandidate, hand: Hand | None = None) -> str
     on the compiled scene: `invalid_grasp`)."""
     for key in ("score", "preshape", "pregrasp_offset", "width"):
         value = getattr(candidate, key)
-        if not (value is None and key == "width") and (isinstance(value, bool) or not isinstance(value, Real)):
+        if not (value is None and key in ("width", "pregrasp_offset")) and (isinstance(value, bool)
+                                                                       or not isinstance(value, Real)):
             return f"{key} is {value!r}, not a number"
     for key in ("pose", "contacts", "contact_normals"):
         value = getattr(candidate, key)
@@ -133,7 +134,8 @@ def candidate_defect(candidate: GraspCandidate, hand: Hand | None = None) -> str
         return "contacts and contact_normals differ in shape"
     if not (np.all(np.isfinite(candidate.contacts)) and np.all(np.isfinite(candidate.contact_normals))):
         return "contacts contain NaN or inf"
-    if not np.isfinite(candidate.pregrasp_offset) or candidate.pregrasp_offset < 0:
+    offset = candidate.pregrasp_offset
+    if offset is not None and not (np.isfinite(offset) and offset >= 0):
         return f"pregrasp_offset is {candidate.pregrasp_offset}"
     if candidate.joints is not None:
         from manigrasp.protocol.grasp import joints_defect
