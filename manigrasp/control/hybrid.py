@@ -234,12 +234,15 @@ class GripController:
 
     - A hand whose servo stiffness is known (`stiffness`, a hand's
       `grip_stiffness`: kp x command span x transmission, e.g. 2000 N/m x
-      11.5 cm = 230 N for `parallel_jaw`) uses it as k at every width, s_c is
-      where the fingers are at contact (`hand_synergy`), and the feed-forward
-      f_ff = F_d commands the target force at once; the integral removes what
-      the model misses (the pads' compliance in series with the servo, a
-      transmission that varies over the stroke). This needs a closed command
-      past the closed stop (the servo reaches the force limit at any width).
+      11.5 cm = 230 N for `parallel_jaw`) pushes with k (s - s_h), s_h where
+      its fingers are (`hand_synergy`), so s_c is s_h at every tick (the
+      contact synergy while they stand on the object, and where they are while
+      the object still yields or the pads compress), and the feed-forward
+      f_ff = F_d commands the target force at once: the servo is force
+      controlled, as a real gripper's grasp command is; the integral removes
+      what the model misses (friction, a transmission that varies over the
+      stroke). This needs a closed command past the closed stop (the servo
+      reaches the force limit at any width).
     - Otherwise k = full_force / (1 - s_c) estimates it (linear from contact
       to `full_force` at s = 1), s_c is the command at contact and f_ff = 0.
       The estimate holds when the hand's force grows over the remaining
@@ -339,5 +342,7 @@ class GripController:
                 return self.synergy
         error = (self.target_force - grip_force) / self.stiffness
         out = self.pi.update(error, dt, push_up_blocked=self.synergy >= 1.0, push_down_blocked=self.synergy <= 0.0)
-        self.synergy = float(np.clip(self.contact_synergy + self.feedforward + out[0], 0.0, 1.0))
+        # a known servo pushes with k (s - where the fingers are): command that push from where they are now
+        base = self.contact_synergy if self.servo_stiffness is None or hand_synergy is None else hand_synergy
+        self.synergy = float(np.clip(base + self.feedforward + out[0], 0.0, 1.0))
         return self.synergy
