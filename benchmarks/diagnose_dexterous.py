@@ -1,0 +1,210 @@
+"""Why do dexterous grasps slip at lift? Re-simulate stored trials of a run and print, at the end of the close
+and through the lift, what holds the object.
+
+Usage:
+    .venv/bin/python benchmarks/diagnose_dexterous.py RUN_DIR [TRIAL_ID ...] [--status slipped_lift] [--max 4]
+
+Each trial is replayed exactly as `manigrasp replay` does (same scene, settled object, stored grasp, seed) with
+an observer that only reads the scene. Printed per snapshot (end of close = start of lift; then every 0.1 s of
+the lift and hold):
+
+- each hand body touching the object: its finger, summed normal force [N], tangential force [N] and the worst
+  friction-cone usage (1 = sliding);
+- the grip force the protocol regulates (`manigrasp.sim.grip_force`: min(thumb, rest)), the total normal force
+  and the object's weight m g; the largest "friction capacity" mu * sum f_n vs m g;
+- each squeezing actuator's force against its limit (saturated = within 2 % of it), and its command minus its
+  length (how far past the finger the servo is wound);
+- the object's translation [mm] and rotation [deg] in the hand since the start of the lift.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from manigrasp.bench.replay import find_trial, stored_grasp, stored_trials
+from manigrasp.geometry import relative_pose
+from manigrasp.protocol.result import Phase
+from manigrasp.sim import grip_force, read_hand_contacts
+
+G = 9.81
+
+
+class Probe:
+    """Observer printing the grasp's contact and actuator state at the start of the lift and through it."""
+
+    sample_period_s = 0.1
+
+    def __init__(self, out=sys.stdout, quiet: bool = False) -> None:
+        self.out, self.quiet = out, quiet
+        self.phase = None
+        self.ref = None
+        self.rows: list[dict] = []
+
+    def on_start(self, scene, grasp, object_pose) -> None:  # noqa: D102
+        joints = getattr(grasp, "joints", None)
+        if joints is not None:
+            if not self.quiet:
+                print(f"  hand path: pre-shape {np.round(joints[0], 2)}\n"
+                      f"             squeeze   {np.round(joints[1], 2)}", file=self.out)
+
+    def on_phase(self, scene, phase, detail: str = "") -> None:  # noqa: D102
+        self.phase = phase
+        if phase == Phase.LIFT:
+            self.ref = relative_pose(scene.tcp_pose(), scene.object_pose())
+            self.snapshot(scene, "end of close")
+        elif phase in (Phase.HOLD, Phase.PERTURB):
+            self.snapshot(scene, f"{phase.value} begins {detail}")
+
+    def on_sample(self, scene) -> None:  # noqa: D102
+        if self.phase in (Phase.LIFT, Phase.HOLD):
+            self.snapshot(scene, f"{self.phase.value} t={scene.time:.2f}", brief=True)
+
+    def on_end(self, scene, result) -> None:  # noqa: D102
+        self.snapshot(scene, f"end ({result.status.value}: {result.detail[:80]})")
+
+    def snapshot(self, scene, label: str, brief: bool = False) -> None:
+        """Print the state now."""
+        m, d = scene.model, scene.data
+        c = read_hand_contacts(scene, "object")
+        weight = scene.object_mass() * G
+        drift = ""
+        if self.ref is not None:
+            now = relative_pose(scene.tcp_pose(), scene.object_pose())
+            move = relative_pose(self.ref, now)
+            angle = np.degrees(np.arccos(np.clip((np.trace(move[:3, :3]) - 1) / 2, -1, 1)))
+            drift = f" drift {1000 * np.linalg.norm(move[:3, 3]):5.1f} mm {angle:5.1f} deg"
+        fn = np.clip(c.normal_force, 0, None)
+        table = read_hand_contacts(scene, "table")
+        if len(table):
+            drift += f" | hand on table {np.clip(table.normal_force, 0, None).sum():.2f} N"
+        capacity = float(np.sum(c.friction * fn))
+        row = dict(label=label, grip=grip_force(c), total=float(fn.sum()), capacity=capacity, weight=weight)
+        bodies = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or "" for b in c.hand_body]
+        tips = np.array([("tip" in n) or ("distal" in n) for n in bodies], bool)
+        total = max(row["total"], 1e-9)
+        row.update(on_cone=float(fn[c.cone_ratio >= 0.95].sum() / total), tips=float(fn[tips].sum() / total) if
+                   len(fn) else 0.0, palm=float(fn[c.finger < 0].sum()), n_fingers=len(c.fingers_touching),
+                   saturated=int(np.sum(np.abs(d.actuator_force[scene.hand_actuators]) >= 0.98 * np.where(
+                       m.actuator_forcelimited[scene.hand_actuators].astype(bool),
+                       m.actuator_forcerange[scene.hand_actuators, 1], np.inf))))
+        self.rows.append(row)
+        if self.quiet:
+            return
+        print(f"  [{label}] grip {row['grip']:5.2f} N  sum fn {row['total']:5.2f} N  mu*sum fn {capacity:5.2f} N"
+              f"  mg {weight:4.2f} N  fingers {c.fingers_touching}{drift}", file=self.out)
+        if brief:
+            return
+        names = {}
+        for b in np.unique(c.hand_body):
+            sel = c.hand_body == b
+            names[mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)] = (
+                int(c.finger[sel][0]), fn[sel].sum(), c.tangential_force[sel].sum(), c.cone_ratio[sel].max(),
+                int(sel.sum()))
+        for name, (finger, f, t, cone, n) in sorted(names.items(), key=lambda kv: kv[1][0]):
+            print(f"      {name:32s} finger {finger:2d}  fn {f:6.2f} N  ft {t:5.2f} N  cone {cone:4.2f}  ({n} pts)",
+                  file=self.out)
+        acts = scene.hand_actuators
+        force = d.actuator_force[acts]
+        limit = np.where(m.actuator_forcelimited[acts].astype(bool),
+                         np.where(force >= 0, m.actuator_forcerange[acts, 1], -m.actuator_forcerange[acts, 0]), np.inf)
+        wound = d.ctrl[acts] - d.actuator_length[acts]
+        open_, closed = scene.hand_path
+        closing = np.sign(closed - open_)
+        parts = []
+        for i, a in enumerate(acts):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a).split("/")[-1][-10:]
+            sat = "*" if np.isfinite(limit[i]) and abs(force[i]) >= 0.98 * limit[i] else " "
+            parts.append(f"{name}:{force[i]:+.2f}/{limit[i]:.2f}{sat} w{wound[i]:+.2f} c{closing[i]:+.0f}")
+        for k in range(0, len(parts), 4):
+            print("      " + "  ".join(parts[k:k + 4]), file=self.out)
+        print(f"      hand synergy {scene.hand_synergy():.3f}", file=self.out)
+
+
+_ORIGINAL: dict[int, tuple[np.ndarray, float, np.ndarray]] = {}
+
+
+def counterfactual(scene, friction: float | None, mass_scale: float) -> None:
+    """Change the physics of `scene` for a what-if replay: the hand geoms' sliding friction (the hand-object
+    coefficient: hand geoms have contact priority) and the object's mass and inertia (x `mass_scale`).
+    The model's own values are kept and restored when called with (None, 1.0)."""
+    m = scene.model
+    if id(m) not in _ORIGINAL:
+        _ORIGINAL[id(m)] = (m.geom_friction[:, 0].copy(), float(m.body_mass[scene.object_body]),
+                            m.body_inertia[scene.object_body].copy())
+    mu, mass, inertia = _ORIGINAL[id(m)]
+    m.geom_friction[:, 0] = np.where(scene.geom_is_hand, friction, mu) if friction is not None else mu
+    m.body_mass[scene.object_body] = mass * mass_scale
+    m.body_inertia[scene.object_body] = inertia * mass_scale
+
+
+def replay_probe(run_dir: Path, trial_id: str, quiet: bool = False, friction: float | None = None,
+                 mass_scale: float = 1.0) -> tuple[object, Probe]:
+    """Replay `trial_id` of `run_dir` with a `Probe`; returns (result, probe). `friction`, `mass_scale`: a
+    what-if (`counterfactual`), applied after the object has settled."""
+    from manigrasp.bench.worker import scene_for
+    from manigrasp.protocol import PROTOCOLS, settle_object
+
+    trial = find_trial(run_dir, trial_id)
+    group = trial.group
+    scene = scene_for(group)
+    counterfactual(scene, None, 1.0)
+    object_pose = settle_object(scene)
+    counterfactual(scene, friction, mass_scale)
+    probe = Probe(quiet=quiet)
+    protocol = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params))
+    seed = group.trial_seed(trial.index)
+    result = protocol.run(scene, stored_grasp(trial.result), np.random.default_rng(seed),
+                          deadline=time.monotonic() + 600, object_pose=object_pose, observer=probe, seed=seed)
+    return result, probe
+
+
+def summary(run_dir: Path, ids: list[str], friction: float | None = None, mass_scale: float = 1.0) -> int:
+    """One line per trial: the state at the end of the close (start of the lift)."""
+    ids = ids or sorted(stored_trials(run_dir))
+    print("trial | status | grip N | sum fn N | mu sum fn / mg | fn on cone | fn on tips | palm N | fingers | "
+          "saturated actuators")
+    for trial_id in ids:
+        result, probe = replay_probe(run_dir, trial_id, quiet=True, friction=friction, mass_scale=mass_scale)
+        first = next((r for r in probe.rows if r["label"] == "end of close"), None)
+        if first is None:
+            print(f"{trial_id} | {result.status.value} | (no lift)")
+            continue
+        print(f"{trial_id} | {result.status.value} | {first['grip']:.1f} | {first['total']:.1f} | "
+              f"{first['capacity'] / first['weight']:.2f} | {first['on_cone']:.2f} | {first['tips']:.2f} | "
+              f"{first['palm']:.1f} | {first['n_fingers']} | {first['saturated']}", flush=True)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("run_dir", type=Path)
+    ap.add_argument("trials", nargs="*")
+    ap.add_argument("--status", default="slipped_lift", help="pick stored trials with this status (no ids given)")
+    ap.add_argument("--max", type=int, default=4)
+    ap.add_argument("--friction", type=float, help="what-if: hand-object sliding friction (default: the run's)")
+    ap.add_argument("--mass-scale", type=float, default=1.0, help="what-if: the object's mass x this")
+    ap.add_argument("--summary", action="store_true", help="one line per trial (every stored trial if no ids)")
+    args = ap.parse_intermixed_args(argv)
+    ids = args.trials
+    if args.summary:
+        return summary(args.run_dir, ids, args.friction, args.mass_scale)
+    if not ids:
+        trials = stored_trials(args.run_dir)
+        ids = [t for t, s in sorted(trials.items()) if s.result.status.value == args.status][:args.max]
+    for trial_id in ids:
+        stored = find_trial(args.run_dir, trial_id).result
+        print(f"== {trial_id}: stored {stored.status.value} (grip {stored.grip_force_n:.2f} N)")
+        result, _ = replay_probe(args.run_dir, trial_id, friction=args.friction, mass_scale=args.mass_scale)
+        print(f"   replayed: {result.status.value}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
