@@ -164,6 +164,9 @@ def test_an_object_squeezed_out_of_the_grip_is_not_a_brush() -> None:
     grip.update(40.0, 0.01, 0.5)
     grip.update(0.0, 0.01, 0.6)
     assert grip.mode == "force" and grip.contact_synergy == pytest.approx(0.5)
+    assert grip.peak_force == pytest.approx(40.0)  # what close() names in its `no_contact` detail
+    grip.reset(0.0)
+    assert grip.peak_force == 0.0
 
 
 @pytest.mark.parametrize("bad", [0.0, -230.0, float("nan")])

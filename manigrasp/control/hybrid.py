@@ -302,6 +302,11 @@ class GripController:
         command past the stop never reaches synergy 1), or on one side of an object that does not move."""
         return self.mode == "position" and self._still_s >= STALL_S
 
+    @property
+    def peak_force(self) -> float:
+        """The largest grip force [N] measured in the force phase since the last reset (0 before contact)."""
+        return float(self._peak)
+
     def update(self, grip_force: float, dt: float, hand_synergy: float | None = None) -> float:
         """New synergy command for the measured `grip_force` [N] after a step `dt` [s].
 

@@ -82,7 +82,8 @@ def approach(run: TrialRun, start: np.ndarray, goal: np.ndarray) -> None:
 
 
 def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = "") -> None:
-    """Close to the grip force (position until contact, then force); no contact: `no_contact`.
+    """Close to the grip force (position until contact, then force); no contact at the end: `no_contact`
+    (its detail says whether the hand never touched the object or gripped it and squeezed it out).
 
     The grip loop (`GripController`) runs at the control rate while closing; afterwards
     the finger command stays where it left it (unless `regulate_grip_after_close`), so
@@ -123,6 +124,9 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
         run.grip = None
     contacts = read_hand_contacts(run.scene)
     if grip.mode == "position" or len(contacts.fingers_touching) == 0:
+        if grip.mode == "force" and grip.peak_force > 0.0:  # it gripped, then lost the object on the way
+            raise Abort(Status.NO_CONTACT, f"the object left the grip while closing (squeezed out after a grip "
+                                           f"of {grip.peak_force:.1f} N)")
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
     if hand.kind == "dexterous" and run.grip is None and p.finger_hold_gain > 0:
         finger_hold(run, p.finger_hold_gain).engage(run.scene.data, np.diff(run.scene.hand_path, axis=0)[0])
