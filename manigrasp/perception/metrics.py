@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from manigrasp.geometry import pose_distance
+
 _CHUNK = 2048  # points per block of the brute-force nearest-neighbour search
 
 
@@ -50,12 +52,10 @@ def add_s(points: np.ndarray, true_pose: np.ndarray, est_pose: np.ndarray) -> fl
 
 
 def rotation_error_deg(true_pose: np.ndarray, est_pose: np.ndarray) -> float:
-    """Angle [deg] of the rotation between the two poses' orientations, in [0, 180]."""
-    rel = np.asarray(true_pose, float)[:3, :3].T @ np.asarray(est_pose, float)[:3, :3]
-    cos = np.clip((np.trace(rel) - 1.0) / 2.0, -1.0, 1.0)
-    return float(np.degrees(np.arccos(cos)))
+    """Angle [deg] of the rotation between the two poses' orientations, in [0, 180] (`geometry.pose_distance`)."""
+    return pose_distance(np.asarray(true_pose, float), np.asarray(est_pose, float))[1]
 
 
 def translation_error_mm(true_pose: np.ndarray, est_pose: np.ndarray) -> float:
-    """Distance [mm] between the two poses' origins."""
-    return float(1000.0 * np.linalg.norm(np.asarray(true_pose, float)[:3, 3] - np.asarray(est_pose, float)[:3, 3]))
+    """Distance [mm] between the two poses' origins (`geometry.pose_distance`)."""
+    return 1000.0 * pose_distance(np.asarray(true_pose, float), np.asarray(est_pose, float))[0]
