@@ -10,6 +10,15 @@ pool, no time budgets. Deterministic results for a seed; the timings are what th
 
     .venv/bin/python benchmarks/bench_pad_speed.py                       # quick: 200 trials per mode
     .venv/bin/python benchmarks/bench_pad_speed.py --objects 004_sugar_box --grasps 5
+    .venv/bin/python benchmarks/bench_pad_speed.py --profile     # + where a step's time goes, per mode
+
+With --profile, MuJoCo's own timers (`mjData.timer`, read after every `mj_step` of the trials) are summed
+per mode and printed as microseconds per step: the whole step, collision detection (of it: the
+narrowphase, the pairwise geometry tests) and the constraint solver, with the contacts and constraint
+rows per step; then each mode's seconds per trial inside `mj_step` and outside it (control, checks,
+simulated metrics). The timers need a clock callback (`mujoco.set_mjcb_time`), a Python call for each
+timed section, which slows every step by a few microseconds: trials/s of a --profile run are not the
+speed figures; the split between sections is what it is for.
 """
 
 from __future__ import annotations
@@ -20,6 +29,8 @@ import os
 import time
 from pathlib import Path
 
+import mujoco
+
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 from manigrasp.bench import worker  # noqa: E402
@@ -29,6 +40,60 @@ from manigrasp.paths import configs_dir  # noqa: E402
 from manigrasp.protocol.result import Status  # noqa: E402
 
 MODES = ("rigid", "compliant")
+# --profile: MuJoCo timer sections printed per step (collision includes narrowphase)
+SECTIONS = {"step": mujoco.mjtTimer.mjTIMER_STEP, "collision": mujoco.mjtTimer.mjTIMER_POS_COLLISION,
+            "narrowphase": mujoco.mjtTimer.mjTIMER_COL_NARROW, "solver": mujoco.mjtTimer.mjTIMER_CONSTRAINT}
+
+
+class StepProfile:
+    """MuJoCo's timers summed over every `mj_step` the trials make while `active` (the mode being timed).
+
+    `mujoco.mj_step` is wrapped for the process. The timers accumulate from a data's last reset, so each
+    step adds the growth since the previous step of the same data (`end_trial` forgets the trial's data).
+    """
+
+    def __init__(self) -> None:
+        self.totals = {m: dict.fromkeys(SECTIONS, 0.0) for m in MODES}
+        self.steps = dict.fromkeys(MODES, 0)
+        self.contacts = dict.fromkeys(MODES, 0)
+        self.rows = dict.fromkeys(MODES, 0)
+        self.wall = dict.fromkeys(MODES, 0.0)  # [s] inside mj_step
+        self.active = MODES[0]
+        self._last: dict[int, tuple[mujoco.MjData, dict[str, float]]] = {}
+        self._step = mujoco.mj_step
+        mujoco.set_mjcb_time(time.perf_counter)
+        mujoco.mj_step = self.step
+
+    def step(self, model: mujoco.MjModel, data: mujoco.MjData, nstep: int = 1) -> None:
+        start = time.perf_counter()
+        self._step(model, data, nstep=nstep)
+        self.wall[self.active] += time.perf_counter() - start
+        last = self._last.get(id(data), (data, dict.fromkeys(SECTIONS, 0.0)))[1]
+        now = {key: float(data.timer[t].duration) for key, t in SECTIONS.items()}
+        totals = self.totals[self.active]
+        for key, value in now.items():
+            totals[key] += value - last[key] if value >= last[key] else value  # a reset zeroes the timers
+        self._last[id(data)] = (data, now)
+        self.steps[self.active] += nstep
+        self.contacts[self.active] += data.ncon * nstep
+        self.rows[self.active] += data.nefc * nstep
+
+    def end_trial(self) -> None:
+        self._last.clear()
+
+    def report(self, trial_s: dict[str, float], trials: dict[str, int]) -> None:
+        print("\n# --profile: microseconds per mj_step (MuJoCo timers; the clock callback slows each step)")
+        print(f"{'mode':10s} {'steps':>8s} " + " ".join(f"{k:>12s}" for k in SECTIONS)
+              + f" {'other':>8s} {'contacts':>9s} {'rows':>6s}")
+        for m in MODES:
+            n = max(1, self.steps[m])
+            us = {k: v / n * 1e6 for k, v in self.totals[m].items()}
+            print(f"{m:10s} {self.steps[m]:8d} " + " ".join(f"{us[k]:12.1f}" for k in SECTIONS)
+                  + f" {us['step'] - us['collision'] - us['solver']:8.1f} {self.contacts[m] / n:9.1f}"
+                  f" {self.rows[m] / n:6.1f}")
+        for m in MODES:
+            print(f"{m:10s} s/trial {trial_s[m] / trials[m]:.3f}: in mj_step {self.wall[m] / trials[m]:.3f}, "
+                  f"outside (control, checks, simulated metrics) {(trial_s[m] - self.wall[m]) / trials[m]:.3f}")
 
 
 def main() -> None:
@@ -37,7 +102,9 @@ def main() -> None:
     parser.add_argument("--objects", nargs="+", default=None, help="objects (default: the config's)")
     parser.add_argument("--planners", nargs="+", default=None, help="planners (default: the config's)")
     parser.add_argument("--grasps", type=int, default=None, help="grasps per object (default: the config's)")
+    parser.add_argument("--profile", action="store_true", help="also print where a step's time goes (slower)")
     args = parser.parse_args()
+    profile = StepProfile() if args.profile else None
     path = Path(args.config) if args.config.endswith(".yaml") else configs_dir() / f"{args.config}.yaml"
     overrides = ([f"objects=[{', '.join(args.objects)}]"] if args.objects else []) + (
         [f"planners=[{', '.join(args.planners)}]"] if args.planners else []) + (
@@ -59,9 +126,13 @@ def main() -> None:
             plan_s[mode] += time.perf_counter() - start
         for index in range(group.n_grasps):
             for mode, g in pair.items():
+                if profile is not None:
+                    profile.active = mode
                 start = time.perf_counter()
                 _, result = worker.run_trial(g, index, plans[mode])
                 seconds[mode] += time.perf_counter() - start
+                if profile is not None:
+                    profile.end_trial()
                 ok[mode] += result.status is Status.SUCCESS
         for mode in MODES:
             trial_s[mode] += seconds[mode]
@@ -76,6 +147,8 @@ def main() -> None:
               f"({plan_s[mode]:.1f} s planning)")
     print(f"compliant / rigid time per trial: {trial_s['compliant'] / trial_s['rigid']:.2f}x simulated, "
           f"{(trial_s['compliant'] + plan_s['compliant']) / (trial_s['rigid'] + plan_s['rigid']):.2f}x with planning")
+    if profile is not None:
+        profile.report(trial_s, trials)
 
 
 if __name__ == "__main__":
