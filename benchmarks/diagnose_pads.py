@@ -13,6 +13,17 @@ E A / h, tilt stiffness E I / h about each in-face axis, and the tilt of a pair 
 
     .venv/bin/python benchmarks/diagnose_pads.py /tmp/sugar_compliant --max 3 --theory
     .venv/bin/python benchmarks/diagnose_pads.py /tmp/sugar_compliant 004_sugar_box/parallel_jaw/.../0007
+
+What it found on the cracker box (`bench_scans.py --out /tmp/bs`, compliant run, parallel_jaw x antipodal,
+after the force-controlled jaw, 770037f..006c624: scan 16/20, recipe 20/20), with --summary on each
+object's 20 trials: on the recipe every element touches with the same 1.03 mm compression and all 20
+hold at demand/capacity 0.34-0.67. The four scan failures (0015-0018, all `dropped_perturb`, the box
+turning 13-18 deg about the grip axis) have 4-5 element contacts per pad after the lift (the successes
+mostly 6/6): on one or both pads a whole row (2 of 6 elements, at one end of the pad's long axis) is
+at 0 mm while the others are compressed 0.7-2.2 mm, increasing toward the other end (the scan's face
+curves away from the pad). They turn at demand/capacity 0.60-0.89, below 1: the capacity sums mu Fn r
+about the TCP, but with the force piled on one end the box pivots about the loaded elements, where
+the resistance is smaller; the successes run at 0.37-0.63, the same range as the recipe's.
 """
 
 from __future__ import annotations
@@ -140,8 +151,10 @@ PERTURB = ("+x", "-x", "+y", "-y", "+z", "-z")
 
 def summary_line(trial_id: str, trial) -> tuple[str, float, bool]:
     """One line per trial: outcome, the in-hand rotation split into torsion (about the grip axis) and tilt,
-    and the largest ratio of torsion demand to friction capacity over the hold and perturbation phases
-    (demand: largest over the phase; capacity: at the phase's first check, before anything moved)."""
+    the largest ratio of torsion demand to friction capacity over the hold and perturbation phases
+    (demand: largest over the phase; capacity: at the phase's first check, before anything moved), and
+    per pad the number of its element-object contacts at the end of the lift (held, before the pushes; an
+    element touching two convex parts of the object counts twice)."""
     tracer, rep = trace(trial_id, trial)
     worst, where, rot = 0.0, "", np.zeros(3)
     rows = [r for r in tracer.rows if "rot" in r]
@@ -154,9 +167,11 @@ def summary_line(trial_id: str, trial) -> tuple[str, float, bool]:
     if rows:
         rot = max((r["rot"] for r in rows), key=lambda v: float(np.linalg.norm(v)))
     failed = rep.replayed.status.value != "success"
+    lifted = [r for r in rows if r["phase"] == "lift"]
+    touch = "/".join(str(lifted[-1][p]["touch"]) for p in sorted(tracer.pads or {})) if lifted else "-"
     line = (f"{trial_id.rsplit('/', 1)[-1]} {rep.replayed.status.value:16s} {rep.replayed.detail[:48]:48s} "
             f"torsion {abs(rot[1]):5.1f} deg tilt {math.hypot(rot[0], rot[2]):4.1f} deg "
-            f"demand/capacity {worst:4.2f} ({where})")
+            f"demand/capacity {worst:4.2f} ({where}) element contacts after lift {touch}")
     return line, worst, failed
 
 
