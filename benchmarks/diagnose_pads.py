@@ -16,8 +16,9 @@ E A / h, tilt stiffness E I / h about each in-face axis, and the tilt of a pair 
 
 What it found on the cracker box (`bench_scans.py --out /tmp/bs`, compliant run, parallel_jaw x antipodal,
 after the force-controlled jaw, 770037f..006c624: scan 16/20, recipe 20/20), with --summary on each
-object's 20 trials: on the recipe every element touches with the same 1.03 mm compression and all 20
-hold at demand/capacity 0.34-0.67. The four scan failures (0015-0018, all `dropped_perturb`, the box
+object's 20 trials: on the recipe 19 grasps touch with all 6 elements of each pad after the lift (one
+with 5/5; the two traced, 0015 and 0017, at 1.02-1.04 mm each) and all 20 hold at demand/capacity
+0.34-0.67. The four scan failures (0015-0018, all `dropped_perturb`, the box
 turning 13-18 deg about the grip axis) have 4-5 element contacts per pad after the lift (the successes
 mostly 6/6): on one or both pads a whole row (2 of 6 elements, at one end of the pad's long axis) is
 at 0 mm while the others are compressed 0.7-2.2 mm, increasing toward the other end (the scan's face
