@@ -27,6 +27,17 @@ Measured (dexopt, 8 dexterous objects x inspire/fourier/allegro x 5 grasps, stan
 - hand-object friction 1.0 instead of 0.5 (`--friction 1.0`): 54/120 instead of 39/120 (slipped_lift 32, was 60);
 - contacts already on the friction cone at the end of the close (share of the normal force with cone usage
   >= 0.95): > 0.9 in 28 trials, 5 successes; <= 0.5 in 53 trials, 24 successes.
+
+Tried on these findings, none a gain (005_tomato_soup_can, 004_sugar_box, 056_tennis_ball, 010_potted_meat_can x
+allegro_right, fourier_right x dexopt x 5 grasps, standard, grip_force 10, seed 0; `manigrasp bench CFG --jobs 1`;
+successes of 40, Allegro + Fourier, against 15 = 7 + 8 for dexopt's defaults; +-4 is within noise at 20 per hand):
+- the squeeze as closing-only least squares (scipy nnls over the closing-signed actuator forces) instead of the
+  free least squares with its opening forces cut to 0: 15 = 7 + 8, the same outcome in all 40 trials;
+- the palm as a contact (`palm: true`; the sugar box is the only object over the pinch limit mu 2.3 grip / 3 g =
+  0.39 kg at 10 N): 8 = 2 + 6, sugar box 0/10 (was 1/10);
+- `contact_tolerance: 0.005` (was 0.02): 14 = 7 + 7; `min_contacts: 4`: 13 = 5 + 8;
+- `wrap: true` (every finger link a pad): 12 = 4 + 8 (sugar box 2, potted meat 4, can 2, ball 4);
+- `min_force_share: 1.0` (equal pushes): 11 = 0 + 11, the Fourier hand's best (was 8/20), the Allegro's worst.
 """
 
 from __future__ import annotations
