@@ -200,6 +200,29 @@ def test_an_edited_mesh_file_is_refused_on_resume(tmp_path):
         run_benchmark(parse_config(config), tmp_path / "run", progress=False)
 
 
+def test_resuming_with_other_code_warns_and_is_recorded(tmp_path):
+    """A default or the physics may change between code versions: a run resumed by other code says so (a warning
+    naming what changed) and run.json keeps the record; the same code resumes silently."""
+    import warnings
+
+    config = parse_config(ONE)
+    rundir.prepare(tmp_path / "run", config)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rundir.prepare(tmp_path / "run", config)  # same code: no warning
+    meta_path = tmp_path / "run" / "run.json"
+    meta = json.loads(meta_path.read_text())
+    meta["versions"]["manigrasp"] = "0.0.1"
+    meta["git_commit"] = "0123456789abcdef0123"
+    meta_path.write_text(json.dumps(meta))
+    with pytest.warns(RuntimeWarning, match=r"started by other code \(.*manigrasp 0\.0\.1 -> "):
+        rundir.prepare(tmp_path / "run", config)
+    record = json.loads(meta_path.read_text())["resumed_with_other_code"]
+    assert len(record) == 1 and any(c.startswith("manigrasp 0.0.1 -> ") for c in record[0]["changes"])
+    if rundir.git_commit():
+        assert any(c.startswith("git commit 0123456789ab -> ") for c in record[0]["changes"])
+
+
 def test_out_pointing_at_a_file_is_a_config_error(tmp_path):
     (tmp_path / "file").write_text("x")
     with pytest.raises(ConfigError, match="is a file"):

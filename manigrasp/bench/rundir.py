@@ -16,6 +16,7 @@ import os
 import platform
 import socket
 import subprocess
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
@@ -149,7 +150,15 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
                               "use another --out to start a new run")
         existing.setdefault("identity", ident)
         existing.setdefault("config_dir", str((base or Path.cwd()).resolve()))
-        existing.setdefault("resumed", []).append(datetime.now(UTC).isoformat())
+        now = datetime.now(UTC).isoformat()
+        existing.setdefault("resumed", []).append(now)
+        changed_code = code_changes(existing)
+        if changed_code:
+            existing.setdefault("resumed_with_other_code", []).append({"at": now, "changes": changed_code})
+            warnings.warn(f"{run_dir} was started by other code ({'; '.join(changed_code)}): the trials run now may "
+                          "differ from the stored ones if a default or the physics changed (recorded in run.json "
+                          "under 'resumed_with_other_code'); use another --out for a run of one code version",
+                          RuntimeWarning, stacklevel=2)
         _write_json(meta_path, existing)
         return existing
     stray = [p.name for p in (run_dir / STORE_NAME, run_dir / RECORDINGS_DIR) if p.exists()]
@@ -170,6 +179,26 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
     }
     _write_json(meta_path, meta)
     return meta
+
+
+def code_changes(meta: dict) -> list[str]:
+    """What differs between the code that started the run of `meta` and the code running now: the git
+    commit and each recorded package version ("manigrasp 0.3.0 -> 0.4.0"); empty if nothing (or nothing
+    was recorded)."""
+    out = []
+    old_commit, new_commit = meta.get("git_commit"), git_commit()
+    if old_commit and new_commit and old_commit != new_commit:
+        out.append(f"git commit {_short_commit(old_commit)} -> {_short_commit(new_commit)}")
+    old_versions, new_versions = meta.get("versions") or {}, versions()
+    for name, was in old_versions.items():
+        now = new_versions.get(name, "not installed")
+        if was != now:
+            out.append(f"{name} {was} -> {now}")
+    return out
+
+
+def _short_commit(commit: str) -> str:
+    return commit[:12] + ("+dirty" if commit.endswith("+dirty") else "")
 
 
 def _write_json(path: Path, data: dict) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 
 from manigrasp import __version__
 from manigrasp.errors import ManigraspError
@@ -32,6 +33,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line_warning(message: Warning | str, category: type[Warning], *_: object, **__: object) -> str:
+    """A warning as the CLI prints it: one line, no source location."""
+    return f"manigrasp: warning: {message}\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `manigrasp` console script; returns the exit code."""
     parser = build_parser()
@@ -39,6 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     if not hasattr(args, "func"):
         parser.print_help()
         return 2
+    formatwarning, warnings.formatwarning = warnings.formatwarning, _one_line_warning
     try:
         return int(args.func(args) or 0)
     except ManigraspError as exc:
@@ -47,6 +54,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("manigrasp: interrupted", file=sys.stderr)
         return 130
+    finally:
+        warnings.formatwarning = formatwarning
 
 
 if __name__ == "__main__":
