@@ -32,9 +32,9 @@ from manigrasp.errors import PlannerError
 from manigrasp.geometry import pose_from_pos_quat, pregrasp_pose, quaternion_defect
 from manigrasp.hands.base import Hand
 from manigrasp.objects.asset import ObjectAsset
+from manigrasp.protocol.grasp import PREGRASP_OFFSET
 
 ObservationKind = Literal["mesh", "points"]
-PREGRASP_OFFSET = 0.10  # [m], DESIGN.md: the open hand 10 cm back along the approach axis
 
 
 def _readonly(array: object) -> np.ndarray:

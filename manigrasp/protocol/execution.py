@@ -37,7 +37,7 @@ from manigrasp.control import GripController, NativeImpedance, default_gains
 from manigrasp.control.hold import HOLD_GAIN
 from manigrasp.errors import ConfigError
 from manigrasp.geometry import pose_distance, relative_pose
-from manigrasp.protocol.grasp import Grasp
+from manigrasp.protocol.grasp import PREGRASP_OFFSET, Grasp
 from manigrasp.protocol.metrics import radius_of_gyration
 from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.result import GraspMetrics, Phase, Status
@@ -89,7 +89,7 @@ class GraspParams:
         torque_scale: length dividing torques in the metrics [m]; None: the object's radius of gyration.
     """
 
-    pregrasp_offset: float = 0.10
+    pregrasp_offset: float = PREGRASP_OFFSET
     approach_speed: float = 0.10
     approach_settle_s: float = 0.1
     grip_force: float | None = None

@@ -16,6 +16,8 @@ from manigrasp.geometry import pose_from_pos_quat, quaternion_defect, rigid_defe
 from manigrasp.hands.base import Hand
 from manigrasp.protocol.result import GraspMetrics
 
+PREGRASP_OFFSET = 0.10  # [m], DESIGN.md: the open hand starts 10 cm back along the approach axis
+
 
 @dataclass(frozen=True, eq=False)
 class Grasp:

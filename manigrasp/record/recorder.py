@@ -26,6 +26,7 @@ import rerun as rr
 from manigrasp.errors import ConfigError
 from manigrasp.geometry import pose_distance, pregrasp_pose
 from manigrasp.protocol.execution import object_in_hand
+from manigrasp.protocol.grasp import PREGRASP_OFFSET
 from manigrasp.protocol.result import Phase, Status, TrialResult
 from manigrasp.record import layout, static
 from manigrasp.record.geometry import body_entity
@@ -52,7 +53,7 @@ class RecordOptions:
     force_scale: float = 0.002
     contact_radius: float = 0.003
     frame_length: float = 0.05
-    pregrasp_offset: float = 0.10
+    pregrasp_offset: float = PREGRASP_OFFSET
 
     @classmethod
     def full_rate(cls, timestep: float, **fields: Any) -> RecordOptions:
