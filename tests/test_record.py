@@ -190,3 +190,21 @@ def test_recordings_do_not_leave_threads_behind(box: tuple[Scene, np.ndarray], t
     for i in range(1, 11):
         record(i)
     assert len(list(Path("/proc/self/task").iterdir())) <= before + 2  # rerun alone would add 2 per recording
+
+
+@pytest.mark.parametrize("own", [None, 0.04])
+def test_the_pregrasp_is_drawn_where_the_protocol_starts_the_hand(box, tmp_path, monkeypatch, own) -> None:
+    """A grasp that names its own pre-grasp offset is executed there (`TrialRun.use_grasp`), so it is drawn
+    there; one that names none is drawn at the options' offset (the protocol's)."""
+    from manigrasp.record import recorder as recorder_module
+
+    drawn = []
+    monkeypatch.setattr(recorder_module.static, "log_planned_grasp",
+                        lambda stream, pose, pregrasp, *rest: drawn.append((pose, pregrasp)))
+    _, rest = box
+    grasp = replace(top_grasp(rest), pregrasp_offset=own)
+    recorder = TrialRecorder(tmp_path / "p.rrd", options=RecordOptions(pregrasp_offset=0.12))
+    recorder._log_plan(grasp)
+    (pose, pregrasp), = drawn
+    offset = 0.12 if own is None else own
+    np.testing.assert_allclose(pregrasp[:3, 3], pose[:3, 3] - offset * pose[:3, 2], atol=1e-12)

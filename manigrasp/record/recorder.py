@@ -45,7 +45,8 @@ class RecordOptions:
         contact_radius: radius of a drawn contact point [m].
         frame_length: axis length of the planned grasp frames [m].
         pregrasp_offset: distance of the drawn pre-grasp frame behind the grasp, along its approach axis [m]
-            (the protocol's `pregrasp_offset`; display only).
+            when the grasp names none (the protocol's `pregrasp_offset`; a grasp's own offset is drawn as
+            the protocol executes it; display only).
     """
 
     rate_hz: float = 60.0
@@ -231,7 +232,8 @@ class TrialRecorder:
         g = as_grasp(grasp)
         problem = check_grasp(g)
         pose = None if problem else grasp_tcp_pose(g)
-        pregrasp = None if pose is None else pregrasp_pose(pose, self.options.pregrasp_offset)
+        offset = self.options.pregrasp_offset if g.pregrasp_offset is None else g.pregrasp_offset
+        pregrasp = None if pose is None else pregrasp_pose(pose, offset)  # where the protocol starts the hand
         static.log_planned_grasp(self._stream, pose, pregrasp, np.asarray(g.contacts, float).reshape(-1, 3),
                                  np.asarray(g.contact_normals, float).reshape(-1, 3), self.options.frame_length)
 
