@@ -78,6 +78,14 @@ SPREAD = tuple(f"joint_{_FINGER_BASE[f]}.0" for f in FINGERS)
 BENDING = {**{f: tuple(f"joint_{_FINGER_BASE[f] + i}.0" for i in (1, 2, 3)) for f in FINGERS},
            "thumb": ("joint_14.0", "joint_15.0")}
 TIPS = {**{f: f"link_{_FINGER_BASE[f] + 3}.0_tip" for f in FINGERS}, "thumb": "link_15.0_tip"}
+# The fingertips' 12 mm collision spheres, named at load (thumb first). With `pads: compliant` they touch with the pad
+# rubber's friction (`SceneConfig.pad_friction`): the Allegro's fingertips are the white rounded caps at the end of
+# each finger, described as rubber-covered by users and papers, but no manufacturer statement of their material
+# was found; the links behind them are bare aluminium and plastic and keep the hand's friction.
+FINGERTIP_GEOMS = {f: f"{TIPS[f]}_collision" for f in ("thumb", *FINGERS)}
+FINGERTIP_COVER = ("fingertips: the 12 mm tip spheres (FINGERTIP_GEOMS) stand for the Allegro's rounded fingertip "
+                   "caps; their rubber covering is not sourced (no manufacturer statement found); with pads: "
+                   "compliant they touch with the pad rubber's friction (pad_friction), the links keep the hand's")
 
 
 @dataclass(frozen=True)
@@ -153,6 +161,16 @@ def _exclude_palm(spec: mujoco.MjSpec) -> None:
         spec.add_exclude(bodyname1=ROOT_BODY, bodyname2=body)
 
 
+def _name_fingertips(spec: mujoco.MjSpec) -> None:
+    """Name each fingertip's collision sphere (the URDF's geoms have no names) `FINGERTIP_GEOMS`."""
+    for finger, geom_name in FINGERTIP_GEOMS.items():
+        spheres = [g for g in spec.body(TIPS[finger]).geoms
+                   if (g.contype or g.conaffinity) and g.type == mujoco.mjtGeom.mjGEOM_SPHERE]
+        if len(spheres) != 1:
+            raise HandError(f"Allegro fingertip {TIPS[finger]!r}: expected one collision sphere, got {len(spheres)}")
+        spheres[0].name = geom_name
+
+
 def _base_spec(model: AllegroModel) -> mujoco.MjSpec:
     """The URDF with the fixes of the module docstring; no TCP yet."""
     spec = mujoco.MjSpec.from_string(_urdf_text(model))
@@ -160,6 +178,7 @@ def _base_spec(model: AllegroModel) -> mujoco.MjSpec:
     spec.meshdir = ""
     _actuate(spec, model)
     _exclude_palm(spec)
+    _name_fingertips(spec)
     build.set_joint_default(spec, THUMB_ROTATION, float(spec.joint(THUMB_ROTATION).range[1]))
     build.set_joint_default(spec, THUMB_ROLL_JOINT, model.thumb_roll)
     return spec
@@ -274,6 +293,7 @@ def make_from(model: AllegroModel) -> Hand:
         tcp_site=build.TCP_SITE, finger_bodies=("link_12.0", "link_0.0", "link_4.0", "link_8.0"),
         actuators=actuators, open_ctrl=ctrl_open, closed_ctrl=closed_ctrl(mj, model),
         max_width=min(2 * depth / 3, span / 2), max_grip_force=grip, mass=build.total_mass(mj),
+        fingertip_geoms=tuple(FINGERTIP_GEOMS.values()),
         source=f"{DISTRIBUTION} {importlib.metadata.version(DISTRIBUTION)}",
         notes=(
             f"model: {DISTRIBUTION} allegro_hand_description/urdf/{model.urdf} (MuJoCo's URDF import)",
@@ -293,6 +313,7 @@ def make_from(model: AllegroModel) -> Hand:
             "thumb; max_width = its diameter (the widest cylinder the open hand takes against its palm)",
             "finger bodies: thumb (link_12.0), index (link_0.0), middle (link_4.0), ring (link_8.0), each the "
             "first link of its finger, whose subtree is the whole finger",
+            FINGERTIP_COVER,
         ))
 
 

@@ -57,6 +57,10 @@ class Hand:
             synergy below the force limit [N per unit synergy]: the servo's kp x the command span
             (closed - open) x the transmission from actuator force to pad force; None: unknown
             (`manigrasp.control.GripController` then estimates it from `max_grip_force`).
+        fingertip_geoms: collision geoms of a dexterous hand's fingertips whose real counterparts are covered
+            with rubber or silicone: with ``pads: compliant`` they touch with the pad rubber's friction
+            (`manigrasp.sim.config.SceneConfig.pad_friction`) instead of the hand's (`manigrasp.sim.compose`);
+            with ``pads: rigid`` they are simulated as modelled. Where the covering is sourced: the hand's notes.
     """
 
     name: str
@@ -76,6 +80,7 @@ class Hand:
     pad_geoms: tuple[str, ...] = ()
     pad_backing: tuple[str, ...] = ()
     grip_stiffness: float | None = None
+    fingertip_geoms: tuple[str, ...] = ()
 
     approach_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     closing_axis: tuple[float, float, float] = (0.0, 1.0, 0.0)

@@ -182,7 +182,13 @@ def _attach_hand(spec: mujoco.MjSpec, hand: Hand, frames: HandFrames, config: Sc
                           gaintype=mujoco.mjtGain.mjGAIN_FIXED, biastype=mujoco.mjtBias.mjBIAS_AFFINE,
                           gainprm=[0.0] * 10, biasprm=[0.0] * 10, ctrllimited=mujoco.mjtLimited.mjLIMITED_FALSE,
                           forcelimited=mujoco.mjtLimited.mjLIMITED_FALSE)
-    _tune_hand_geoms(root, config)
+    _tune_hand_geoms(root, config, {HAND_PREFIX + name for name in rubber_fingertips(hand, config)})
+
+
+def rubber_fingertips(hand: Hand, config: SceneConfig) -> tuple[str, ...]:
+    """The hand's fingertip geoms (unprefixed) that touch with the pads' rubber friction in this scene: its
+    `Hand.fingertip_geoms` with ``pads: compliant``, none with ``pads: rigid``."""
+    return hand.fingertip_geoms if config.pads == "compliant" else ()
 
 
 def hand_spec(hand: Hand, config: SceneConfig) -> mujoco.MjSpec:
@@ -196,14 +202,20 @@ def hand_spec(hand: Hand, config: SceneConfig) -> mujoco.MjSpec:
             if backing is None:
                 raise SimulationError(f"hand {hand.name!r}: pad backing geom {name!r} not in its MJCF")
             backing.contype, backing.conaffinity = 0, 0
+    for name in rubber_fingertips(hand, config):
+        geom = child.geom(name)
+        if geom is None or (geom.contype == 0 and geom.conaffinity == 0):
+            raise SimulationError(f"hand {hand.name!r}: fingertip geom {name!r} is not a colliding geom of its MJCF")
     return child
 
 
-def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig) -> None:
+def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig, rubber: set[str]) -> None:
     """Hand-object friction, condim and priority on every colliding hand geom; gravcomp.
 
     Compliant pad elements keep what `manigrasp.hands.pads.make_compliant` gave them: the pads'
     rubber friction `config.pad_friction` and their cell's own torsional friction (condim 4).
+    The geoms named in `rubber` (prefixed: a dexterous hand's rubber-covered fingertips, `rubber_fingertips`)
+    get the rubber's sliding friction `config.pad_friction` and otherwise what every hand geom gets.
     """
     bodies = [root, *root.find_all(mujoco.mjtObj.mjOBJ_BODY)]
     for body in bodies:
@@ -214,7 +226,8 @@ def _tune_hand_geoms(root: mujoco.MjsBody, config: SceneConfig) -> None:
             geom.priority = max(int(geom.priority), 1)
             if pads.is_element(geom.name.removeprefix(HAND_PREFIX)):
                 continue  # friction and condim of the pad's rubber, set by pads.make_compliant
-            geom.friction = [config.hand_friction, config.hand_torsional_friction, STANDARD_ROLLING_M]
+            sliding = config.pad_friction if geom.name in rubber else config.hand_friction
+            geom.friction = [sliding, config.hand_torsional_friction, STANDARD_ROLLING_M]
             geom.condim = config.hand_condim
 
 

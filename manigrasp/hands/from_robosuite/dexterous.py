@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from manigrasp.errors import HandError
 from manigrasp.hands.base import Hand
 from manigrasp.hands.from_robosuite import build
 from manigrasp.hands.from_robosuite.source import load_gripper_spec
@@ -65,6 +66,18 @@ ROTATION_KP = 50.0
 # (the thumb folding through itself on a full close). 1e-2 keeps every stop within 0.005 rad under the tendon
 # forces; free closing speed is unchanged (it is set by the joints' damping, 1 N m s/rad: 0.6 rad/s per N m).
 ARMATURE = 1e-2
+# What the real hands' fingertips are covered with (shown in the hand's notes; README "Dexterous fingertips").
+# With `pads: compliant` the distal links' collision geoms (`fingertip_geoms`) touch with the pad rubber's
+# friction, `SceneConfig.pad_friction`.
+FINGERTIP_COVER = {
+    "inspire": ("fingertips: the Inspire RH56's tactile version (RH56DFTP) carries tactile skins on the fingers and "
+                "the palm (Inspire Robots user manual PRJ-02-TS-U-010, as cited by the inspire_rh56dftp driver); the "
+                "skins' material was not found in a source; with pads: compliant the distal links touch with the "
+                "pad rubber's friction (pad_friction), an elastomer skin assumed"),
+    "fourier": ("fingertips: no source found for the covering of the Fourier GR-1 hand's fingertips; with pads: "
+                "compliant the distal links touch with the pad rubber's friction (pad_friction) like the other "
+                "dexterous hands, an assumption, not a sourced value"),
+}
 
 
 @dataclass(frozen=True)
@@ -230,6 +243,15 @@ def tip_forces(mj: mujoco.MjModel, data: mujoco.MjData, model: FiveFingerModel,
     return forces
 
 
+def fingertip_geoms(spec: mujoco.MjSpec, model: FiveFingerModel) -> tuple[str, ...]:
+    """Colliding geoms of the five distal links (thumb first): the fingertips that `FINGERTIP_COVER` describes."""
+    tips = (model.thumb_tip, *(model.finger_tip.format(f=f) for f in FINGERS))
+    names = tuple(geom.name for tip in tips for geom in spec.body(tip).geoms if geom.contype or geom.conaffinity)
+    if len(names) != len(tips) or not all(names):
+        raise HandError(f"{model.name}: expected one named collision geom per distal link, got {names}")
+    return names
+
+
 def make(name: str) -> Hand:
     """The robosuite five-finger hand `name` (inspire_right, inspire_left, fourier_right, fourier_left)."""
     return make_from(MODELS[name])
@@ -257,6 +279,7 @@ def make_from(model: FiveFingerModel) -> Hand:
         finger_bodies=(model.thumb_body, *(model.finger_body.format(f=f) for f in FINGERS)),
         actuators=actuators, open_ctrl=lows, closed_ctrl=highs, max_width=min(depth, span),
         max_grip_force=grip, mass=build.total_mass(mj), source="robosuite",
+        fingertip_geoms=fingertip_geoms(base, model),
         notes=load_gripper_spec(model.xml)[1] + _mass_note(model) + (
             "12/11 per-joint servos replaced by 6 tendon servos: thumb rotation, thumb bend, index, middle, ring, "
             "pinky (coefficients proportional to joint ranges)"
@@ -276,6 +299,7 @@ def make_from(model: FiveFingerModel) -> Hand:
             "finger bodies: one per finger (thumb first), the first bending link, whose subtree is the whole "
             "finger; listing two phalanges of one finger would let one finger count as two; the palm is not a "
             "finger",
+            FINGERTIP_COVER[name.split("_")[0]],
         ))
 
 
