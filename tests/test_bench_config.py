@@ -102,7 +102,8 @@ def test_one_protocol_or_several_side_by_side():
 @pytest.mark.parametrize(("data", "overrides", "phrase"), [
     ({"protocol": "lift", "protocols": ["standard", "six_direction"]}, [],
      "either 'protocol'.*or 'protocols'.*not both"),
-    ({"protocol": "lift"}, ["protocols=[standard, lift]"], "not both"),
+    ({"protocol": "lift"}, ["protocols=[standard, six_direction]", "protocol=lift"], "both protocol= and protocols="),
+    ({"protocols": ["standard", "lift"]}, ["protocol.params.grip_force=5"], "protocol=NAME or protocols=.* replaces"),
     ({"protocols": []}, [], "at least one protocol"),
     ({"protocols": ["lift", "lift"]}, [], "protocol 'lift' with params {} is listed twice"),
     ({"protocols": [{"name": "lift", "parms": {}}]}, [], "did you mean 'params'"),
@@ -111,6 +112,23 @@ def test_one_protocol_or_several_side_by_side():
 def test_protocol_and_protocols_are_refused_together_and_checked(data, overrides, phrase):
     with pytest.raises(ConfigError, match=phrase):
         parse_config({"objects": ["mug"], **data}, overrides)
+
+
+def test_a_protocols_override_replaces_the_configs_protocol_and_vice_versa():
+    """`bench quick protocols=[standard, lift]` runs both side by side though quick.yaml names one `protocol:`;
+    `protocol=lift` on a config of several runs that one, with the identity of a config that names it."""
+    from manigrasp.cli.bench import resolve_config
+    from manigrasp.config import to_mapping
+
+    quick = load_config(resolve_config("quick"), ["protocols=[standard, lift]"])
+    assert quick.protocol is None and quick.protocol_labels == ("standard", "lift")
+    several = {"objects": ["mug"], "protocols": ["standard", {"name": "six_direction", "params": {"grip_force": 10}}]}
+    one = parse_config(several, ["protocol=lift"])
+    assert one == parse_config({"objects": ["mug"], "protocol": "lift"})
+    assert "protocols" not in to_mapping(one)
+    # a dotted override edits the section it names and replaces nothing
+    edited = parse_config({"objects": ["mug"], "protocol": {"name": "lift"}}, ["protocol.params.grip_force=5"])
+    assert edited.protocol.name == "lift" and dict(edited.protocol.params) == {"grip_force": 5}
 
 
 def test_rest_stable_k_needs_k_and_leaves_other_configs_identity_alone():

@@ -7,7 +7,8 @@ for its type and range (`manigrasp.config.from_mapping`, then each class's
 refused; a list field takes a single value as a one-element list (and ``camera:``
 a single mapping as one setup). One protocol is ``protocol:``; several, run side by
 side, are ``protocols:`` (a list of names or {name, params}); giving both is an
-error. ``key=value`` overrides
+error, but an override of one replaces the other (``protocols=[standard, lift]`` on a
+config with ``protocol:``, ``protocol=lift`` on one with ``protocols:``). ``key=value`` overrides
 (dotted for nested keys) are applied before validation. Every error is one
 `ConfigError` line, raised before anything is written.
 """
@@ -325,7 +326,8 @@ def _normalise(data: dict[str, Any], where: str = "config") -> dict[str, Any]:
         data["planners"] = [{"name": p} if isinstance(p, str) else p for p in data["planners"]]
     if data.get("protocol") is not None and "protocols" in data:  # run.json of several holds protocol: null
         raise ConfigError(f"{where}: give either 'protocol' (one protocol) or 'protocols' (a list run side by "
-                          "side), not both")
+                          "side), not both (on the command line, protocol=NAME or protocols=[...] replaces the "
+                          "config's)")
     if isinstance(data.get("protocol"), str):
         data["protocol"] = {"name": data["protocol"]}
     if "protocols" in data:
@@ -355,10 +357,31 @@ def parse_config(data: Mapping[str, Any], overrides: Sequence[str] = (), where: 
     if not isinstance(data, Mapping):
         raise ConfigError(f"{where}: expected a mapping at the top level, got {type(data).__name__}")
     try:
-        data = apply_overrides(dict(data), overrides)
+        data = apply_overrides(_protocol_replaced(dict(data), overrides), overrides)
         return from_mapping(BenchConfig, _normalise(data, where), where)
     except RecursionError:
         raise ConfigError(f"{where}: nested too deeply") from None
+
+
+PROTOCOL_KEYS = ("protocol", "protocols")
+"""The two ways of naming the protocol(s): an override of one (``protocols=[standard, lift]``) replaces the other."""
+
+
+def _protocol_replaced(data: dict[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """`data` without its ``protocol:`` when an override sets ``protocols=`` (and without its ``protocols:`` when
+    one sets ``protocol=``): the command line names the protocol(s) of the run. A dotted override
+    (``protocol.params.grip_force=10``) edits the section it names and replaces nothing.
+
+    Raises:
+        ConfigError: the overrides set both ``protocol=`` and ``protocols=``.
+    """
+    given = {item.partition("=")[0].strip() for item in overrides if "=" in item} & set(PROTOCOL_KEYS)
+    if len(given) > 1:
+        raise ConfigError("overrides give both protocol= and protocols=; give one (protocols=[standard, lift] "
+                          "runs several side by side)")
+    for key in given:
+        data.pop(PROTOCOL_KEYS[1 - PROTOCOL_KEYS.index(key)], None)
+    return data
 
 
 def load_config(path: str | Path, overrides: Sequence[str] = ()) -> BenchConfig:
