@@ -188,3 +188,68 @@ def test_chain_rule_through_mujoco_jacobians_matches_finite_differences_over_the
             shifted.append(value(q))
         numeric[k] = (shifted[0] - shifted[1]) / 2e-6
     np.testing.assert_allclose(analytic, numeric, rtol=1e-4, atol=1e-8)
+
+
+# ---------------------------------------------------------------------- hold margin (load feasibility)
+MU, CAP, MASS, G = 0.5, 10.0, 0.8, 9.81
+WEIGHT = np.array([[0.0, 0.0, -MASS * G]])
+
+
+def test_friction_pyramid_spans_the_cone_exactly_along_the_vertical() -> None:
+    normals = np.array([[1.0, 0.0, 0.0], [0.0, -0.6, 0.8]])
+    gen = dexopt.friction_pyramid(normals, MU, 8)
+    assert gen.shape == (2, 8, 3)
+    for n, g in zip(normals, gen, strict=True):
+        np.testing.assert_allclose(g @ n, 1.0)  # unit normal component
+        np.testing.assert_allclose(np.linalg.norm(g - n, axis=1), MU)  # on the cone
+    # The first contact's normal is horizontal: two edges point straight up and down, mu off the normal.
+    assert np.any(np.all(np.isclose(gen[0], [1.0, 0.0, MU]), axis=1))
+    assert np.any(np.all(np.isclose(gen[0], [1.0, 0.0, -MU]), axis=1))
+
+
+def test_two_opposed_contacts_hold_a_box_iff_two_mu_f_reaches_its_weight() -> None:
+    x = np.array([[-0.03, 0.0, 0.0], [0.03, 0.0, 0.0]])
+    n = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    h = dexopt.hold_margin(x, n, [CAP, CAP], np.zeros(3), WEIGHT, MU)
+    assert h == pytest.approx(2 * MU * CAP / (MASS * G), rel=1e-6)
+    f_just = MASS * G / (2 * MU)  # the squeeze at which 2 mu F = m g
+    assert dexopt.hold_margin(x, n, [1.01 * f_just] * 2, np.zeros(3), WEIGHT, MU) >= 1.0
+    assert dexopt.hold_margin(x, n, [0.99 * f_just] * 2, np.zeros(3), WEIGHT, MU) < 1.0
+    # Homogeneous: twice the caps, twice the margin; twice the load, half.
+    assert dexopt.hold_margin(x, n, [2 * CAP] * 2, np.zeros(3), WEIGHT, MU) == pytest.approx(2 * h, rel=1e-6)
+    assert dexopt.hold_margin(x, n, [CAP] * 2, np.zeros(3), 2 * WEIGHT, MU) == pytest.approx(h / 2, rel=1e-6)
+    # A push along the grasp line beyond one contact's cap cannot be held: the far contact must push F + cap.
+    push = np.array([[2.5 * CAP, 0.0, 0.0]])
+    assert dexopt.hold_margin(x, n, [CAP] * 2, np.zeros(3), push, MU) == pytest.approx(0.4, rel=1e-6)
+
+
+def test_a_pinch_off_the_centre_of_mass_needs_torsion_against_the_weights_torque() -> None:
+    x = np.array([[-0.03, 0.02, 0.0], [0.03, 0.02, 0.0]])  # the grasp line 2 cm beside the centre of mass
+    n = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    assert dexopt.hold_margin(x, n, [CAP] * 2, np.zeros(3), WEIGHT, MU) == 0.0  # point contacts: it turns
+    h = dexopt.hold_margin(x, n, [CAP] * 2, np.zeros(3), WEIGHT, MU, torsion=0.005)
+    assert h == pytest.approx(min(2 * MU * CAP / (MASS * G), 2 * 0.005 * CAP / (MASS * G * 0.02)), rel=1e-6)
+
+
+def test_three_contacts_around_a_sphere_share_its_weight_and_the_protocol_loads() -> None:
+    from manigrasp.planners.hold import loads
+
+    angle = 2 * np.pi * np.arange(3) / 3
+    x = 0.04 * np.stack([np.cos(angle), np.sin(angle), np.zeros(3)], axis=1)
+    n = -x / 0.04
+    assert dexopt.hold_margin(x, n, [CAP] * 3, np.zeros(3), WEIGHT, MU) == pytest.approx(
+        3 * MU * CAP / (MASS * G), rel=1e-6)
+    # Weight plus m g down (the standard protocol's -z perturbation): 2 m g shared by three contacts; the
+    # sideways perturbations also take normal force from the contacts, so all seven loads hold less.
+    down = dexopt.hold_margin(x, n, [CAP] * 3, np.zeros(3), loads(MASS, 1.0)[[0, 6]], MU)
+    assert down == pytest.approx(3 * MU * CAP / (2 * MASS * G), rel=1e-6)
+    assert 0.5 * down < dexopt.hold_margin(x, n, [CAP] * 3, np.zeros(3), loads(MASS, 1.0), MU) < down
+    # Two contacts pressing from one side cannot balance a sideways load whatever the squeeze.
+    assert dexopt.hold_margin(x[:1], n[:1], [CAP], np.zeros(3), loads(MASS, 1.0), MU) == 0.0
+    # A single contact under the object carries its weight without friction: margin F / (m g).
+    below = dexopt.hold_margin(np.array([[0.0, 0.0, -0.04]]), np.array([[0.0, 0.0, 1.0]]), [CAP], np.zeros(3),
+                               WEIGHT, 0.0)
+    assert below == pytest.approx(CAP / (MASS * G), rel=1e-6)
+    assert dexopt.hold_margin(x, n, [CAP] * 3, np.zeros(3), np.zeros((1, 3)), MU) == float("inf")
+    with pytest.raises(ConfigError, match="caps"):
+        dexopt.hold_margin(x, n, [CAP] * 2, np.zeros(3), WEIGHT, MU)

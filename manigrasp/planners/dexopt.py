@@ -313,3 +313,85 @@ def _skew(v: np.ndarray) -> np.ndarray:
     out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
     out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
     return out
+
+
+PYRAMID_EDGES = 8  # edges of the linearised friction cone (`hold_margin`); a multiple of 4 keeps the vertical exact
+
+
+def friction_pyramid(normals: np.ndarray, mu: float, edges: int = PYRAMID_EDGES) -> np.ndarray:
+    """(k, edges, 3) generators n_i + mu (cos a_j u_i + sin a_j v_i), a_j = 2 pi j / edges, of the pyramids
+    inscribed in the friction cones of half-angle atan(mu) about the unit inward `normals` (k, 3).
+
+    u_i is horizontal and v_i the world vertical projected onto the tangent plane (`perpendicular_basis`), so
+    with `edges` a multiple of 4 the pyramid is exact along the vertical (the weight's direction) and the
+    horizontal; elsewhere it keeps at least cos(pi / edges) of the cone's friction (conservative)."""
+    from manigrasp.planners.geometry import perpendicular_basis
+
+    n = np.atleast_2d(np.asarray(normals, float))
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    u, v = perpendicular_basis(n)
+    angle = 2.0 * np.pi * np.arange(edges) / edges
+    tangent = np.cos(angle)[None, :, None] * u[:, None] + np.sin(angle)[None, :, None] * v[:, None]
+    return n[:, None] + mu * tangent
+
+
+def hold_margin(points: np.ndarray, normals: np.ndarray, caps: np.ndarray, center: np.ndarray, loads: np.ndarray,
+                mu: float, torsion: float = 0.0, edges: int = PYRAMID_EDGES) -> float:
+    """The factor h by which every one of `loads` could grow and still be held by contact forces the hand can press.
+
+    Contacts at `points` (k, 3) [m] with inward unit `normals` (k, 3) press with normal forces f_i in [0, caps_i]
+    [N] (what the hand's squeeze can give each contact); each contact force lies in its linearised friction
+    cone (`friction_pyramid`, sliding friction `mu`), and a soft contact adds a torque about its normal of at
+    most `torsion` [m] x f_i. Each load (L, 3) [N] acts at `center` (3,) [m] (a force through the centre of
+    mass: the weight, a perturbation). One linear programme (scipy's HiGHS) finds the smallest t such that
+    every load is balanced, sum_i f_i = -F and sum_i (x_i - c) x f_i + tau_i n_i = 0, with f_i . n_i <= t
+    caps_i; h = 1 / t (inf if nothing is required, 0 if no forces in the cones balance some load).
+    h >= 1: the grasp holds every load at its squeeze; homogeneous (h doubles with the caps, halves with the
+    loads).
+    """
+    from scipy.optimize import linprog
+
+    x = np.atleast_2d(np.asarray(points, float))
+    n = np.atleast_2d(np.asarray(normals, float))
+    caps = np.asarray(caps, float)
+    loads = np.atleast_2d(np.asarray(loads, float))
+    if len(x) != len(n) or len(caps) != len(x):
+        raise ConfigError(f"hold_margin: {len(x)} points, {len(n)} normals and {len(caps)} caps differ")
+    if mu < 0 or torsion < 0 or np.any(caps < 0):
+        raise ConfigError("hold_margin: mu, torsion and caps must be >= 0")
+    loads = loads[np.linalg.norm(loads, axis=1) > 0]
+    if len(loads) == 0:
+        return float("inf")
+    k = len(x)
+    if k == 0:
+        return 0.0
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    gen = friction_pyramid(n, mu, edges).reshape(k * edges, 3)  # force generators
+    arm = np.repeat(x - np.asarray(center, float), edges, axis=0)
+    wrench = np.concatenate([gen, np.cross(arm, gen)], axis=1).T  # (6, k E)
+    # Per load: k E cone weights, then k torsion torques (+ and -); the last variable is t.
+    per = k * edges + 2 * k
+    twist = np.concatenate([np.zeros((3, k)), n.T], axis=0)  # (6, k): unit torsion of each contact
+    block_eq = np.concatenate([wrench, twist, -twist], axis=1)  # (6, per)
+    normal = np.kron(np.eye(k), np.ones(edges))  # (k, k E): f_i . n_i = sum of its weights (n . gen = 1)
+    cap_rows = np.concatenate([normal, np.zeros((k, 2 * k))], axis=1)  # f_i - t caps_i <= 0
+    torsion_rows = np.concatenate([-torsion * normal, np.eye(k), np.eye(k)], axis=1)  # |tau_i| <= torsion f_i
+    n_loads = len(loads)
+    a_eq = np.zeros((6 * n_loads, per * n_loads + 1))
+    a_ub = np.zeros((2 * k * n_loads, per * n_loads + 1))
+    b_eq = np.zeros(6 * n_loads)
+    for j, force in enumerate(loads):
+        cols = slice(j * per, (j + 1) * per)
+        a_eq[6 * j:6 * j + 6, cols] = block_eq
+        b_eq[6 * j:6 * j + 3] = -force
+        a_ub[2 * k * j:2 * k * j + k, cols] = cap_rows
+        a_ub[2 * k * j:2 * k * j + k, -1] = -caps
+        a_ub[2 * k * j + k:2 * k * (j + 1), cols] = torsion_rows
+    cost = np.zeros(per * n_loads + 1)
+    cost[-1] = 1.0
+    result = linprog(cost, A_ub=a_ub, b_ub=np.zeros(len(a_ub)), A_eq=a_eq, b_eq=b_eq, bounds=(0, None),
+                     method="highs")
+    if result.status != 0:  # infeasible: no forces in the cones balance some load, whatever the squeeze
+        return 0.0
+    t = float(result.x[-1])
+    return float("inf") if t <= 0 else 1.0 / t
