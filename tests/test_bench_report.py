@@ -317,3 +317,49 @@ def test_protocols_side_by_side_in_config_order_with_paired_outcomes(tmp_path):
     single = summarize([r for r in results if r[0].protocol == "standard"])
     plain = write_markdown(single, results, tmp_path, {"config": {}}).read_text()
     assert "Protocols side by side" not in plain and "| protocol |" not in plain  # one protocol: as before
+
+
+def test_an_interrupted_run_says_so_and_what_is_missing(tmp_path, capsys):
+    """The config enumerates 2 objects x 2 planners x 20 grasps = 80 trials; the store holds the mug's 40 and 7 of
+    the hammer's antipodal ones (a run killed there). The report says 47 of 80, names the partial and the missing
+    group, and says the rates are over the stored trials; the complete run says nothing of the kind."""
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.report import completeness
+    from manigrasp.config import to_mapping
+
+    config = to_mapping(parse_config({"name": "t", "objects": ["025_mug", "048_hammer"],
+                                      "planners": ["antipodal", "random"]}))
+    meta = {**RUN_META, "config": json.loads(json.dumps(config, default=str))}
+    full = _results({("025_mug", "antipodal"): 18, ("025_mug", "random"): 4, ("048_hammer", "antipodal"): 9,
+                     ("048_hammer", "random"): 1})
+    assert completeness(full, meta).complete and completeness(full, meta).warning() == ""
+    killed = [(k, r) for k, r in full if k.object == "025_mug" or (k.planner == "antipodal" and k.grasp_index < 7)]
+    done = completeness(killed, meta)
+    assert (done.expected, done.stored, done.unexpected) == (80, 47, 0) and not done.complete
+    assert done.partial == ("048_hammer/parallel_jaw/antipodal/ground_truth/standard (7 of 20)",)
+    assert done.not_run == ("048_hammer/parallel_jaw/random/ground_truth/standard",)
+    run = make_run(tmp_path / "run", killed, meta)
+    assert main(["report", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "WARNING: incomplete run: 47 of the 80 trials of its config are stored" in out
+    assert "over the stored trials only" in out
+    text = (run / "report.md").read_text()
+    assert "**Warning: incomplete run: 47 of the 80 trials" in text and "(7 of 20)" in text
+    assert main(["report", str(run), "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert payload["completeness"]["complete"] is False and payload["completeness"]["stored"] == 47
+    complete = make_run(tmp_path / "complete", full, meta)
+    assert main(["report", str(complete)]) == 0
+    assert "WARNING" not in capsys.readouterr().out and "Warning" not in (complete / "report.md").read_text()
+    assert main(["compare", str(run), str(complete)]) == 0  # the gate compares what is there, and says it
+    assert f"note: the run {run}: incomplete run: 47 of the 80" in capsys.readouterr().out
+    # a config that cannot be enumerated any more is said, not taken as complete
+    gone = completeness(full, {"config": {**meta["config"], "objects": ["no_such_object"]}})
+    assert gone.expected == -1 and "could not be enumerated" in gone.warning()
+
+
+def test_a_run_resumed_by_other_code_says_so_in_the_report(tmp_path):
+    results = _results({("025_mug", "antipodal"): 18})
+    meta = {**RUN_META, "resumed_with_other_code": [{"at": "2026-01-02T00:00:00", "changes": ["mujoco 3.3 -> 4.0"]}]}
+    text = write_markdown(summarize(results), results, tmp_path, meta).read_text()
+    assert "**Warning: resumed at 2026-01-02T00:00:00 by other code (mujoco 3.3 -> 4.0)" in text

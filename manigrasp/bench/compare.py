@@ -20,7 +20,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from manigrasp.bench.report import Group, Rate, Report, load_results, report_from_json, summarize
+from manigrasp.bench.report import Group, Rate, Report, completeness, load_results, report_from_json, summarize
 from manigrasp.bench.stats import ProportionTest, lower_than_baseline, wilson_interval
 from manigrasp.errors import ConfigError
 
@@ -34,11 +34,13 @@ _NOTED_VERSIONS = ("manigrasp", "mujoco")
 
 @dataclass(frozen=True)
 class Side:
-    """One side of a comparison: its report, the run's metadata (config, versions) and where it came from."""
+    """One side of a comparison: its report, the run's metadata (config, versions), where it came from, and what
+    a reader must know of it (an incomplete run: `manigrasp.bench.markdown.warning_lines`)."""
 
     report: Report
     meta: dict
     source: str
+    warnings: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -88,7 +90,12 @@ def load_side(path: Path) -> Side:
     if not path.exists():
         raise ConfigError(f"{path} does not exist (expected a run directory or a baseline JSON file)")
     if path.is_dir():
-        return Side(summarize(load_results(path)), load_meta(path), str(path))
+        from manigrasp.bench.markdown import warning_lines
+        from manigrasp.bench.rundir import config_dir
+
+        meta, results = load_meta(path), load_results(path)
+        warnings = warning_lines(meta, completeness(results, meta, config_dir(path)))
+        return Side(summarize(results), meta, str(path), tuple(warnings))
     try:
         data = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -246,7 +253,10 @@ def _holm(p_values: list[float]) -> list[float]:
 
 
 def compare_sides(new: Side, base: Side, alpha: float = 0.05) -> Verdict:
-    """Check that the sides are comparable, then `compare` them; the verdict carries the version notes."""
-    notes = check_comparable(new, base)
+    """Check that the sides are comparable, then `compare` them; the verdict carries the version notes and each
+    side's warnings (an incomplete run)."""
+    notes = [f"{where} {side.source}: {w}" for where, side in (("the run", new), ("the baseline", base))
+             for w in side.warnings]
+    notes += check_comparable(new, base)
     verdict = compare(new.report, base.report, alpha)
     return Verdict(verdict.comparisons, verdict.only_new, verdict.only_base, notes)

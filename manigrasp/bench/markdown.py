@@ -10,7 +10,16 @@ from pathlib import Path
 
 from manigrasp.bench import plots, twins
 from manigrasp.bench.plots import method_label
-from manigrasp.bench.report import POOLED, Method, Rate, Report, format_auc, format_planning_time, format_rate
+from manigrasp.bench.report import (
+    POOLED,
+    Completeness,
+    Method,
+    Rate,
+    Report,
+    format_auc,
+    format_planning_time,
+    format_rate,
+)
 from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import REST_LABEL
 from manigrasp.protocol.result import PoseRecord, TrialResult
@@ -214,6 +223,18 @@ def _rests(results: list[tuple[TrialKey, TrialResult]], meta: dict) -> list[str]
             _table(["object", "pose rank", "probability", "rotation (w, x, y, z)", "height [mm]"], rows)]
 
 
+def warning_lines(meta: dict, done: Completeness | None = None) -> list[str]:
+    """What a reader must know before quoting a figure of the run: that it is incomplete (`Completeness`), or that
+    it was resumed by other code (run.json's ``resumed_with_other_code``: its trials mix two code versions)."""
+    lines = [done.warning()] if done is not None and done.warning() else []
+    for entry in meta.get("resumed_with_other_code") or []:
+        if isinstance(entry, dict):
+            changes = "; ".join(map(str, entry.get("changes") or []))
+            lines.append(f"resumed at {entry.get('at')} by other code ({changes}): the trials stored before and "
+                         "after may differ by that code")
+    return lines
+
+
 def _protocol_line(config: dict) -> str:
     protocols = config.get("protocols")
     if isinstance(protocols, list) and protocols:
@@ -222,8 +243,9 @@ def _protocol_line(config: dict) -> str:
 
 
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
-                   meta: dict) -> Path:
-    """Write ``report.md`` and its PNGs into `run_dir`; returns the markdown path."""
+                   meta: dict, done: Completeness | None = None) -> Path:
+    """Write ``report.md`` and its PNGs into `run_dir`; returns the markdown path. `done`: how complete the run
+    is (`manigrasp.bench.report.completeness`; None: not checked), said first when it is not."""
     run_dir = Path(run_dir)
     images = {
         "Success rate per object": plots.success_by_object(report, run_dir / "success_by_object.png"),
@@ -239,6 +261,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         f"{_protocol_line(config)}, seed {meta.get('seed')}, "
         f"manigrasp {meta.get('versions', {}).get('manigrasp')}, mujoco {meta.get('versions', {}).get('mujoco')}, "
         f"commit {meta.get('git_commit') or 'unknown'}, started {meta.get('started')}.",
+        *(f"**Warning: {line}.**" for line in warning_lines(meta, done)),
         "\n".join(f"- **{line}**" for line in lead_lines(report))
         + "\n\nRates with 95 % Wilson intervals. " + pooled_line(report) + ".",
         "## Per hand and planner",

@@ -61,17 +61,25 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
     report.md goes to `out_dir` (default `run_dir`); a read-only run directory is read, and its report
     not written unless `out_dir` is given.
     """
-    from manigrasp.bench.report import load_results, summarize
-    from manigrasp.bench.rundir import load_meta
+    from dataclasses import asdict
+
+    from manigrasp.bench.markdown import warning_lines
+    from manigrasp.bench.report import completeness, load_results, summarize
+    from manigrasp.bench.rundir import config_dir, load_meta
 
     meta = load_meta(run_dir)
     results = load_results(run_dir)
     report = summarize(results)
+    done = completeness(results, meta, config_dir(run_dir))
     if as_json:
         run = {k: meta.get(k) for k in ("config", "seed", "versions", "git_commit", "started")}
-        print_json({"run": run, **report.to_json()})
+        if meta.get("resumed_with_other_code"):
+            run["resumed_with_other_code"] = meta["resumed_with_other_code"]
+        print_json({"run": run, "completeness": {**asdict(done), "complete": done.complete}, **report.to_json()})
         return 0
     _print_tables(report)
+    for line in warning_lines(meta, done):
+        print(f"WARNING: {line}")
     target = Path(out_dir) if out_dir is not None else Path(run_dir)
     if out_dir is None and not os.access(target, os.W_OK):
         print(f"manigrasp: note: {run_dir} is read-only: report.md and plots not written (give --out DIR)",
@@ -80,7 +88,7 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
     from manigrasp.bench.markdown import write_markdown
 
     target.mkdir(parents=True, exist_ok=True)
-    print(f"report: {write_markdown(report, results, target, meta)}")
+    print(f"report: {write_markdown(report, results, target, meta, done)}")
     return 0
 
 
