@@ -52,13 +52,14 @@ class SceneConfig:
         open_settle_time: simulated time [s] the hand alone is driven with its
             open command to find its open joint configuration (done once per scene).
         pads: "rigid" (the default: the pad boxes as modelled) or "compliant" (the
-            hands' pad boxes become elastic-foundation patches, `manigrasp.hands.pads`;
-            opt-in until its effect on the recipes is explained, see the README).
+            hands' pad boxes become elastic-foundation patches, `manigrasp.hands.pads`, and
+            a dexterous hand's rubber-covered fingertips, `Hand.fingertip_geoms`, touch with
+            `pad_friction`; opt-in until its effect on the recipes is explained, see the README).
         pad_modulus: Young's modulus of the compliant pads' rubber [Pa].
         pad_pitch: spacing of the compliant pads' contact elements [m].
         pad_friction: sliding friction of the compliant pads' rubber against objects [-]
-            (sourced in `manigrasp.hands.pads`); rigid pads and the rest of the hand use
-            `hand_friction`.
+            (sourced in `manigrasp.hands.pads`), and of a dexterous hand's fingertips with
+            compliant pads; rigid pads and the rest of the hand use `hand_friction`.
         rest: the object's resting orientation before it settles: "file" (as its mesh
             file has it), "most_stable" (the most probable quasi-static stable pose,
             `manigrasp.objects.poses`) or "stable_k" (the `rest_k` most probable poses, each
