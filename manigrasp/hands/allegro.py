@@ -83,7 +83,7 @@ TIPS = {**{f: f"link_{_FINGER_BASE[f] + 3}.0_tip" for f in FINGERS}, "thumb": "l
 # each finger, described as rubber-covered by users and papers, but no manufacturer statement of their material
 # was found; the links behind them are bare aluminium and plastic and keep the hand's friction.
 FINGERTIP_GEOMS = {f: f"{TIPS[f]}_collision" for f in ("thumb", *FINGERS)}
-FINGERTIP_COVER = ("fingertips: the 12 mm tip spheres (FINGERTIP_GEOMS) stand for the Allegro's rounded fingertip "
+FINGERTIP_COVER = ("fingertips: the 12 mm tip spheres (link_*_tip_collision) stand for the Allegro's rounded fingertip "
                    "caps; their rubber covering is not sourced (no manufacturer statement found); with pads: "
                    "compliant they touch with the pad rubber's friction (pad_friction), the links keep the hand's")
 
