@@ -11,6 +11,7 @@ from pathlib import Path
 from manigrasp.bench import plots, twins
 from manigrasp.bench.plots import method_label
 from manigrasp.bench.report import (
+    PLANNING_TIME_HEADER,
     POOLED,
     Completeness,
     Method,
@@ -63,7 +64,7 @@ def _perception(report: Report) -> list[str]:
     for m, r in sorted(report.by_method.items(), key=lambda item: order(item[0])):
         e = report.pose_errors.get(m)
         errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}", f"{e.median_translation_mm:.1f} / "
-                  f"{e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}", f"{e.share_within_5deg_1cm:.2f}"
+                  f"{e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}", f"{e.share_add_s_5mm_translation_1cm:.2f}"
                   ) if e else ("-", "-", "-", "-")
         views = report.views.get(m, 0)
         rows.append([*method_cells(report, m), views or "-", format_rate(r), *errors])
@@ -84,10 +85,13 @@ def auc_rows(report: Report) -> list[list[str]]:
     return rows
 
 
-def lead_lines(report: Report) -> list[str]:
-    """One line per hand x planner x observation (x protocol): the figures a reader should quote."""
-    return [f"{method_label(m, len(report.protocols) > 1)}: {r.successes}/{r.trials} successes, rate {format_rate(r)}"
-            for m, r in report.by_method.items()]
+def lead_lines(report: Report, order: list[str] | None = None) -> list[str]:
+    """One line per hand x planner x observation (x protocol, in `order`: the config's, `protocol_order`): the
+    figures a reader should quote."""
+    rank = {p: i for i, p in enumerate(order or report.protocols)}
+    methods = sorted(report.by_method, key=lambda m: (m[:3], rank.get(m[3], len(rank)), m[3]))
+    return [f"{method_label(m, len(report.protocols) > 1)}: {report.by_method[m].successes}/"
+            f"{report.by_method[m].trials} successes, rate {format_rate(report.by_method[m])}" for m in methods]
 
 
 def pooled_line(report: Report) -> str:
@@ -235,11 +239,27 @@ def warning_lines(meta: dict, done: Completeness | None = None) -> list[str]:
     return lines
 
 
+def _entry(entry: object) -> str:
+    """A recorded protocol or planner entry as "`name`", with its parameters when it has any: the tables label a
+    run's entries by name, so a `standard` run at a 10 N grip must say so where the figures are."""
+    if not isinstance(entry, dict):
+        return f"`{entry}`"
+    params = entry.get("params") or {}
+    return f"`{entry.get('name')}`" + (f" ({', '.join(f'{k}={v}' for k, v in params.items())})" if params else "")
+
+
 def _protocol_line(config: dict) -> str:
+    """"Protocol `standard`", "Protocols `standard` (grip_force=10.0), `six_direction` (...)", then the planners
+    with their parameters."""
     protocols = config.get("protocols")
     if isinstance(protocols, list) and protocols:
-        return "Protocols " + ", ".join(f"`{p.get('name')}`" for p in protocols if isinstance(p, dict))
-    return f"Protocol `{(config.get('protocol') or {}).get('name')}`"
+        line = "Protocols " + ", ".join(_entry(p) for p in protocols)
+    else:
+        line = f"Protocol {_entry(config.get('protocol') or {'name': 'standard'})}"
+    planners = config.get("planners")
+    if isinstance(planners, list) and planners:
+        line += f"; planner{'s' * (len(planners) != 1)} " + ", ".join(_entry(p) for p in planners)
+    return line
 
 
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
@@ -262,14 +282,15 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         f"manigrasp {meta.get('versions', {}).get('manigrasp')}, mujoco {meta.get('versions', {}).get('mujoco')}, "
         f"commit {meta.get('git_commit') or 'unknown'}, started {meta.get('started')}.",
         *(f"**Warning: {line}.**" for line in warning_lines(meta, done)),
-        "\n".join(f"- **{line}**" for line in lead_lines(report))
+        "\n".join(f"- **{line}**" for line in lead_lines(report, protocol_order(report, meta)))
         + "\n\nRates with 95 % Wilson intervals. " + pooled_line(report) + ".",
         "## Per hand and planner",
-        _table([*headers, "trials", "successes", "rate [95% CI]", "failure modes", "median planning_time_s (calls)"],
+        _table([*headers, "trials", "successes", "rate [95% CI]", "failure modes", PLANNING_TIME_HEADER],
                [[*method_cells(report, m), r.trials, r.successes, format_rate(r), _modes(r.failure_modes),
                  format_planning_time(r)] for m, r in report.by_method.items()]),
-        "Planning time: the wall time of one planning call, which plans every candidate of one object "
-        "(what `manigrasp plan` prints as `planning_time_s`); the median is over the calls.",
+        "Planning time: the wall time of one planning call, which plans every candidate of one object (what "
+        "`manigrasp plan` prints as `planning_time_s`; the exported table's `plan_time_s`, whose `planning_time_s` "
+        "is that call divided by its candidates); the median is over the calls.",
         *_protocols(report, results, meta),
         "## Per object",
         _table([*headers, "object", "trials", "successes", "rate [95% CI]", "failure modes"],
@@ -279,12 +300,12 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         *_perception(report),
         *twins.markdown_section(report),
         "## Analytic metrics as predictors of success",
-        "ROC AUC of each metric for telling successes from failures within one hand x planner (0.5 = chance), "
+        f"ROC AUC of each metric for telling successes from failures within one {' x '.join(headers)} (0.5 = chance), "
         "with a 95 % bootstrap interval (resampled within successes and failures, fixed seed). n counts the "
         "simulated trials with a value of the metric (successes in brackets). A metric with a single value in a "
         "group cannot rank its trials: its AUC is undefined, not 0.5."
-        + (" Rows `all` pool every trial of every planner: there a metric partly tells planners apart."
-           if len(report.auc) > 1 else ""),
+        + (f" Rows `all` pool every trial of every {' x '.join(headers)}: there a metric partly tells those "
+           "apart (planners, protocols) instead of ranking the grasps of one." if len(report.auc) > 1 else ""),
         _table([*headers, "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)),
     ]
     parts += [f"## {title}\n\n![{title}]({path.name})" for title, path in images.items()]

@@ -83,7 +83,8 @@ class PoseErrors:
         objects: objects with an estimated pose.
         median_rotation_deg, p90_rotation_deg, median_translation_mm, p90_translation_mm,
         median_add_s_mm: statistics over those objects.
-        share_within_5deg_1cm: fraction of objects whose pose is good: ADD-S < 5 mm and translation < 1 cm
+        share_add_s_5mm_translation_1cm: fraction of objects whose pose is good: ADD-S < 5 mm and translation
+            < 1 cm (read from a report that named it ``share_within_5deg_1cm``, though no angle is tested)
             (ADD-S, not the rotation error, so a symmetric object turned onto itself counts as good;
             the rotation statistics are not meaningful for symmetric objects).
     """
@@ -94,7 +95,7 @@ class PoseErrors:
     median_translation_mm: float
     p90_translation_mm: float
     median_add_s_mm: float
-    share_within_5deg_1cm: float
+    share_add_s_5mm_translation_1cm: float
 
     @classmethod
     def of(cls, per_object: list[tuple[float, float, float]]) -> PoseErrors:
@@ -201,10 +202,17 @@ def report_from_json(data: dict) -> Report:
         groups={(*method(g), g["object"]): rate(g) for g in data["groups"]},
         auc=dict(per_method),
         auc_pooled={a["metric"]: auc(a) for a in data.get("auc_pooled", [])},
-        pose_errors={method(e): PoseErrors(**{k: e[k] for k in PoseErrors.__dataclass_fields__})
-                     for e in data.get("pose_errors", [])},
+        pose_errors={method(e): _pose_errors(e) for e in data.get("pose_errors", [])},
         views={method(v): int(v["views"]) for v in data.get("views", [])},
     )
+
+
+def _pose_errors(data: dict) -> PoseErrors:
+    """`PoseErrors` from its JSON form (an older report's ``share_within_5deg_1cm`` is the same share)."""
+    data = dict(data)
+    if "share_within_5deg_1cm" in data:
+        data.setdefault("share_add_s_5mm_translation_1cm", data.pop("share_within_5deg_1cm"))
+    return PoseErrors(**{k: data[k] for k in PoseErrors.__dataclass_fields__})
 
 
 def _recorded_protocol(data: dict) -> str:
@@ -369,8 +377,15 @@ def format_auc(estimate: AucEstimate) -> str:
     return f"{estimate.auc:.2f} [{estimate.low:.2f}, {estimate.high:.2f}]"
 
 
+PLANNING_TIME_HEADER = "median planning call [s] (calls)"
+"""The column of `format_planning_time` (not the export's per-candidate ``planning_time_s``)."""
+
+
 def format_planning_time(rate: Rate) -> str:
-    """"0.412 (5 calls)", or "-" when no planning call was timed."""
+    """"0.412 (5 calls)", or "-" when no planning call was timed: three significant digits (whole seconds from
+    100 s), so a call of 0.42 ms reads 0.000420, not 0.000."""
     if not rate.planning_calls:
         return "-"
-    return f"{rate.median_planning_time_s:.3f} ({rate.planning_calls} call{'s' * (rate.planning_calls != 1)})"
+    seconds = rate.median_planning_time_s
+    text = f"{seconds:.0f}" if abs(seconds) >= 100 else f"{seconds:#.3g}"
+    return f"{text} ({rate.planning_calls} call{'s' * (rate.planning_calls != 1)})"

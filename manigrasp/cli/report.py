@@ -77,7 +77,7 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
             run["resumed_with_other_code"] = meta["resumed_with_other_code"]
         print_json({"run": run, "completeness": {**asdict(done), "complete": done.complete}, **report.to_json()})
         return 0
-    _print_tables(report)
+    _print_tables(report, meta)
     for line in warning_lines(meta, done):
         print(f"WARNING: {line}")
     target = Path(out_dir) if out_dir is not None else Path(run_dir)
@@ -92,9 +92,9 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
     return 0
 
 
-def _print_tables(report) -> None:
-    from manigrasp.bench.markdown import auc_rows, lead_lines, method_cells, method_headers, pooled_line
-    from manigrasp.bench.report import format_planning_time, format_rate
+def _print_tables(report, meta: dict) -> None:
+    from manigrasp.bench.markdown import auc_rows, lead_lines, method_cells, method_headers, pooled_line, protocol_order
+    from manigrasp.bench.report import PLANNING_TIME_HEADER, format_planning_time, format_rate
 
     headers = method_headers(report)
     rows = [[*method_cells(report, g[:4]), g[4], r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes)]
@@ -102,18 +102,18 @@ def _print_tables(report) -> None:
     print(format_table([*headers, "object", "trials", "successes", "rate [95% CI]", "top failure modes"], rows))
     print()
     print(format_table([*headers, "trials", "successes", "rate [95% CI]",
-                        "top failure modes", "median planning_time_s (calls)"],
+                        "top failure modes", PLANNING_TIME_HEADER],
                        [[*method_cells(report, m), r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes),
                          format_planning_time(r)] for m, r in report.by_method.items()]))
     for m, e in report.pose_errors.items():
         print(f"pose errors {'/'.join(method_cells(report, m))}: rotation median {e.median_rotation_deg:.1f} deg "
               f"(p90 {e.p90_rotation_deg:.1f}), translation median {e.median_translation_mm:.1f} mm "
-              f"(p90 {e.p90_translation_mm:.1f}), {e.share_within_5deg_1cm:.0%} of {e.objects} objects "
+              f"(p90 {e.p90_translation_mm:.1f}), {e.share_add_s_5mm_translation_1cm:.0%} of {e.objects} objects "
               "with ADD-S < 5 mm and translation < 1 cm")
     print("\nEach metric's ROC AUC for success [95% bootstrap CI]; n: simulated trials with a value (successes)")
     print(format_table([*headers, "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)))
     print()
-    for line in lead_lines(report):
+    for line in lead_lines(report, protocol_order(report, meta)):
         print(line)
     print(pooled_line(report))
 
