@@ -224,6 +224,8 @@ def test_pose_errors_are_summarised_per_observation_and_shown_side_by_side(tmp_p
     assert errors.share_add_s_5mm_translation_1cm == pytest.approx(2 / 3)
     assert ("parallel_jaw", "antipodal", "ground_truth", "standard") not in report.pose_errors
     assert report_from_json(json.loads(json.dumps(report.to_json()))).pose_errors == report.pose_errors
+    old = json.loads(json.dumps(report.to_json()).replace("share_add_s_5mm_translation_1cm", "share_within_5deg_1cm"))
+    assert report_from_json(old).pose_errors == report.pose_errors  # a report written before the rename
     text = write_markdown(report, results, tmp_path, {"config": {}}).read_text()
     assert "Observations side by side" in text and "estimated_pose" in text
 
