@@ -129,3 +129,30 @@ def test_planning_time_plots_one_point_per_planning_call(figures, tmp_path):
     points = np.concatenate([line.get_xdata() for line in ax.lines if line.get_marker() == "o"])
     assert sorted(points) == pytest.approx([0.5, 0.6, 0.7])  # 3 calls, not 60 trials
     assert "3 calls" in ax.get_yticklabels()[0].get_text()
+
+
+@pytest.mark.parametrize("plot", ["success_by_object", "success_by_method", "failure_modes", "planning_times",
+                                  "metric_auc"])
+def test_the_saved_image_holds_every_title_label_and_legend_whole(tmp_path, monkeypatch, plot):
+    """Long method labels (hand / planner / protocol) with a legend beside the axes: the PNG is as large as what
+    is drawn, so no title, axis label or legend is cut at the figure's edge (metric_auc's title and
+    planning_time's x label were, in a two-protocol run)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.image import imread
+
+    kept = []
+    monkeypatch.setattr(plt, "close", kept.append)
+    results = []
+    for protocol, ok in (("standard", 6), ("six_direction", 2)):
+        for key, r in _trials("power", {"success": ok, "no_contact": 3, "dropped_perturb+x": 3},
+                              objects=("005_tomato_soup_can", "025_mug")):
+            results.append((replace(key, hand="fourier_right", protocol=protocol), r))
+    report = summarize(results)
+    path = tmp_path / f"{plot}.png"
+    getattr(plots, plot)(results if plot == "planning_times" else report, path)
+    (fig,) = kept
+    drawn = fig.get_tightbbox(fig.canvas.get_renderer())  # [inches]
+    height, width = imread(path).shape[:2]
+    monkeypatch.undo()
+    plt.close(fig)
+    assert width >= drawn.width * plots.DPI - 1 and height >= drawn.height * plots.DPI - 1

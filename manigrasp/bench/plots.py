@@ -56,12 +56,16 @@ def _pyplot():
     return plt
 
 
+DPI = 110
+
+
 def _save(fig, path: Path) -> Path:
-    """Lay out, write `fig` to `path` as PNG, close it; returns `path`."""
+    """Lay out, write `fig` to `path` as PNG, close it; returns `path`. The image is cropped to what is drawn,
+    not to the figure's size: a title, axis label or legend wider than the figure is kept whole, not cut off."""
     import matplotlib.pyplot as plt
 
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=0.1)
     plt.close(fig)
     return path
 
@@ -187,7 +191,8 @@ def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path) -> P
 
 
 def metric_auc(report: Report, path: Path) -> Path:
-    """Grouped bars: each metric's ROC AUC for success per hand x planner, 95 % bootstrap intervals.
+    """Grouped bars: each metric's ROC AUC for success per hand x planner (x observation x protocol: the legend's
+    labels), 95 % bootstrap intervals.
 
     An undefined AUC (a constant metric, one outcome only) is written as such where its bar would be.
     """
@@ -223,7 +228,6 @@ def metric_auc(report: Report, path: Path) -> Path:
     ax.set_xticks(x, metrics, rotation=20)
     ax.set_ylim(0, 1.15)
     ax.set_ylabel("ROC AUC for success (95 % bootstrap interval)")
-    ax.set_title("Each metric's power to predict success, per hand / planner (n: trials with a value)",
-                 fontsize=10)
+    ax.set_title("Each metric's power to predict success (n: trials with a value)", fontsize=10)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return _save(fig, path)
