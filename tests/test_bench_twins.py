@@ -42,8 +42,17 @@ def test_markdown_section_shows_counts_rates_and_verdicts() -> None:
     assert title == "## Scan vs recipe"
     lines = table.splitlines()
     assert len(lines) == 2 + 2
-    assert "| 003_cracker_box | 6/20 |" in lines[2] and "| 19/20 |" in lines[2] and "| +65 | no |" in lines[2]
-    assert lines[3].endswith("| +5 | yes |")
+    assert "| 003_cracker_box | 6/20 |" in lines[2] and "| 19/20 |" in lines[2] and "| +65.0 | no |" in lines[2]
+    assert lines[3].endswith("| +5.0 | yes |")
+
+
+def test_a_gap_just_over_ten_points_does_not_print_as_ten() -> None:
+    """Scan 15/18 against recipe 15/16 is a 10.4-point gap, not within 10: the table must not read "+10 | no"."""
+    class FakeReport:
+        groups = {("h", "p", "o", "x_scan"): rate(15, 18), ("h", "p", "o", "x"): rate(15, 16)}
+
+    (_, _, table) = markdown_section(FakeReport())  # type: ignore[arg-type]
+    assert table.splitlines()[2].endswith("| +10.4 | no |")
 
 
 def test_no_pairs_no_section() -> None:

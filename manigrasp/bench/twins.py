@@ -80,7 +80,7 @@ def markdown_section(report: Report) -> list[str]:
         cells = [*r.method[:4 if protocols else 3], r.recipe, f"{r.scan_rate.successes}/{r.scan_rate.trials}",
                  format_rate(r.scan_rate),
                  f"{r.recipe_rate.successes}/{r.recipe_rate.trials}", format_rate(r.recipe_rate),
-                 f"{r.gap_points:+.0f}", "yes" if r.within else "no"]
+                 f"{r.gap_points:+.1f}", "yes" if r.within else "no"]  # .0f showed 10.4 as "+10 | no"
         lines.append("| " + " | ".join(cells) + " |")
     note = ("The same physical object as a real scan (`<name>_scan`) and as its clean recipe twin (`<name>`); "
             f"gap = recipe rate - scan rate. The benchmark asks for a gap within {GAP_POINTS:g} points wherever "
