@@ -10,6 +10,8 @@ measured:
   MuJoCo (`mj_collision` in the real scene, no margin; independent of the planner's own check), max and mean;
 - diversity: mean pairwise distance between the grasps' TCP poses: translation [mm] and rotation [deg];
 - pads<2mm: mean number of fingers whose pad is within 2 mm of the object's collision parts;
+- hold: how many grasps hold the standard protocol's loads at its 10 N squeeze by the planner's own load test
+  (hold margin >= 1, `dexopt.hold_margin`), and their median margin;
 - with --trials: each grasp run through the `standard` protocol (grip force 10 N, as configs/dexterous.yaml)
   in the same scene: successes / grasps and the failure statuses.
 
@@ -36,6 +38,7 @@ from manigrasp.hands.registry import load as load_hand  # noqa: E402
 from manigrasp.objects import catalog  # noqa: E402
 from manigrasp.planners.base import Observation  # noqa: E402
 from manigrasp.planners.collision import HandProbe  # noqa: E402
+from manigrasp.planners.context import PlanContext  # noqa: E402
 from manigrasp.planners.dexopt_planner import DexOptPlanner, _probe_contacts, choose_pads  # noqa: E402
 from manigrasp.protocol import PROTOCOLS, settle_object  # noqa: E402
 from manigrasp.protocol.grasp import as_grasp  # noqa: E402
@@ -65,7 +68,9 @@ def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
     planner = DexOptPlanner(restarts=args.restarts, iterations=args.iterations)
     planner.kinematics(hand)  # the hand's model is built once per process, not per call: not timed
     cpu, wall = time.process_time(), time.perf_counter()
-    found = planner.synthesise(observation, hand, args.grasps, np.random.default_rng(args.seed))
+    protocol = PROTOCOLS.load("standard", grip_force=10.0)
+    context = PlanContext.from_params(protocol.params)
+    found = planner.synthesise(observation, hand, args.grasps, np.random.default_rng(args.seed), None, context)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     hk, sdf = planner.kinematics(hand), planner.object_sdf(observation)
     probe = HandProbe(hand, observation, clearance=0.0)
@@ -86,10 +91,10 @@ def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
            "pen_max": 1e3 * max(depths, default=float("nan")), "pen_mean": 1e3 * float(np.mean(depths)) if depths
            else float("nan"), "div": pairwise_diversity(np.array([s.pose for s in found]).reshape(-1, 4, 4)),
            "pads": float(np.mean(pads)) if pads else float("nan"), "rejected": dict(planner.last["rejected"]),
-           "statuses": Counter()}
+           "statuses": Counter(), "holds": [s.hold for s in found]}
     if args.trials and found:
-        protocol = PROTOCOLS.load("standard", grip_force=10.0)
-        for k, candidate in enumerate(planner.plan(observation, hand, args.grasps, np.random.default_rng(args.seed))):
+        for k, candidate in enumerate(planner.plan(observation, hand, args.grasps, np.random.default_rng(args.seed),
+                                                   context)):
             result = protocol.run(scene, as_grasp(candidate), np.random.default_rng(k), object_pose=rest)
             out["statuses"][str(result.status.value)] += 1
     return out
@@ -109,7 +114,8 @@ def main() -> None:
           f"{args.seed}; {platform.processor() or platform.machine()}, OMP_NUM_THREADS="
           f"{os.environ['OMP_NUM_THREADS']}")
     header = (f"{'hand':<14} {'object':<20} {'grasps':>6} {'cpu/grasp':>9} {'wall':>6} {'pen max':>7} {'mean':>5} "
-              f"{'div mm':>6} {'deg':>5} {'pads<2mm':>8}  success / statuses; rejected restarts")
+              f"{'div mm':>6} {'deg':>5} {'pads<2mm':>8} {'hold':>4} {'median':>6}  success / statuses; "
+              "rejected restarts")
     print(header)
     totals: dict[str, list] = {}
     for hand in args.hands:
@@ -119,7 +125,9 @@ def main() -> None:
             success = r["statuses"].get("success", 0)
             trials = f"{success}/{sum(r['statuses'].values())} {dict(r['statuses'])}" if args.trials else "-"
             print(f"{hand:<14} {obj:<20} {r['n']:>6} {per:>9.2f} {r['wall']:>6.1f} {r['pen_max']:>7.2f} "
-                  f"{r['pen_mean']:>5.2f} {r['div'][0]:>6.0f} {r['div'][1]:>5.0f} {r['pads']:>8.1f}  {trials}; "
+                  f"{r['pen_mean']:>5.2f} {r['div'][0]:>6.0f} {r['div'][1]:>5.0f} {r['pads']:>8.1f} "
+                  f"{sum(h >= 1 for h in r['holds']):>4} {np.median(r['holds']) if r['holds'] else np.nan:>6.2f}  "
+                  f"{trials}; "
                   f"{r['rejected']}", flush=True)
             t = totals.setdefault(hand, [0, 0.0, 0, 0])
             t[0] += r["n"]

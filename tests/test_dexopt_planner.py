@@ -186,8 +186,26 @@ def test_planner_returns_deterministic_valid_grasps_that_do_not_penetrate(tmp_pa
         hand_q = {addresses[hk.model.joint(j).name]: float(qpos[hk.model.jnt_qposadr[j]]) for j in hk.joints}
         assert _probe_contacts(probe, s.pose, hand_q)[0] <= 0.001
         assert s.penetration <= 0.001
+    # The hold test: grasps that hold the standard protocol's loads at its squeeze come first.
+    holds = [s.hold >= planner.min_hold_margin for s in first]
+    assert holds == sorted(holds, reverse=True) and all(s.hold >= 0 for s in first)
     candidates = planner.plan(observation, hand, 2, np.random.default_rng(5))
     assert candidates and all(c.planner == "dexopt" and 0 < c.score <= 1 for c in candidates)
     for c, s in zip(candidates, first, strict=False):
         np.testing.assert_array_equal(c.joints, s.joints)  # the hand path travels with the candidate
         np.testing.assert_array_equal(c.pose, s.pose)
+
+
+def test_squeeze_caps_put_the_protocols_grip_on_the_weaker_side_and_pad_forces_balance_the_torques() -> None:
+    from manigrasp.planners.dexopt_planner import pad_forces, squeeze_caps
+
+    # Thumb presses 2, three fingers 1 each: the thumb is the weaker side (2 < 3); the grip 10 N is its force.
+    caps = squeeze_caps(np.array([2.0, 1.0, 1.0, 1.0]), np.array([True, False, False, False]), 10.0)
+    np.testing.assert_allclose(caps, [10.0, 5.0, 5.0, 5.0])
+    one_side = squeeze_caps(np.array([1.0, 1.0]), np.array([False, False]), 4.0)
+    np.testing.assert_allclose(one_side, [2.0, 2.0])  # one side only: its total is the grip
+    # Pads on independent joints (rows = I): each pad presses its joint's torque; a pulling torque gives 0.
+    np.testing.assert_allclose(pad_forces(np.eye(3), np.array([1.0, 2.0, -1.0])), [1.0, 2.0, 0.0], atol=1e-12)
+    # Two pads on one joint (a finger with two links): any split with the sum = torque; nnls finds one >= 0.
+    forces = pad_forces(np.array([[1.0], [2.0]]), np.array([4.0]))
+    assert np.all(forces >= 0) and forces @ [1.0, 2.0] == pytest.approx(4.0)

@@ -180,7 +180,11 @@ class HandKinematics:
     def world(self, points: Points, xpos: np.ndarray, xmat: np.ndarray) -> np.ndarray:
         """(R, n, 3) world positions of `points` for placed bodies (from `evaluate`)."""
         slot = self._slot[points.bodies]
-        return xpos[:, slot] + np.einsum("rnij,nj->rni", xmat[:, slot], points.local)
+        out = np.empty((xpos.shape[0], len(slot), 3))
+        for k in np.unique(slot):  # per body: one batched matrix product over the restarts (no (R, n, 3, 3) gather)
+            idx = np.flatnonzero(slot == k)
+            out[:, idx] = xpos[:, k, None] + points.local[idx] @ xmat[:, k].transpose(0, 2, 1)
+        return out
 
     def backprop(self, points: Points, world: np.ndarray, grad: np.ndarray, xpos: np.ndarray, jp: np.ndarray,
                  jr: np.ndarray) -> np.ndarray:

@@ -42,6 +42,16 @@
    `max_penetration`) at the grasp pose and along the approach from the pre-grasp pose; if not, the back-off
    is doubled (up to `PRESHAPE_TRIES` tries).
 
+6. Load feasibility (as BODex asks of a grasp, in the protocol's terms): the normal force the squeeze presses
+   each pad with (`pad_forces`: lambda >= 0 with sum_i lambda_i J_i^T n_i = A^T f, the squeeze's actuator
+   forces f through the joint -> command map A, scipy nnls) is scaled so that the grip force the protocol
+   regulates, min(thumb, rest) of the normal forces, is its grip force (`PlanContext.grip_force_for`):
+   `squeeze_caps`. `dexopt.hold_margin` (one LP) then asks whether contact forces within those caps, inside
+   linearised friction cones (`friction`) with soft-contact torsion (`torsion`), balance the object's
+   weight alone and with each of the protocol's perturbations (`hold.loads`; the object's mass from its
+   asset). Candidates whose margin reaches `min_hold_margin` come first (lowest energy first among them),
+   the rest after them by margin; diversity (non-maximum suppression) is applied to that order.
+
 Score = 1 / (1 + E) (in (0, 1], higher is better) with E the final energy.
 """
 
@@ -55,15 +65,18 @@ import mujoco
 import numpy as np
 import trimesh
 
+from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
 from manigrasp.errors import ConfigError
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.hands.base import Hand
+from manigrasp.objects.pipeline import DEFAULT_DENSITY
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.context import PlanContext, resolve
-from manigrasp.planners.dexopt import EnergyWeights, GridSdf
+from manigrasp.planners.dexopt import EnergyWeights, GridSdf, hold_margin
 from manigrasp.planners.dexopt_hand import HandKinematics
 from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
+from manigrasp.planners.hold import loads
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
 
@@ -99,6 +112,8 @@ class Synthesis:
         energy: final energy and `terms` its parts (unweighted).
         contacts, normals: (k, 3) pad points in the world [m], inward unit normals (pads within tolerance).
         penetration: deepest hand-object/table penetration measured in MuJoCo [m] (>= 0).
+        hold: hold margin of the contacts at the protocol's squeeze and loads (`dexopt.hold_margin`; >= 1:
+            contact forces the hand can press hold them all).
     """
 
     pose: np.ndarray
@@ -109,6 +124,7 @@ class Synthesis:
     contacts: np.ndarray
     normals: np.ndarray
     penetration: float
+    hold: float = float("inf")
 
 
 @dataclass(frozen=True)
@@ -118,8 +134,9 @@ class DexOptPlanner:
     After each call, `last["rejected"]` counts the restarts each check of step 4-5 turned down.
 
     Attributes:
-        restarts: random initial configurations optimised together (48: on the dexterous config 26, 22, 12/80
-            for Inspire, Fourier, Allegro against 26, 18, 8/80 with 32, where fewer than 10 grasps passed).
+        restarts: random initial configurations optimised together (96: a pool from which the load test of
+            step 6 can pick grasps that hold; 48 gave 26, 22, 12/80 on the dexterous config for Inspire,
+            Fourier, Allegro against 26, 18, 8/80 with 32, where fewer than 10 grasps passed).
         iterations: descent steps.
         step_translation: [m], step_rotation: [rad], step_joints: [rad]: initial Adam steps.
         weights: the energy's weights (`dexopt.EnergyWeights`; a mapping of its fields in a config).
@@ -142,12 +159,17 @@ class DexOptPlanner:
         nms_distance: [m]; nms_angle: [rad] (non-maximum suppression thresholds).
         pregrasp_offset: pre-grasp distance back along the approach [m] over which the pre-shape is checked;
             None: the protocol's (`PlanContext.pregrasp_offset`).
+        friction: sliding friction [-] of the hand-object contacts the hold test assumes (the scene's rigid
+            hand friction by default; 1.0 for rubber fingertips, `scene.pads: compliant`).
+        torsion: torsional friction [m] of those contacts (soft fingers).
+        min_hold_margin: grasps whose hold margin (step 6) reaches this come first [-].
+        density: of an object without a built asset, for its mass [kg/m^3].
     """
 
     name: ClassVar[str] = "dexopt"
     needs: ClassVar[ObservationKind] = "mesh"
 
-    restarts: int = 48
+    restarts: int = 96
     iterations: int = 150
     step_translation: float = 0.003
     step_rotation: float = 0.03
@@ -168,6 +190,10 @@ class DexOptPlanner:
     nms_distance: float = DEFAULT_DISTANCE
     nms_angle: float = DEFAULT_ANGLE
     pregrasp_offset: float | None = None
+    friction: float = STANDARD_MU
+    torsion: float = STANDARD_TORSION_M
+    min_hold_margin: float = 1.0
+    density: float = DEFAULT_DENSITY
     _hands: dict = field(default_factory=dict, init=False, repr=False, compare=False)
     last: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -185,6 +211,8 @@ class DexOptPlanner:
                     "preshape_backoff"):
             if not float(getattr(self, key)) > 0:
                 raise ConfigError(f"dexopt: {key} must be > 0, got {getattr(self, key)}")
+        if self.friction < 0 or self.torsion < 0 or self.min_hold_margin < 0 or not self.density > 0:
+            raise ConfigError("dexopt: friction, torsion and min_hold_margin must be >= 0, density > 0")
         if self.max_penetration < 0 or self.table_clearance < 0 or not 0 <= self.init_closure <= 1:
             raise ConfigError("dexopt: max_penetration and table_clearance must be >= 0, init_closure in [0, 1]")
 
@@ -192,8 +220,9 @@ class DexOptPlanner:
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
              context: PlanContext | None = None) -> list[GraspCandidate]:
         """At most `n` grasps, lowest energy first, for the protocol described by `context` (None: standard)."""
-        offset = resolve(context, self.pregrasp_offset).pregrasp_offset
-        found = self.synthesise(observation, hand, n, rng, offset)
+        context = resolve(context, self.pregrasp_offset)
+        offset = context.pregrasp_offset
+        found = self.synthesise(observation, hand, n, rng, offset, context)
         center = observation.center_of_mass
         scale = torque_scale(observation.world_mesh().vertices, center)
         out = []
@@ -228,9 +257,10 @@ class DexOptPlanner:
 
     # ------------------------------------------------------------------ synthesis
     def synthesise(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
-                   pregrasp_offset: float | None = None) -> list[Synthesis]:
+                   pregrasp_offset: float | None = None, context: PlanContext | None = None) -> list[Synthesis]:
         """Optimise `restarts` configurations and return at most `n` that pass the checks, best first; the
-        pre-shape is checked over `pregrasp_offset` [m] (None: this planner's, else the standard protocol's)."""
+        pre-shape is checked over `pregrasp_offset` [m] (None: this planner's, else the standard protocol's),
+        the hold margin at `context`'s grip force and loads (None: the standard protocol's)."""
         offset = resolve(None, pregrasp_offset if pregrasp_offset is not None else self.pregrasp_offset
                          ).pregrasp_offset
         hk = self.kinematics(hand)
@@ -239,7 +269,7 @@ class DexOptPlanner:
         scale = torque_scale(observation.world_mesh().vertices, center)
         pos, quat, q = self.initial(hk, sdf, center, hand.max_width, rng, observation.table_height)
         pos, quat, q, energy, terms = self.descend(hk, sdf, center, scale, observation.table_height, pos, quat, q)
-        return self.select(hk, sdf, observation, pos, quat, q, energy, terms, n, offset)
+        return self.select(hk, sdf, observation, pos, quat, q, energy, terms, n, offset, context)
 
     def initial(self, hk: HandKinematics, sdf: GridSdf, center: np.ndarray, width: float,
                 rng: np.random.Generator, table_z: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -336,7 +366,8 @@ class DexOptPlanner:
             return total, terms, None
         torque = np.cross(x - xpos[rows, slot], g_pad)
         grad = (np.einsum("rki,rkij->rj", g_pad, jp[rows, slot]) + np.einsum("rki,rkij->rj", torque, jr[rows, slot])
-                + _sparse_backprop(hk, hk.samples, p, g_samples, xpos, jp, jr)
+                + _sparse_backprop(hk, hk.samples, p, g_samples, xpos, jp, jr,
+                                   np.union1d(which, np.flatnonzero(low.ravel())))
                 + _sparse_backprop(hk, hk.spheres, c, g_spheres, xpos, jp, jr))
         grad[:, 6:] += w.joints * ((q > hk.high).astype(float) - (q < hk.low).astype(float))
         return total, terms, grad
@@ -371,8 +402,17 @@ class DexOptPlanner:
     # ------------------------------------------------------------------ checks and the hand path
     def select(self, hk: HandKinematics, sdf: GridSdf, observation: Observation, pos: np.ndarray,
                quat: np.ndarray, q: np.ndarray, energy: np.ndarray, terms: dict[str, np.ndarray],
-               n: int, offset: float = PREGRASP_OFFSET) -> list[Synthesis]:
-        """The restarts that pass the checks, lowest energy first, diverse (module docstring, steps 4-5)."""
+               n: int, offset: float = PREGRASP_OFFSET, context: PlanContext | None = None) -> list[Synthesis]:
+        """The restarts that pass the checks, diverse, those that hold the protocol's loads first (module
+        docstring, steps 4-6)."""
+        context = resolve(context)
+        grip = context.grip_force_for(hk.hand)
+        if observation.asset is not None:
+            mass = float(observation.asset.mass)
+        else:
+            mesh = observation.world_mesh()
+            mass = self.density * float(mesh.volume if mesh.is_watertight else mesh.convex_hull.volume)
+        external = loads(mass, context.perturbation)
         probe = HandProbe(hk.hand, observation, clearance=0.0)
         addresses = probe.hand_qpos_addresses()
         names = [hk.model.joint(j).name for j in hk.joints]
@@ -407,25 +447,35 @@ class DexOptPlanner:
                 rejected["self_penetration"] = rejected.get("self_penetration", 0) + 1
                 continue
             normal = -g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
-            joints = self.hand_path(hk, probe, tcp, q[i], x, hk.contacts.bodies[chosen], normal, d, jp[0],
-                                    jr[0], xpos[0], addresses, names, offset)
-            if joints is None:
+            path = self.hand_path(hk, probe, tcp, q[i], x, hk.contacts.bodies[chosen], normal, d, jp[0],
+                                  jr[0], xpos[0], addresses, names, offset)
+            if path is None:
                 rejected["preshape"] = rejected.get("preshape", 0) + 1
                 continue
+            joints, press = path
+            caps = squeeze_caps(press[touching], hk.pad_finger[chosen][touching] == 0, grip)
+            hold = hold_margin(x[touching], normal[touching], caps, observation.center_of_mass, external,
+                               self.friction, self.torsion)
             passed.append(Synthesis(pose=tcp, q=q[i].copy(), joints=joints, energy=float(energy[i]),
                                     terms={key: float(v[i]) for key, v in terms.items()},
-                                    contacts=x[touching], normals=normal[touching], penetration=depth))
+                                    contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold))
         if not passed:
             return []
+        # Grasps that hold the loads first (lowest energy first among them), then the rest by hold margin.
+        holds = np.array([s.hold >= self.min_hold_margin for s in passed])
+        order = sorted(range(len(passed)), key=lambda j: (not holds[j], 0.0 if holds[j] else -passed[j].hold))
+        passed = [passed[j] for j in order]
+        self.last["holding"] = int(holds.sum())
         keep = suppress(np.stack([s.pose for s in passed]), self.nms_distance, self.nms_angle)
         return [passed[k] for k in keep[:n]]
 
     def hand_path(self, hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray, x: np.ndarray,
                   bodies: np.ndarray, normal: np.ndarray, dist: np.ndarray, jp: np.ndarray, jr: np.ndarray,
                   xpos: np.ndarray, addresses: dict[str, int], names: list[str],
-                  offset: float = PREGRASP_OFFSET) -> np.ndarray | None:
-        """(2, n_act) pre-shape and squeeze commands (module docstring, step 5), or None if no pre-shape of the
-        first `PRESHAPE_TRIES` back-offs is collision-free along the approach."""
+                  offset: float = PREGRASP_OFFSET) -> tuple[np.ndarray, np.ndarray] | None:
+        """(2, n_act) pre-shape and squeeze commands (module docstring, step 5) and the normal forces (k,) the
+        squeeze presses the pads with (relative), or None if no pre-shape of the first `PRESHAPE_TRIES`
+        back-offs is collision-free along the approach."""
         slot = hk._slot[bodies]
         # Pad Jacobians over the independent joints (R = 1 layout of `evaluate`): Jp - [x - x_b]x Jr.
         jac = jp[slot][..., 6:] - np.einsum("kij,kjl->kil", _skew(x - xpos[slot]), jr[slot][..., 6:])
@@ -456,9 +506,31 @@ class DexOptPlanner:
                       for nm, j in zip(names, hk.joints, strict=True)}
             if all(_probe_contacts(probe, pose, hand_q)[0] <= self.max_penetration
                    for pose in _approach_poses(tcp, offset)):
-                return np.stack([pre, squeeze])
+                return np.stack([pre, squeeze]), pad_forces(rows, a.T @ force)
         return None
 
+
+
+def pad_forces(rows: np.ndarray, torque: np.ndarray) -> np.ndarray:
+    """(k,) normal forces lambda >= 0 at the pads whose joint torques rows^T lambda best balance the actuators'
+    joint `torque` (n_q,) (scipy nnls): the pads the squeeze presses, and how hard; `rows` (k, n_q) holds each
+    pad's inward normal through its Jacobian, n_i^T J_i."""
+    from scipy.optimize import nnls
+
+    return nnls(np.asarray(rows, float).T, np.asarray(torque, float))[0]
+
+
+def squeeze_caps(press: np.ndarray, thumb: np.ndarray, grip: float) -> np.ndarray:
+    """(k,) the largest normal force [N] of each contact at the protocol's squeeze: the pads' relative forces
+    `press` (k,) scaled so that the grip force the protocol regulates (`manigrasp.sim.grip_force`: the smaller
+    of the `thumb` (k,) contacts' total and the others') is `grip` [N]; with one side empty, its total."""
+    press = np.clip(np.asarray(press, float), 0.0, None)
+    thumb = np.asarray(thumb, bool)
+    sides = [press[thumb].sum(), press[~thumb].sum()]
+    sides = [v for v in sides if v > 0]
+    if not sides:
+        return np.zeros_like(press)
+    return grip * press / min(sides)
 
 
 def choose_pads(sdf: GridSdf, pads: np.ndarray, finger: np.ndarray) -> np.ndarray:
@@ -566,10 +638,14 @@ def _ray_to_surface(sdf: GridSdf, start: np.ndarray, direction: np.ndarray, far:
 
 
 def _sparse_backprop(hk: HandKinematics, points: Any, world: np.ndarray, grad: np.ndarray, xpos: np.ndarray,
-                     jp: np.ndarray, jr: np.ndarray) -> np.ndarray:
-    """`hk.backprop` over the (restart, point) pairs with a non-zero gradient only."""
+                     jp: np.ndarray, jr: np.ndarray, flat: np.ndarray | None = None) -> np.ndarray:
+    """`hk.backprop` over the (restart, point) pairs with a non-zero gradient only (`flat`: their indices into
+    the (R x n) pairs when known, else found)."""
     out = np.zeros((len(world), jp.shape[-1]))
-    rows, cols = np.nonzero(np.any(grad != 0.0, axis=2))
+    if flat is None:
+        rows, cols = np.nonzero(np.any(grad != 0.0, axis=2))
+    else:
+        rows, cols = np.divmod(np.asarray(flat, int), grad.shape[1])
     if len(rows) == 0:
         return out
     slot = hk._slot[points.bodies[cols]]
