@@ -393,3 +393,23 @@ def test_header_names_each_protocols_and_planners_parameters_and_leads_in_config
     assert text.index(f"{lead}standard: 7/10") < text.index(f"{lead}lift: 9/10")
     assert "within one hand x planner x observation x protocol (0.5 = chance)" in text
     assert "Rows `all` pool every trial of every hand x planner x observation x protocol" in text
+
+
+def test_a_group_that_failed_before_planning_adds_no_planning_call(monkeypatch):
+    """A harness fault while setting up (the scene cannot be built) happens before the planner is called: its
+    trials carry no planning time, so the report's median planning call counts calls that planned."""
+    from manigrasp.bench import worker
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.trials import groups
+    from manigrasp.errors import ConfigError
+
+    def broken(group):
+        raise ConfigError("no such scene")
+
+    monkeypatch.setattr(worker, "scene_for", broken)
+    (group,) = groups(parse_config({"objects": ["025_mug"], "grasps_per_object": 2}))
+    plan = worker.plan_group(group)
+    assert plan.status is Status.HARNESS_FAULT and "setting up" in plan.error
+    results = [worker.run_trial(group, i, plan) for i in range(2)]
+    assert all(math.isnan(r.plan_time_s) for _, r in results)
+    assert summarize(results).by_method[("parallel_jaw", "antipodal", "ground_truth", "standard")].planning_calls == 0

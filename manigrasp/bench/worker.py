@@ -125,7 +125,8 @@ def plan_group(group: Group) -> Plan:
     except ManigraspError as exc:  # planners.plan turns anything a planner raises into a PlannerError
         status = Status.PLANNER_ERROR if stage == "planning" else Status.HARNESS_FAULT
         detail = str(exc) if stage == "planning" else f"{stage}: {fault_detail(exc)}"
-        return Plan.failed(group, status, detail[:800], time.perf_counter() - start)
+        seconds = time.perf_counter() - start if stage == "planning" else math.nan  # a setup time is no planning
+        return Plan.failed(group, status, detail[:800], seconds)
     except Exception as exc:  # a harness bug in one group must not end the run: record it
         return Plan.failed(group, Status.HARNESS_FAULT, f"{stage}: {fault_detail(exc)}")
     return Plan(result.candidates, None, result.planning_time_s, pose, info, planned)
