@@ -116,7 +116,8 @@ def _run(scene, pose: np.ndarray, steps: int, grip: GripController | None = None
     for _ in range(steps):
         ctrl.apply()
         if grip is not None:
-            scene.set_synergy(grip.update(grip_force(read_hand_contacts(scene)), dt, scene.hand_synergy()))
+            scene.set_synergy(grip.update(grip_force(read_hand_contacts(scene)), dt, scene.hand_synergy(),
+                                          scene.closing_reach()))
         scene.step()
 
 

@@ -72,8 +72,8 @@ def _run(scene: Scene, ctrl: ImpedanceController, steps: int, grip: GripControll
     for _ in range(steps):
         ctrl.apply()
         if grip is not None:
-            where = scene.hand_synergy() if follow else None
-            scene.set_synergy(grip.update(grip_force(read_hand_contacts(scene)), dt, where))
+            where, reach = (scene.hand_synergy(), scene.closing_reach()) if follow else (None, None)
+            scene.set_synergy(grip.update(grip_force(read_hand_contacts(scene)), dt, where, reach))
         scene.step()
 
 

@@ -269,13 +269,15 @@ class GripController:
         contact_force: grip force that counts as contact [N].
         bandwidth: integral gain of the force loop, normalised by k [1/s].
         kp: proportional gain of the force loop, normalised by k [-].
-        lead: how far the position-phase command may run ahead of the measured hand synergy.
+        lead: how far the position-phase command may at least run ahead of the hand synergy (`update`).
         stiffness: k [N per unit synergy] of the hand's servo (`Hand.grip_stiffness`); None: estimated.
+        stall_check: whether a position phase whose fingers stop moving is `stalled` (None: when the
+            `stiffness` is known; the protocol sets it for every parallel-jaw hand).
     """
 
     def __init__(self, target_force: float, full_force: float, close_speed: float = 1.0,
                  contact_force: float = 0.5, bandwidth: float = 10.0, kp: float = 0.1, lead: float = 0.1,
-                 stiffness: float | None = None) -> None:
+                 stiffness: float | None = None, stall_check: bool | None = None) -> None:
         if not 0 < target_force <= full_force or close_speed <= 0 or contact_force <= 0:
             raise ConfigError("need 0 < target_force <= full_force, close_speed > 0 and contact_force > 0")
         if stiffness is not None and not (np.isfinite(stiffness) and stiffness > 0):
@@ -283,6 +285,7 @@ class GripController:
         self.target_force, self.full_force, self.close_speed = target_force, full_force, close_speed
         self.contact_force, self.bandwidth, self.kp, self.lead = contact_force, bandwidth, kp, lead
         self.servo_stiffness = stiffness
+        self.stall_check = stiffness is not None if stall_check is None else bool(stall_check)
         self.reset()
 
     def reset(self, synergy: float = 0.0) -> None:
@@ -297,9 +300,10 @@ class GripController:
 
     @property
     def stalled(self) -> bool:
-        """True when a hand with a known `stiffness` is still closing on position but its fingers have not
-        moved on (by STALL_SYNERGY) for STALL_S: closed on nothing, they rest on their stops (a closed
-        command past the stop never reaches synergy 1), or on one side of an object that does not move."""
+        """True (with `stall_check`) when the hand is still closing on position but its fingers have not
+        moved on (by STALL_SYNERGY of the mean hand synergy) for STALL_S: closed on nothing, they rest on
+        their stops (a closed command past the stop, or a linkage whose pads meet before its joint limits,
+        never reaches synergy 1), or on one side of an object that does not move."""
         return self.mode == "position" and self._still_s >= STALL_S
 
     @property
@@ -307,18 +311,30 @@ class GripController:
         """The largest grip force [N] measured in the force phase since the last reset (0 before contact)."""
         return float(self._peak)
 
-    def update(self, grip_force: float, dt: float, hand_synergy: float | None = None) -> float:
+    def update(self, grip_force: float, dt: float, hand_synergy: float | None = None,
+               reach: float | None = None) -> float:
         """New synergy command for the measured `grip_force` [N] after a step `dt` [s].
 
-        `hand_synergy` (e.g. `Scene.hand_synergy()`), if given, keeps the
-        position-phase command at most `lead` ahead of where the fingers are, so
-        a slow hand does not find the command already closed at contact; with a
-        known `stiffness` it is also the contact synergy s_c, and a contact that
-        is lost while the fingers move on past it by `REARM_SYNERGY`, its grip
-        force never above `BRUSH_FRACTION` of the target (a brush of a rim or a
-        handle on the way in), returns to the position phase, so the force phase
-        starts again where the fingers meet the object. An object that was
-        gripped and squeezed out stays in the force phase (the protocol judges it).
+        `hand_synergy` (e.g. `Scene.hand_synergy()`: the mean over the fingers
+        that move), if given, keeps the position-phase command at most
+        max(`hand_synergy` + `lead`, `reach`) (`reach`, e.g.
+        `Scene.closing_reach()`: the furthest command some finger's servo still
+        pushes harder for), so a slow hand does not find the command already
+        closed at contact. The reach, not only `lead`: a soft servo (the
+        dexterous hands' tendons, 0.5 N m/rad) follows a ramp with a lag of
+        the ramp rate times its time constant, so a fixed `lead` sets how fast
+        it closes (0.09 of the synergy per second for the Fourier hand at 0.1:
+        a can is not reached in the 2 s close), while a lead up to its force
+        limit is what the servo can use and no more (the five-finger hands
+        closed fast enough before only because their fixed thumb rotation
+        counted as closed, adding (1 - s) / 6 to the lead). `hand_synergy` is
+        also what `stall_check` watches; with a known `stiffness` it is also
+        the contact synergy s_c, and a contact that is lost while the fingers
+        move on past it by `REARM_SYNERGY`, its grip force never above
+        `BRUSH_FRACTION` of the target (a brush of a rim or a handle on the way
+        in), returns to the position phase, so the force phase starts again
+        where the fingers meet the object. An object that was gripped and
+        squeezed out stays in the force phase (the protocol judges it).
         """
         if self.mode == "force":
             self._peak = max(self._peak, grip_force)
@@ -328,11 +344,12 @@ class GripController:
                 self.reset(min(self.synergy, hand_synergy + self.lead))  # the contact was a brush: close on
         if self.mode == "position":
             if grip_force < self.contact_force:
-                if hand_synergy is not None and self.servo_stiffness is not None:
+                if hand_synergy is not None and self.stall_check:
                     moved = hand_synergy > self._furthest + STALL_SYNERGY
                     self._furthest = hand_synergy if moved else self._furthest
                     self._still_s = 0.0 if moved else self._still_s + dt
-                ceiling = 1.0 if hand_synergy is None else hand_synergy + self.lead
+                ceiling = 1.0 if hand_synergy is None else max(hand_synergy + self.lead,
+                                                               -np.inf if reach is None else reach)
                 self.synergy = min(1.0, ceiling, self.synergy + self.close_speed * dt)
                 return self.synergy
             self.mode = "force"

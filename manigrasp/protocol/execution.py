@@ -287,7 +287,8 @@ class TrialRun:
             if self.grip is not None:
                 scene = self.scene
                 force = current_grip_force(scene)
-                scene.set_synergy(self.grip.update(force, self.chunk * self.dt, scene.hand_synergy()))
+                scene.set_synergy(self.grip.update(force, self.chunk * self.dt, scene.hand_synergy(),
+                                                   scene.closing_reach()))
             self.sampler.advance(k)
             self.steps += k
             done += k

@@ -103,7 +103,8 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
     p, hand = run.params, run.scene.hand
     target = p.grip_force if p.grip_force is not None else p.grip_force_fraction * hand.max_grip_force
     grip = GripController(min(target, hand.max_grip_force), hand.max_grip_force, close_speed=p.close_speed,
-                          contact_force=p.contact_force, stiffness=hand.grip_stiffness)
+                          contact_force=p.contact_force, stiffness=hand.grip_stiffness,
+                          stall_check=hand.grip_stiffness is not None or hand.kind == "parallel")
     grip.reset(preshape)
     release_hold(run)
     run.grip = grip

@@ -264,19 +264,43 @@ class Scene:
         s = float(np.clip(s, 0.0, 1.0))
         self.data.ctrl[self.hand_actuators] = (1.0 - s) * self._path[0] + s * self._path[1]
 
-    def hand_synergy(self) -> float:
-        """Where the fingers are along `hand_path`, as a synergy in [0, 1]: the mean over hand actuators
-        of (length - open) / (closed - open) of their transmission, clipped (an estimate: a blocked
-        finger stays below its command). An actuator whose open and closed commands are equal (a fixed
-        pre-shape joint) counts as 1: left out, the estimate drops and the grip loop's `lead` ceiling
-        (command <= estimate + lead) stalls the Fourier and Inspire hands short of contact."""
+    def finger_synergies(self) -> np.ndarray:
+        """(m,) where each hand actuator that moves along `hand_path` is: (length - open) / (closed - open) of
+        its transmission, clipped to [0, 1] (a blocked finger stays below its command). Actuators whose open
+        and closed commands are equal (fixed pre-shape joints: the Allegro's spread and thumb rotation, the
+        five-finger hands' thumb rotation) are left out: they are neither open nor closed."""
         open_ctrl, closed_ctrl = self._path
         span = closed_ctrl - open_ctrl
         moving = np.abs(span) > SPAN_EPSILON
         length = self.data.actuator_length[self.hand_actuators]
-        frac = np.ones(len(span))
-        frac[moving] = (length[moving] - open_ctrl[moving]) / span[moving]
-        return float(np.clip(frac, 0.0, 1.0).mean())
+        return np.clip((length[moving] - open_ctrl[moving]) / span[moving], 0.0, 1.0)
+
+    def hand_synergy(self) -> float:
+        """Where the fingers are along `hand_path`, as a synergy in [0, 1]: the mean of `finger_synergies`
+        (1 for a path on which nothing moves)."""
+        frac = self.finger_synergies()
+        return float(frac.mean()) if len(frac) else 1.0
+
+    def closing_reach(self) -> float:
+        """The furthest synergy command some finger's servo still pushes harder for: the largest over the
+        fingers that move along `hand_path` of where the finger is (`finger_synergies`) plus the command
+        lead that brings its position servo to its force limit, f_max / (kp |closed - open|) (0 for an
+        actuator that is not a force-limited position servo). A command further ahead of every finger
+        pushes no harder and closes no faster; it only winds up and lands on the object at contact."""
+        open_ctrl, closed_ctrl = self._path
+        span = closed_ctrl - open_ctrl
+        moving = np.abs(span) > SPAN_EPSILON
+        if not moving.any():
+            return 1.0
+        m, ids = self.model, self.hand_actuators[moving]
+        kp = m.actuator_gainprm[ids, 0]
+        servo = (m.actuator_gaintype[ids] == mujoco.mjtGain.mjGAIN_FIXED) & (
+            m.actuator_biastype[ids] == mujoco.mjtBias.mjBIAS_AFFINE) & (kp > 0) & np.isclose(
+            m.actuator_biasprm[ids, 1], -kp) & m.actuator_forcelimited[ids].astype(bool)
+        limit = np.where(span[moving] > 0, m.actuator_forcerange[ids, 1], -m.actuator_forcerange[ids, 0])
+        lead = np.zeros(len(ids))
+        lead[servo] = limit[servo] / (kp[servo] * np.abs(span[moving][servo]))
+        return float(np.max(self.finger_synergies() + np.maximum(lead, 0.0)))
 
     def forward(self) -> None:
         """`mj_forward`: recompute positions, contacts and forces of the current state."""
