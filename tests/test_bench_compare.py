@@ -164,3 +164,36 @@ def test_the_committed_baseline_is_valid_records_its_config_and_passes_against_i
     assert config["name"] == "quick" and {"protocol", "scene", "hands", "objects"} <= set(config)
     assert side.meta["versions"]["mujoco"] and len(side.report.groups) == 10
     assert main(["compare", str(BASELINE), str(BASELINE)]) == 0
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda c: c.update(grasps_per_object=40), "different grasps_per_object (20 vs baseline 40)"),
+    (lambda c: c["planners"][0]["params"].update(top_k=3), "different planner 'antipodal'.params.top_k"),
+])
+def test_the_gate_refuses_another_draw_of_candidates_or_another_planner(tmp_path, capsys, change, message):
+    """A ranked planner's first 40 candidates are not the population of its first 20, and antipodal with other
+    parameters is another method: comparing their rates would gate on the config, not the code. (A baseline of
+    the same config still passes: the committed baseline against itself, above.)"""
+    payload = json.loads(BASELINE.read_text())
+    change(payload["run"]["config"])
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(BASELINE), str(other)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+def test_cameras_must_match_only_where_perception_groups_are_compared(tmp_path, capsys):
+    payload = json.loads(BASELINE.read_text())
+    payload["run"]["config"]["camera"] = {"views": 2}
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(BASELINE), str(other)]) == 0  # ground truth only: no camera in play
+    for side in (payload, json.loads(BASELINE.read_text())):
+        for g in side["groups"]:
+            g["observation"] = "point_cloud"
+    seen = tmp_path / "seen.json"
+    seen.write_text(json.dumps(side))
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(seen), str(other)]) == 2
+    assert "different camera" in capsys.readouterr().err

@@ -9,8 +9,9 @@ does not fail CI by chance; the all-groups test is uncorrected.
 
 A gate that cannot fail is no gate: anything it cannot judge raises `ConfigError` (exit 2 at the CLI): an
 alpha outside (0, 1), counts that are not counts (successes > trials, NaN, negative), no trials in common,
-and two sides whose physics (scene) parameters, or the parameters of a protocol, hand or object present on
-both sides, differ.
+and two sides whose physics (scene) parameters, or the parameters of a protocol, hand, planner or object
+present on both sides, differ; so do their `grasps_per_object` (a ranked planner's first 5 candidates are
+not the population of its first 20) and, when perception groups are compared, their cameras.
 """
 
 from __future__ import annotations
@@ -124,11 +125,12 @@ def _count(value: object) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
 
-def check_comparable(new: Side, base: Side) -> list[str]:
+def check_comparable(new: Side, base: Side, perception: bool = False) -> list[str]:
     """Raise `ConfigError` naming what differs when the two runs' physics cannot be compared.
 
-    The scene (physics) must be equal; a protocol (by label), hand or object present on both sides must be
-    defined the same way. Returns notes on version differences (not refused).
+    The scene (physics) must be equal; a protocol or planner (by label), hand or object present on both sides
+    must be defined the same way; `grasps_per_object` must be equal where both record it, and the camera
+    setup(s) too when `perception` groups are compared. Returns notes on version differences (not refused).
     """
     configs = [side.meta.get("config") for side in (new, base)]
     for side, config in zip((new, base), configs, strict=True):
@@ -146,6 +148,12 @@ def check_comparable(new: Side, base: Side) -> list[str]:
         ours, theirs = _entries(new_config.get(key)), _entries(base_config.get(key))
         for name in sorted(ours.keys() & theirs.keys()):
             differ += _differences(ours[name], theirs[name], f"{key[:-1]} {name!r}")
+    ours, theirs = _planners(new_config), _planners(base_config)
+    for label in sorted(ours.keys() & theirs.keys()):
+        differ += _differences(ours[label], theirs[label], f"planner {label!r}")
+    for key in ("grasps_per_object", *(("camera",) if perception else ())):
+        if key in new_config and key in base_config:
+            differ += _differences(new_config[key], base_config[key], key)
     if differ:
         raise ConfigError(f"{new.source} and {base.source} are not comparable: different " + "; ".join(differ))
     versions = [side.meta.get("versions") or {} for side in (new, base)]
@@ -167,6 +175,22 @@ def _protocols(config: dict) -> dict[str, object]:
         return dict(zip(labels(entries, "protocol"), listed, strict=True))
     except (KeyError, TypeError, AttributeError, ConfigError) as exc:
         raise ConfigError(f"a recorded config's protocols are malformed ({exc})") from None
+
+
+def _planners(config: dict) -> dict[str, dict]:
+    """A recorded config's planners by label (`BenchConfig.planner_labels`) as {name, params}."""
+    from manigrasp.bench.config import NamedEntry, labels
+
+    listed = config.get("planners")
+    if not isinstance(listed, list):
+        return {}
+    try:
+        entries = [NamedEntry(p, {}) if isinstance(p, str) else NamedEntry(str(p["name"]), dict(p.get("params") or {}))
+                   for p in listed]
+        return {label: {"name": e.name, "params": dict(e.params)} for label, e in zip(labels(entries), entries,
+                                                                                      strict=True)}
+    except (KeyError, TypeError, AttributeError, ConfigError) as exc:
+        raise ConfigError(f"a recorded config's planners are malformed ({exc})") from None
 
 
 def _entries(value: object) -> dict[str, object]:
@@ -257,6 +281,7 @@ def compare_sides(new: Side, base: Side, alpha: float = 0.05) -> Verdict:
     side's warnings (an incomplete run)."""
     notes = [f"{where} {side.source}: {w}" for where, side in (("the run", new), ("the baseline", base))
              for w in side.warnings]
-    notes += check_comparable(new, base)
+    perception = any(k[2] != "ground_truth" for k in new.report.groups if k in base.report.groups)
+    notes += check_comparable(new, base, perception)
     verdict = compare(new.report, base.report, alpha)
     return Verdict(verdict.comparisons, verdict.only_new, verdict.only_base, notes)

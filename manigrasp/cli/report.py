@@ -15,9 +15,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     """Register `report`, `compare` and `export`."""
     p = subparsers.add_parser(
         "report", help="summarise a run: success rates per hand x planner, failure modes, metric AUCs, report.md",
-        description="Print the run's rates per hand x planner and per object (95 % Wilson intervals), failure "
-                    "modes, planning time and each metric's AUC for success per hand x planner (95 % bootstrap "
-                    "interval), and write report.md with PNG plots into RUN_DIR (or --out). The stored results are "
+        description="Print the run's rates per hand x planner (x observation x protocol) and per object (95 % "
+                    "Wilson intervals), failure modes, the median planning call and each metric's AUC for success "
+                    "per hand x planner (95 % bootstrap interval), a warning if the run is incomplete, and "
+                    "write report.md with PNG plots into RUN_DIR (or --out). The stored results are "
                     "only read: a read-only RUN_DIR works (its report.md is then skipped unless --out).")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
     p.add_argument("--json", action="store_true",
@@ -28,12 +29,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
     p = subparsers.add_parser(
         "compare", help="exit 1 if a success rate is significantly lower than a baseline's",
-        description="One-sided two-proportion z-tests per hand x planner x observation x object group present in "
-                    "both (Holm-corrected across groups), per hand x planner x observation over its groups in both "
-                    "(Holm-corrected across them), and over all groups in both pooled. Groups found on one side "
-                    "only are listed. Exit 0: no significant regression; 1: a regression; 2: cannot judge "
-                    "(different protocol, hand, object or physics parameters, no common trials, a malformed "
-                    "baseline, alpha outside (0, 1)).")
+        description="One-sided two-proportion z-tests per hand x planner x observation x protocol x object group "
+                    "present in both (Holm-corrected across groups), per hand x planner x observation x protocol "
+                    "over its groups in both (Holm-corrected across them), and over all groups in both pooled. "
+                    "Groups found on one side only are listed; an incomplete run is noted. Exit 0: no significant "
+                    "regression; 1: a regression; 2: cannot judge (different protocol, planner, hand, object, "
+                    "physics or grasps_per_object, or cameras where perception groups are compared; no common "
+                    "trials, a malformed baseline, alpha outside (0, 1)).")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
     p.add_argument("baseline", type=Path, metavar="BASELINE",
                    help="a baseline run directory or JSON file (`manigrasp report RUN_DIR --json > FILE`)")
