@@ -6,11 +6,14 @@ palm, thumb side up) and run through the `standard` protocol (close to half the 
 lift 10 cm, hold 0.5 s, six 1 x m g perturbations). Printed per hand x gain: the status, the largest
 displacement [mm] and rotation [deg] of the can in the hand over the whole trial, the grip force [N].
 `--adaptive` also runs the five-finger hands with adaptive (uncoupled) fingers, as they were before the
-fingers' joints were coupled. Measured (2 Dec 2026): creep at gains 0 / 20 / 40: inspire_right 19.5 / 2.4 /
-1.5 mm, fourier_right 12.0 / 1.5 / 1.1 mm, allegro_right 1.0 / 1.1 / 1.1 mm, every trial a success; at 0 / 40
-the left hands: inspire_left 20.6 / 2.4 mm, fourier_left 12.5 / 1.0 mm, allegro_left 1.0 / 0.9 mm.
+fingers' joints were coupled. Measured (2 Dec 2026, the grip loop's closing reach and inspire_left's thumb
+mirrored from the right's): creep at gains 0 / 20 / 40: inspire_right 25.0 / 2.5 / 1.6 mm, fourier_right
+15.3 / 1.8 / 1.2 mm, allegro_right 1.2 / 1.2 / 1.1 mm, inspire_left 25.4 / 2.7 / 1.9 mm, fourier_left
+15.7 / 1.8 / 1.3 mm, allegro_left 0.9 / 0.9 / 0.9 mm, every trial a success. (With robosuite's own left thumb,
+inspire_left crept 2.4 mm at 40: its thumb flexes in a plane tilted 6.5 deg from the right's mirror image.)
 
-    .venv/bin/python benchmarks/bench_grip_hold.py
+    .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right fourier_right allegro_right \
+        inspire_left fourier_left allegro_left
     .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right --gains 0 40 --adaptive
 """
 

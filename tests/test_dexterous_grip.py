@@ -2,8 +2,7 @@
 
 Closed loop: a can grasped by hand (side power grasp) under the `standard` protocol at its defaults (the hold
 on, ``finger_hold_gain`` 40: close, lift 10 cm, hold, six 1 x m g perturbations) creeps less than 2 mm in the
-hand, for every right dexterous hand. (The left hands are not exact mirrors: inspire_left creeps 2.4 mm,
-fourier_left 1.0, allegro_left 0.9; `benchmarks/bench_grip_hold.py --hands inspire_left --gains 0 40`.)
+hand, for every registered dexterous hand, left and right (`benchmarks/bench_grip_hold.py`).
 """
 
 from __future__ import annotations
@@ -27,6 +26,7 @@ from manigrasp.protocol.phases import _HOLDS
 from manigrasp.sim import build_scene
 
 DEXTEROUS = [n for n in ("inspire_right", "fourier_right", "allegro_right") if n in hands.names()]
+EVERY_DEXTEROUS = [n for n in hands.names() if n.startswith(("inspire", "fourier", "allegro"))]
 
 # A hinge whose link is pushed by a soft position servo against a fixed stop block, plus a motor.
 PUSHER = """
@@ -143,7 +143,7 @@ def test_the_standard_protocol_holds_dexterous_grasps_by_default() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", DEXTEROUS)
+@pytest.mark.parametrize("name", EVERY_DEXTEROUS)
 def test_held_can_creeps_less_than_2_mm_under_lift_and_six_perturbations(name: str, can) -> None:
     scene = build_scene(hands.load(name), can)
     object_pose = settle_object(scene)
@@ -164,6 +164,23 @@ def test_held_can_creeps_less_than_2_mm_under_lift_and_six_perturbations(name: s
     assert not hold.engaged
     np.testing.assert_array_equal(scene.model.actuator_gainprm, gains)
     np.testing.assert_array_equal(scene.model.actuator_forcerange, ranges)
+
+
+@pytest.mark.skipif("inspire_left" not in hands.names(), reason="robosuite hands not installed")
+def test_inspire_left_thumb_mirrors_the_right() -> None:
+    # robosuite's left thumb flexes in a plane tilted 6.5 deg from the right's mirror image (its tip 6-10 mm off,
+    # a hand-placed can crept 2.4 mm in it); the left hand is built with the mirror of the right's thumb frame.
+    mirror = np.diag([1.0, -1.0, 1.0])  # the stand-alone models' frames: the left hand mirrors y
+    where = {}
+    for side in ("right", "left"):
+        model = hands.load(f"inspire_{side}").build_spec().compile()
+        data = mujoco.MjData(model)
+        s = side[0]
+        data.qpos[model.joint(f"joint_{s}_thumb_proximal_2").qposadr[0]] = 0.4
+        mujoco.mj_kinematics(model, data)
+        where[side] = np.array([data.xpos[model.body(f"{s}_thumb_{link}").id]
+                                for link in ("proximal_2", "middle", "distal")])
+    np.testing.assert_allclose(where["left"] @ mirror, where["right"], atol=2e-4)
 
 
 def test_hold_gain_of_the_protocol_is_validated() -> None:

@@ -102,9 +102,19 @@ class FiveFingerModel:
     armature: float = ARMATURE  # reflected drive inertia of every hinge joint [kg m^2]
     link_mass: float | None = None  # if set, the mass of every collision geom [kg]
     coupled: bool = True  # each finger's joints move in proportion (a linkage), not adaptively
+    thumb_frame: tuple[tuple[float, ...], tuple[float, ...]] | None = None  # if set, (pos, quat) of thumb_body
 
     def finger_tendon(self, finger: str) -> tuple[str, ...]:
         return tuple(pattern.format(f=finger) for pattern in self.finger_joints)
+
+
+# robosuite's inspire_left_hand.xml (with the same numbers as the Inspire URDF of Unitree's H1) does not mirror the
+# right hand's thumb: its pitch joint's frame is rpy (-1.5708, 0, 0.16939) at (0.0099867, 0.0098242, -0.0089) where
+# the right's (1.5708, 0, 2.8587) at (-0.0088099, 0.010892, -0.00925) mirrors to rpy (-1.5708, 0, 0.28289): the
+# left thumb flexes in a plane tilted 6.5 deg away, its tip 6-10 mm further toward the index finger along the palm
+# (every other body frame mirrors the right's within 0.2 mm). The left hand gets the mirror of the right's frame,
+# so the pair are mirror images (a hand-placed can crept 2.4 mm in the left hand, 1.5 mm in the right).
+INSPIRE_LEFT_THUMB = ((0.0088099, 0.010892, -0.00925), (0.7, -0.7, -0.1, 0.1))
 
 
 def _inspire(side: str) -> FiveFingerModel:
@@ -116,7 +126,7 @@ def _inspire(side: str) -> FiveFingerModel:
         finger_joints=(f"joint_{s}_{{f}}_proximal", f"joint_{s}_{{f}}_distal"),
         thumb_body=f"{s}_thumb_proximal_2", thumb_tip=f"{s}_thumb_distal",
         finger_body=f"{s}_{{f}}_proximal", finger_tip=f"{s}_{{f}}_distal",
-        finger_torque=0.6, thumb_torque=0.9)
+        finger_torque=0.6, thumb_torque=0.9, thumb_frame=INSPIRE_LEFT_THUMB if side == "left" else None)
 
 
 def _fourier(side: str) -> FiveFingerModel:
@@ -168,6 +178,8 @@ def _base_spec(model: FiveFingerModel) -> mujoco.MjSpec:
         for geom in spec.geoms:
             if geom.contype or geom.conaffinity:
                 geom.mass = model.link_mass
+    if model.thumb_frame is not None:
+        spec.body(model.thumb_body).pos, spec.body(model.thumb_body).quat = model.thumb_frame
     for joint in spec.joints:
         if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
             joint.armature = model.armature
@@ -280,7 +292,7 @@ def make_from(model: FiveFingerModel) -> Hand:
         actuators=actuators, open_ctrl=lows, closed_ctrl=highs, max_width=min(depth, span),
         max_grip_force=grip, mass=build.total_mass(mj), source="robosuite",
         fingertip_geoms=fingertip_geoms(base, model),
-        notes=load_gripper_spec(model.xml)[1] + _mass_note(model) + (
+        notes=load_gripper_spec(model.xml)[1] + _mass_note(model) + _thumb_note(model) + (
             "12/11 per-joint servos replaced by 6 tendon servos: thumb rotation, thumb bend, index, middle, ring, "
             "pinky (coefficients proportional to joint ranges)"
             + ("; each finger's joints coupled in that proportion (a linkage)" if model.coupled
@@ -307,6 +319,13 @@ def _mass_note(model: FiveFingerModel) -> tuple[str, ...]:
     if model.link_mass is None:
         return ()
     return (f"every link set to {model.link_mass} kg like the mirrored robosuite model (this file gives 0.5 kg)",)
+
+
+def _thumb_note(model: FiveFingerModel) -> tuple[str, ...]:
+    if model.thumb_frame is None:
+        return ()
+    return (f"thumb pitch joint frame {model.thumb_frame} (pos, quat): the mirror of the right hand's; robosuite's "
+            "left thumb flexes in a plane tilted 6.5 deg from the mirror of the right's",)
 
 
 def make_inspire_right() -> Hand:
