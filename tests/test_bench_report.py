@@ -413,3 +413,15 @@ def test_a_group_that_failed_before_planning_adds_no_planning_call(monkeypatch):
     results = [worker.run_trial(group, i, plan) for i in range(2)]
     assert all(math.isnan(r.plan_time_s) for _, r in results)
     assert summarize(results).by_method[("parallel_jaw", "antipodal", "ground_truth", "standard")].planning_calls == 0
+
+
+def test_console_pose_errors_carry_the_symmetry_caveat_of_the_markdown(tmp_path, capsys):
+    """A box turned 180 deg onto itself has a 180 deg rotation error and a good pose: the console line, like the
+    markdown column, says the rotation figures do not hold for symmetric objects."""
+    results = [(TrialKey("004_sugar_box", "parallel_jaw", "antipodal", "estimated_pose", "standard", i),
+                TrialResult(Status.SUCCESS, pose_rotation_error_deg=180.0, pose_translation_error_mm=0.2,
+                            pose_add_s_mm=1.0)) for i in range(3)]
+    assert main(["report", str(make_run(tmp_path / "run", results))]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
+    assert "rotation median 180.0 deg (p90 180.0; not meaningful for symmetric objects)" in line
+    assert "100% of 1 objects with ADD-S < 5 mm and translation < 1 cm" in line
