@@ -28,6 +28,18 @@ def test_weight_off_the_line_needs_the_torsion_closed_form():
     assert required_grip(P, Q, np.array([0.0, d, 0.0]), weight, MU, GAMMA)[0] == pytest.approx(expected, rel=1e-4)
 
 
+def test_a_torsion_per_pair_is_each_pairs_own_closed_form():
+    """gamma given per pair (a pad's footprint scales it): each pair's grip is the closed form with its own."""
+    mass, d = 0.665, 0.04
+    gammas = np.array([GAMMA, 0.5 * GAMMA, 0.0])
+    need = mass * GRAVITY / 2 / MU
+    required = required_grip(np.repeat(P, 3, 0), np.repeat(Q, 3, 0), np.array([0.0, d, 0.0]), loads(mass)[:1], MU,
+                             gammas)
+    for got, gamma in zip(required[:2], gammas[:2], strict=True):
+        assert got == pytest.approx(np.sqrt(need**2 + (mass * GRAVITY * d / (2 * gamma)) ** 2), rel=1e-4)
+    assert required[2] > 1e6  # no torsion: the gravity torque about the line cannot be held
+
+
 def test_a_grasp_through_the_centre_of_mass_needs_the_heaviest_load_over_the_friction():
     """Weight plus a downward perturbation (2 m g) over the two contacts' friction 2 mu: G = m g / mu."""
     mass = 0.3

@@ -57,6 +57,21 @@ the centre of mass) that only the contacts' torsional friction gamma f can
 resist. h >= 1 holds every load; hold_ref (3) asks for a safety factor, since
 the lift's accelerations and the contacts' compliance come on top. Mass:
 the asset's, else the mesh's volume x `density`.
+
+Pads' footprint (mesh plans, hands with `pad_geoms`; `pad_footprint`): a pad
+is a patch, not the pair's point. Each pose of step 5 is scored on what its
+pads touch there (`footprint`): rays from a grid of cells over each open pad's
+face find the surface's gap under every cell, an elastic foundation that
+sinks `pad_compression` on a flat face shares the grip among the cells within
+reach, and the patch's torsion radius about the point it pivots on (the
+weighted geometric median of the cells' loads) is compared with a flat face
+under the whole pad. The pose's hold margin is the pair's, computed on the
+grasp line moved to that pivot with gamma times that ratio; the pose's score
+is the pair's with that hold margin, and ranks it. A pad half over an edge,
+or on a face that bulges or curves away by millimetres (a scanned carton,
+whose grasps near its rounded edges load one end of each pad and let it turn
+in the grip), ranks below a pose whose pads sit flat; on a flat face fully
+under both pads nothing changes. Point-cloud plans score pairs only.
 """
 
 from __future__ import annotations
@@ -75,6 +90,7 @@ from manigrasp.planners.base import GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.cloud import cloud_pairs, collision_hull, complete, hull_volume
 from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
 from manigrasp.planners.context import PlanContext, resolve
+from manigrasp.planners.footprint import DEFAULT_COMPRESSION, DEFAULT_GRID, on_pivot, pad_footprint
 from manigrasp.planners.free_space import DEFAULT_TAU
 from manigrasp.planners.geometry import SmoothNormals, sample_surface
 from manigrasp.planners.hold import hold_margin, loads, required_grip
@@ -90,7 +106,8 @@ COMPLETIONS = ("free_space", "point_symmetry", "none")
 
 class _Target(NamedTuple):
     """What the shared stages need from either path: pairs, centre of mass (3,) [m], torque scale [m],
-    mass [kg], the collision probe, and a confidence (m,) multiplying each pair's score (None: 1)."""
+    mass [kg], the collision probe, a confidence (m,) multiplying each pair's score (None: 1), and the object's
+    mesh in the world when planning on one (the pads' footprint is evaluated on it)."""
 
     pairs: Pairs
     center: np.ndarray
@@ -98,6 +115,7 @@ class _Target(NamedTuple):
     mass: float
     probe: HandProbe
     confidence: np.ndarray | None = None
+    mesh: trimesh.Trimesh | None = None
 
 
 @dataclass(frozen=True)
@@ -148,6 +166,11 @@ class AntipodalPlanner:
         hidden_margin: unknown (occluded) space blocks the hand only within this distance [m] of the seen
             points' footprint (the object's hidden part lies under its seen surfaces); None: all of it
             inside the region (strict).
+        pad_footprint: score each pose of a mesh plan on what its pads touch (module docstring, "Pads'
+            footprint"); False: the pair's score for all its poses (as before).
+        pad_compression: the pads' compression on a flat face at the grip [m] (the compliant pads' 1 mm at
+            35 N, `hands.pads`): how far below the nearest point the surface may lie and still be touched.
+        footprint_grid: cells across and along each pad's face where the surface is sampled.
         pair_cell: pairs are thinned to the most antipodal one per cell of this size [m] and ~10 degrees
             of line direction before scoring (`thin_pairs`).
     """
@@ -189,6 +212,9 @@ class AntipodalPlanner:
     free_space_tau: float = DEFAULT_TAU
     region_margin: float = 0.03
     hidden_margin: float | None = 0.002
+    pad_footprint: bool = True
+    pad_compression: float = DEFAULT_COMPRESSION
+    footprint_grid: tuple[int, int] = DEFAULT_GRID
 
     def __post_init__(self) -> None:
         for key in ("n_samples", "rays_per_sample", "n_approaches", "max_checks", "dense_approaches", "dense_checks"):
@@ -213,6 +239,10 @@ class AntipodalPlanner:
             raise ConfigError(f"antipodal: {exc}") from None
         if self.completion not in COMPLETIONS:
             raise ConfigError(f"antipodal: unknown completion {self.completion!r}; valid: {', '.join(COMPLETIONS)}")
+        if not self.pad_compression > 0 or len(self.footprint_grid) != 2 or min(self.footprint_grid) < 1:
+            raise ConfigError("antipodal: pad_compression must be > 0 and footprint_grid two counts >= 1, got "
+                              f"{self.pad_compression}, {self.footprint_grid}")
+        object.__setattr__(self, "footprint_grid", tuple(int(c) for c in self.footprint_grid))
         if self.cloud_radius <= 0 or self.cloud_margin < 0:
             raise ConfigError("antipodal: cloud_radius must be > 0 and cloud_margin >= 0")
         if not (0 < self.hidden_weight <= 1 and self.hidden_uncertainty >= 0 and self.free_space_tau > 0
@@ -233,28 +263,31 @@ class AntipodalPlanner:
             raise PlannerError(f"antipodal plans two-jaw grasps; hand {hand.name!r} is {hand.kind} "
                                "(use the 'power' planner)")
         target = self._mesh_target if observation.mesh is not None else self._cloud_target
-        pairs, center, scale, mass, probe, confidence = target(observation, hand, rng)
+        pairs, center, scale, mass, probe, confidence, mesh = target(observation, hand, rng)
         eps = grasp_metrics(*self._contacts(pairs), center, scale,
                             ContactModel(self.contact.mu, self.contact.gamma, min_friction=False)).epsilon_l1
         score = self.score(pairs, eps, self.hold(pairs, center, mass, hand, context))
         if confidence is not None:
             score = score * confidence
+        pose_score = None
+        if self.pad_footprint and mesh is not None:
+            pose_score = self._pose_score(pairs, eps, center, mass, hand, context, probe, mesh, confidence)
         extents = probe.finger_extents()
         ranked = ranked_poses(pairs, score, self.grid, extents, hand.max_width, self.max_approach_z,
-                              observation.table_height, rng)
+                              observation.table_height, rng, pose_score=pose_score)
         nms = Suppressor(self.nms_distance, self.nms_angle, symmetric=True, capacity=max(n, 1))
         select = select_clear if isinstance(probe, SpaceProbe) else select_free
         chosen = ranked.order[select(probe, nms, ranked.poses[ranked.order], n, context.pregrasp_offset,
                                      self.max_checks)]
         if len(chosen) < min(n, self.dense_below) and len(pairs):
             dense = ranked_poses(pairs, score, self.dense_grid, extents, hand.max_width, self.max_approach_z,
-                                 observation.table_height, rng, keep_unclear=False)
+                                 observation.table_height, rng, keep_unclear=False, pose_score=pose_score)
             checks = min(self.dense_checks, DENSE_CHECKS) if isinstance(probe, SpaceProbe) else self.dense_checks
             packed = dense.order[pack_free(probe, dense.poses[dense.order], n, self.nms_distance, self.nms_angle,
                                            True, context.pregrasp_offset, checks)]
             if len(packed) > len(chosen):
                 ranked, chosen = dense, packed
-        return self._candidates(pairs, score, eps, ranked.poses, ranked.pair_of, chosen, center, scale,
+        return self._candidates(pairs, ranked.score, eps, ranked.poses, ranked.pair_of, chosen, center, scale,
                                 context.pregrasp_offset)
 
     def _mesh_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
@@ -266,7 +299,7 @@ class AntipodalPlanner:
         else:
             mass = self.density * float(mesh.volume if mesh.is_watertight else mesh.convex_hull.volume)
         return _Target(self.pairs(mesh, hand, rng), center, torque_scale(mesh.vertices, center), mass,
-                       HandProbe(hand, observation, self.clearance))
+                       HandProbe(hand, observation, self.clearance), mesh=mesh)
 
     def _cloud_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
         """Pairs on the completed point cloud (`cloud`); its centre and hull; collision against the hull.
@@ -295,15 +328,37 @@ class AntipodalPlanner:
         return PoseGrid(self.dense_approaches, self.dense_depth_fractions, self.dense_lateral_fractions)
 
     def hold(self, pairs: Pairs, center: np.ndarray, mass: float, hand: Hand,
-             context: PlanContext | None = None) -> np.ndarray:
+             context: PlanContext | None = None, torsion: np.ndarray | None = None) -> np.ndarray:
         """(m,) hold margin h of each pair at the protocol's grip force and loads (module docstring, `hold`;
-        `context` None: the standard protocol's, with this planner's own settings)."""
+        `context` None: the standard protocol's, with this planner's own settings); `torsion` (m,) scales
+        each pair's torsional friction gamma (the pads' footprint ratio; None: 1)."""
         context = resolve(context, grip_fraction=self.grip_fraction, perturbation=self.perturbation)
         tilt = np.arccos(np.clip(np.stack([-np.einsum("ij,ij->i", pairs.n_p, pairs.axis),
                                            np.einsum("ij,ij->i", pairs.n_q, pairs.axis)], axis=1), -1.0, 1.0))
+        gamma = self.contact.gamma if torsion is None else self.contact.gamma * np.asarray(torsion, float)
         required = required_grip(pairs.p, pairs.q, center, loads(mass, context.perturbation), self.contact.mu,
-                                 self.contact.gamma, tilt)
+                                 gamma, tilt)
         return hold_margin(context.grip_force_for(hand), required)
+
+    def _pose_score(self, pairs: Pairs, eps: np.ndarray, center: np.ndarray, mass: float, hand: Hand,
+                    context: PlanContext, probe: HandProbe, mesh: trimesh.Trimesh,
+                    confidence: np.ndarray | None):
+        """The per-pose score of a mesh plan (module docstring, "Pads' footprint"), or None for a hand without
+        pads: a function of poses (k, 4, 4) and their pairs (k,)."""
+        footprint = pad_footprint(probe, self.footprint_grid, self.pad_compression)
+        if footprint is None:
+            return None
+        quality = self.score(pairs, eps, np.full(len(pairs), self.hold_ref))
+        if confidence is not None:
+            quality = quality * confidence
+
+        def pose_score(poses: np.ndarray, pair_of: np.ndarray) -> np.ndarray:
+            ratio, pivot = footprint.evaluate(mesh, poses)
+            seated = on_pivot(pairs.take(pair_of), poses, pivot)
+            hold = self.hold(seated, center, mass, hand, context, torsion=ratio)
+            return np.clip(hold / self.hold_ref, 0.0, 1.0) * quality[pair_of]
+
+        return pose_score
 
     # ------------------------------------------------------------ steps
     def pairs(self, mesh: trimesh.Trimesh, hand: Hand, rng: np.random.Generator) -> Pairs:
@@ -333,6 +388,8 @@ class AntipodalPlanner:
     def _candidates(self, pairs: Pairs, score: np.ndarray, eps: np.ndarray, poses: np.ndarray,
                     pair_of: np.ndarray, chosen: np.ndarray, center: np.ndarray,
                     scale: float, pregrasp_offset: float) -> list[GraspCandidate]:
+        """The chosen poses (indices into `poses`, with their pairs `pair_of` and scores `score`, one per pose)
+        as candidates."""
         used = pair_of[chosen]
         unique, inverse = np.unique(used, return_inverse=True)
         positions, normals = self._contacts(pairs.take(unique))
@@ -343,7 +400,7 @@ class AntipodalPlanner:
         for k, i in enumerate(chosen):
             j, u = used[k], inverse[k]
             out.append(GraspCandidate(
-                pose=poses[i], score=float(score[j]), width=float(pairs.width[j]), preshape=0.0,
+                pose=poses[i], score=float(score[i]), width=float(pairs.width[j]), preshape=0.0,
                 contacts=positions[u], contact_normals=normals[u], epsilon_l1=float(eps[j]),
                 force_closure=bool(eps[j] > EPSILON_TOLERANCE),
                 min_friction=None if np.isnan(min_mu[u]) else float(min_mu[u]),

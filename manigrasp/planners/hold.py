@@ -74,18 +74,20 @@ def effective_friction(mu: float, tilt: np.ndarray) -> np.ndarray:
     return np.maximum(np.tan(np.clip(np.arctan(mu) - np.asarray(tilt, float), 0.0, None)), 1e-9)
 
 
-def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.ndarray, mu: float, gamma: float,
-                  tilt: np.ndarray | None = None) -> np.ndarray:
+def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.ndarray, mu: float,
+                  gamma: float | np.ndarray, tilt: np.ndarray | None = None) -> np.ndarray:
     """(m,) the smallest grip force [N] with which contacts p, q (m, 3) [m] hold every one of `forces` (L, 3) [N]
     acting at `center` (3,) [m] (module docstring).
 
     Args:
-        mu: sliding friction [-]; gamma: torsional friction of a soft finger [m].
+        mu: sliding friction [-]; gamma: torsional friction of a soft finger [m], one for all or one per
+            pair (m,) (e.g. scaled by how the pads sit on the surface: `footprint`); at least 1e-9.
         tilt: (m, 2) angles [rad] between each contact's inward normal and the grasp line (default 0).
     """
     m = len(p)
     if m == 0:
         return np.zeros(0)
+    gamma = np.maximum(np.broadcast_to(np.asarray(gamma, float), (m,)), 1e-9)[:, None]
     tilt = np.zeros((m, 2)) if tilt is None else np.asarray(tilt, float)
     mu_eff = effective_friction(mu, tilt)  # (m, 2)
     axial, t1, t2, tau = _split(p, q, np.asarray(center, float), np.asarray(forces, float))

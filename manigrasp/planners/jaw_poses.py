@@ -8,6 +8,7 @@ extents (`HandProbe.finger_extents`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,11 +34,13 @@ class PoseGrid:
 
 @dataclass(frozen=True)
 class RankedPoses:
-    """Poses (k, 4, 4) of a grid, the pair each belongs to (k,), and a ranking (indices, best first)."""
+    """Poses (k, 4, 4) of a grid, the pair each belongs to (k,), a ranking (indices, best first) and each
+    pose's score (k,)."""
 
     poses: np.ndarray
     pair_of: np.ndarray
     order: np.ndarray
+    score: np.ndarray
 
 
 def jaw_poses(pairs: Pairs, depths: np.ndarray, laterals: np.ndarray, approaches: int, max_approach_z: float,
@@ -80,8 +83,12 @@ def jaw_clears_table(pairs: Pairs, open_width: float, lift: float, table_height:
 
 def ranked_poses(pairs: Pairs, score: np.ndarray, grid: PoseGrid, extents: tuple[float, float], open_width: float,
                  max_approach_z: float, table_height: float, rng: np.random.Generator,
-                 keep_unclear: bool = True) -> RankedPoses:
+                 keep_unclear: bool = True,
+                 pose_score: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> RankedPoses:
     """The poses of `grid` around every pair, ranked by pair `score` (m,), best first.
+
+    With `pose_score`, each pose's own score (k,) from its pose (k, 4, 4) and pair (k,) (what the pads
+    touch there: `footprint`) ranks it instead of its pair's.
 
     Ties: centred contacts first (lateral index), then the deepest (depth
     index). Poses of pairs whose lower open jaw cannot clear the table
@@ -96,5 +103,9 @@ def ranked_poses(pairs: Pairs, score: np.ndarray, grid: PoseGrid, extents: tuple
     poses, pair_of, depth_of, lateral_of = jaw_poses(pairs, depths, laterals, grid.approaches, max_approach_z,
                                                      table_height, rng)
     clear = jaw_clears_table(pairs, open_width, float(depths.max() + np.abs(laterals).max()), table_height)
-    order = np.lexsort((depth_of, lateral_of, -score[pair_of], ~clear[pair_of]))
-    return RankedPoses(poses, pair_of, order if keep_unclear else order[clear[pair_of[order]]])
+    if not keep_unclear:
+        keep = clear[pair_of]
+        poses, pair_of, depth_of, lateral_of = poses[keep], pair_of[keep], depth_of[keep], lateral_of[keep]
+    scores = score[pair_of] if pose_score is None else np.asarray(pose_score(poses, pair_of), float)
+    order = np.lexsort((depth_of, lateral_of, -scores, ~clear[pair_of]))
+    return RankedPoses(poses, pair_of, order, scores)

@@ -1,0 +1,182 @@
+"""What a finger pad touches at a two-jaw pose: the surface under each pad's whole face, not one point.
+
+A grasp pair is two points with their normals, but a pad is a patch (2 x 3 cm on
+`parallel_jaw`). On a clean box face it touches everywhere and the grip resists
+torsion about the grasp axis over the whole patch. On a scanned face that bulges
+by millimetres, or near an edge (real or rounded by the scan) that part of the
+pad overhangs, the pad touches only where the surface comes within its
+compression: the pressure piles onto one end and the object pivots about it
+under a far smaller torque. Two surface points with their normals cannot tell
+these apart; the surface under the pad can.
+
+Model (vectorised over poses; pure NumPy and trimesh ray casts):
+
+1. Each pad's face (its geom's extent across the pads, x, and along the approach,
+   z, in the TCP frame) is cut into `grid` cells. From each cell's centre on the
+   open jaw a ray is cast along the closing direction; the distance to the
+   first hit, minus the smallest of that pad, is the cell's gap g_i (inf: the
+   cell overhangs the object).
+2. Elastic foundation (K. L. Johnson, *Contact Mechanics*, 1985, section 4.3):
+   pressed with the grip force the pad sinks by delta until sum max(0, delta -
+   g_i) = n delta_0, where delta_0 is its compression on a flat face
+   (`compression`, 1 mm: the compliant pad at the standard 35 N grip). Cell i
+   carries f_i proportional to max(0, delta - g_i).
+3. The object turns about the grasp axis through the point c of the pad plane
+   that minimises T(c) = sum_i f_i |r_i - c| over both pads' cells (the
+   weighted geometric median: there the friction forces' resultant vanishes,
+   so a pure torque turns the object about it; Weiszfeld iterations).
+   T(c) / (2 G) is the patch's torsion radius; on a flat face fully under both
+   pads it is the uniform patch's mean |r| (0.0097 m for 2 x 3 cm).
+
+`PadFootprint.evaluate` returns, per pose, the ratio of that torsion radius to
+the flat face's (1: seated like on a flat face; 0.5: half the torsion) and the
+pivot c in the TCP frame (x, z) [m], where the planner puts the grasp line.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import mujoco
+import numpy as np
+import trimesh
+
+from manigrasp.planners.collision import HandProbe
+from manigrasp.planners.geometry import first_hits
+from manigrasp.planners.pairs import Pairs
+
+WEISZFELD_STEPS = 20
+DEFAULT_COMPRESSION = 0.001  # [m], the compliant pad's compression at the standard grip (hands.pads)
+DEFAULT_GRID = (4, 6)  # cells across (x) and along (z) a pad face
+
+
+@dataclass(frozen=True)
+class PadFootprint:
+    """The two pad faces of a two-jaw hand in its TCP frame and the cells their surface is sampled at.
+
+    Attributes:
+        x: (2,) [min, max] of the pad faces across the pads (TCP x) [m].
+        z: (2,) [min, max] of the pad faces along the approach (TCP z) [m].
+        open_half_width: the open jaw's pad faces are this far from the TCP along y [m]; rays start there.
+        grid: cells across (x) and along (z) each face.
+        compression: the pad's compression on a flat face under the grip [m].
+    """
+
+    x: tuple[float, float]
+    z: tuple[float, float]
+    open_half_width: float
+    grid: tuple[int, int] = DEFAULT_GRID
+    compression: float = DEFAULT_COMPRESSION
+
+    @property
+    def cells(self) -> np.ndarray:
+        """(n, 2) cell centres (x, z) in the TCP frame [m]."""
+        nx, nz = self.grid
+        xs = self.x[0] + (np.arange(nx) + 0.5) * (self.x[1] - self.x[0]) / nx
+        zs = self.z[0] + (np.arange(nz) + 0.5) * (self.z[1] - self.z[0]) / nz
+        gx, gz = np.meshgrid(xs, zs, indexing="ij")
+        return np.stack([gx.ravel(), gz.ravel()], axis=1)
+
+    def gaps(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> np.ndarray:
+        """(k, 2, n) gap [m] of each cell of each pad (finger 1, 2) at TCP poses (k, 4, 4) (inf: off the object)."""
+        cells = self.cells
+        k, n = len(poses), len(cells)
+        out = np.empty((k, 2, n))
+        for finger, side in enumerate((-1.0, 1.0)):
+            local = np.column_stack([cells[:, 0], np.full(n, side * self.open_half_width), cells[:, 1]])
+            origins = np.einsum("kij,nj->kni", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+            direction = -side * poses[:, :3, 1]  # finger 1 closes along +y, finger 2 along -y
+            _, dist = first_hits(mesh, origins.reshape(-1, 3), np.repeat(direction, n, axis=0))
+            out[:, finger] = dist.reshape(k, n)
+        nearest = out.min(axis=2, keepdims=True)
+        return np.where(np.isfinite(out), out - np.where(np.isfinite(nearest), nearest, 0.0), np.inf)
+
+    def evaluate(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Torsion ratio (k,) and pivot (k, 2) (x, z in the TCP frame [m]) at TCP poses (k, 4, 4) (module docstring)."""
+        if len(poses) == 0:
+            return np.zeros(0), np.zeros((0, 2))
+        return patch_torsion(self.gaps(mesh, poses), self.cells, self.compression)
+
+
+def pressure(gaps: np.ndarray, compression: float) -> np.ndarray:
+    """(..., n) share of a pad's force carried by each of its n cells, from their gaps (..., n) [m].
+
+    Elastic foundation with equal cells: the pad sinks by delta with sum max(0, delta - g_i) = n * compression
+    (a flat face: delta = compression, equal shares). All cells off the object: zeros.
+    """
+    g = np.sort(gaps, axis=-1)
+    n = g.shape[-1]
+    k = np.arange(1, n + 1)
+    finite = np.isfinite(g)
+    csum = np.cumsum(np.where(finite, g, 0.0), axis=-1)
+    delta = (n * compression + csum) / k  # the sinking if exactly the k nearest cells touch
+    nxt = np.concatenate([g[..., 1:], np.full(g.shape[:-1] + (1,), np.inf)], axis=-1)
+    valid = finite & (delta <= nxt)
+    first = np.argmax(valid, axis=-1)
+    d = np.take_along_axis(delta, first[..., None], axis=-1)
+    share = np.clip(d - np.where(np.isfinite(gaps), gaps, np.inf), 0.0, None)
+    total = share.sum(axis=-1, keepdims=True)
+    return np.where(total > 0, share / np.where(total > 0, total, 1.0), 0.0)
+
+
+def patch_torsion(gaps: np.ndarray, cells: np.ndarray, compression: float) -> tuple[np.ndarray, np.ndarray]:
+    """Torsion ratio (k,) and pivot (k, 2) of two pads with cell gaps (k, 2, n) at `cells` (n, 2) [m].
+
+    The ratio is min_c sum f_i |r_i - c| over both pads (each pad's shares summing to 1) divided by the same
+    on a flat face fully under both pads (module docstring, steps 2-3). A pad off the object: ratio 0.
+    """
+    weights = pressure(gaps, compression).reshape(len(gaps), -1)  # (k, 2n)
+    points = np.concatenate([cells, cells])  # (2n, 2)
+    flat = _median_torsion(np.full((1, len(points)), 1.0 / len(cells)), points)[0][0]
+    torsion, pivot = _median_torsion(weights, points)
+    seated = (weights.reshape(len(gaps), 2, -1).sum(axis=2) > 0).all(axis=1)
+    return np.where(seated, torsion / flat, 0.0), pivot
+
+
+def _median_torsion(weights: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """min over c of sum_i w_i |p_i - c| (k,) and the minimiser (k, 2): weighted geometric median (Weiszfeld),
+    iterated only where the weights differ (equal weights on the symmetric grid: the centroid)."""
+    total = np.maximum(weights.sum(axis=1, keepdims=True), 1e-300)
+    c = weights @ points / total  # start at the centroid
+    px, pz = points[:, 0], points[:, 1]
+    moving = np.flatnonzero(np.ptp(weights, axis=1) > 1e-12 * total[:, 0])
+    w0, cm = weights[moving], c[moving]
+    for _ in range(WEISZFELD_STEPS):
+        w = w0 / np.maximum(np.hypot(px - cm[:, :1], pz - cm[:, 1:]), 1e-6)
+        cm = w @ points / np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
+    c[moving] = cm
+    torsion = (weights * np.hypot(px - c[:, :1], pz - c[:, 1:])).sum(axis=1)
+    return torsion, c
+
+
+def pad_footprint(probe: HandProbe, grid: tuple[int, int] = DEFAULT_GRID,
+                  compression: float = DEFAULT_COMPRESSION) -> PadFootprint | None:
+    """The open hand's pad faces (its `Hand.pad_geoms`' bounding boxes in the TCP frame) in `probe`'s scene;
+    None for a hand without pads."""
+    model, data, scene = probe.scene.model, probe.scene.data, probe.scene
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in range(model.ngeom)]
+    geoms = [g for pad in probe.hand.pad_geoms for g, name in enumerate(names)
+             if name == pad or name.endswith("/" + pad)]
+    if not geoms:
+        return None
+    probe.place(*[x[0] for x in probe.roots(np.eye(4)[None])])
+    tcp = scene.tcp_pose()
+    corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+    points = []
+    for g in geoms:
+        local = model.geom_aabb[g, :3] + corners * model.geom_aabb[g, 3:]
+        world = local @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
+        points.append((world - tcp[:3, 3]) @ tcp[:3, :3])
+    probe.restore()
+    x, y, z = np.concatenate(points).T
+    return PadFootprint((float(x.min()), float(x.max())), (float(z.min()), float(z.max())),
+                        float(np.abs(y).min()), grid, compression)
+
+
+def on_pivot(pairs: Pairs, poses: np.ndarray, pivot: np.ndarray) -> Pairs:
+    """The pairs (k) moved across the grasp line, within the pad plane of their poses (k, 4, 4), so that the line
+    passes through the pivot (k, 2) (x, z in the TCP frame [m]): the line the object turns about."""
+    rot, origin = poses[:, :3, :3], poses[:, :3, 3]
+    mid = np.einsum("kji,kj->ki", rot, 0.5 * (pairs.p + pairs.q) - origin)  # the contacts' midpoint in the TCP frame
+    shift = rot[:, :, 0] * (pivot[:, :1] - mid[:, :1]) + rot[:, :, 2] * (pivot[:, 1:] - mid[:, 2:])
+    return replace(pairs, p=pairs.p + shift, q=pairs.q + shift)

@@ -1,0 +1,106 @@
+"""The pads' footprint (`planners.footprint`): the elastic-foundation pressure, the torsion of the patch a pad
+really touches on flat, overhanging and curved faces, and the antipodal planner seating its pads with it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from manigrasp import planners
+from manigrasp.objects import build_object
+from manigrasp.planners.footprint import PadFootprint, pressure
+
+# parallel_jaw's pads: 2 x 3 cm faces centred on the TCP, 4 cm from it on the open jaw
+PADS = PadFootprint(x=(-0.01, 0.01), z=(-0.015, 0.015), open_half_width=0.04)
+
+
+def tcp(position, closing=(1.0, 0.0, 0.0), approach=(0.0, 0.0, -1.0)) -> np.ndarray:
+    """TCP pose (4, 4): y along `closing`, z along `approach`."""
+    y, z = np.asarray(closing, float), np.asarray(approach, float)
+    pose = np.eye(4)
+    pose[:3, :3] = np.column_stack([np.cross(y, z), y, z])
+    pose[:3, 3] = position
+    return pose
+
+
+def mean_distance(a: float, b: float, centre: tuple[float, float] = (0.0, 0.0), n: int = 800) -> float:
+    """Mean distance of an a x b rectangle [m] from `centre` (relative to the rectangle's centre): the uniform
+    patch's torsion radius, integrated on a fine grid."""
+    x = (np.arange(n) + 0.5) / n * a - a / 2 - centre[0]
+    z = (np.arange(n) + 0.5) / n * b - b / 2 - centre[1]
+    return float(np.hypot(x[:, None], z[None, :]).mean())
+
+
+def test_pressure_is_the_elastic_foundation():
+    # a flat face: equal shares; one cell 3 mm back of a 1 mm compression on two cells: it stays off
+    assert pressure(np.zeros(6), 0.001) == pytest.approx(np.full(6, 1 / 6))
+    assert pressure(np.array([0.0, 0.003]), 0.001) == pytest.approx([1.0, 0.0])
+    # both touch: the pad sinks delta = 1 mm + mean gap = 1.25 mm; shares 1.25 : 0.75
+    assert pressure(np.array([0.0, 0.0005]), 0.001) == pytest.approx([0.625, 0.375])
+    # a cell off the object carries nothing; a pad off the object carries nothing anywhere
+    assert pressure(np.array([0.0, np.inf]), 0.001) == pytest.approx([1.0, 0.0])
+    assert pressure(np.full(3, np.inf), 0.001) == pytest.approx(np.zeros(3))
+
+
+def test_a_flat_face_seats_the_whole_pad():
+    box = trimesh.creation.box((0.05, 0.12, 0.12))
+    ratio, pivot = PADS.evaluate(box, tcp((0.0, 0.0, 0.0))[None])
+    assert ratio[0] == pytest.approx(1.0)
+    assert pivot[0] == pytest.approx([0.0, 0.0], abs=1e-9)
+
+
+def test_a_pad_half_over_an_edge_keeps_the_torsion_of_the_half_patch():
+    # TCP at the box's top edge, approach down: the upper half of each pad (TCP z in [-1.5, 0] cm) overhangs
+    box = trimesh.creation.box((0.05, 0.12, 0.12))
+    ratio, pivot = PADS.evaluate(box, tcp((0.0, 0.0, 0.06))[None])
+    expected = mean_distance(0.02, 0.015) / mean_distance(0.02, 0.03)  # 2 x 1.5 cm about its centre
+    assert ratio[0] == pytest.approx(expected, rel=0.03)
+    assert pivot[0] == pytest.approx([0.0, 0.0075], abs=5e-4)  # the touching half's centre, TCP frame
+
+
+def test_a_pad_off_the_object_holds_nothing():
+    box = trimesh.creation.box((0.05, 0.12, 0.12))
+    ratio, _ = PADS.evaluate(box, tcp((0.0, 0.0, 0.2))[None])
+    assert ratio[0] == 0.0
+
+
+def test_the_more_a_face_curves_under_the_pad_the_less_torsion():
+    # upright cylinders squeezed across their axis: the face curves away across the pad's 2 cm width
+    ratios = []
+    for radius in (0.5, 0.04, 0.02, 0.012):
+        cylinder = trimesh.creation.cylinder(radius=radius, height=0.1, sections=256)
+        ratio, pivot = PADS.evaluate(cylinder, tcp((0.0, 0.0, 0.0))[None])
+        assert pivot[0] == pytest.approx([0.0, 0.0], abs=2e-4)  # symmetric
+        ratios.append(ratio[0])
+    assert ratios[0] == pytest.approx(1.0, abs=0.01)
+    assert ratios[0] > ratios[1] > ratios[2] > ratios[3]
+    # a 1.2 cm radius: the outer columns sit 2.6 mm back; the load is on the central strip of the pad
+    assert ratios[3] < 0.9
+
+
+def bulged_box(half=(0.025, 0.06, 0.06), bulge=0.004, n=25) -> trimesh.Trimesh:
+    """A box whose +-x faces bulge out by `bulge` [m] at their centre (a scanned carton's faces), watertight."""
+    s = np.linspace(-1.0, 1.0, n)
+    u, v = np.meshgrid(s, s)
+    bump = bulge * (1 - u**2) * (1 - v**2)
+    points = [np.column_stack([sign * (half[0] + bump.ravel()), half[1] * u.ravel(), half[2] * v.ravel()])
+              for sign in (-1, 1)]
+    return trimesh.convex.convex_hull(np.vstack(points))
+
+
+@pytest.mark.slow
+def test_the_planner_seats_its_pads_on_a_bulged_face(jaw, tmp_path):
+    mesh = bulged_box()
+    asset = build_object(mesh, name="footprint_test_bulged", mass=0.3, cache_root=tmp_path).asset
+    obs = planners.Observation.from_asset(asset)
+    world = obs.world_mesh()
+    seated = {}
+    for on in (False, True):
+        result = planners.plan(planners.load("antipodal", pad_footprint=on), obs, jaw, 20, np.random.default_rng(0))
+        assert len(result.candidates) == 20
+        ratio, _ = PADS.evaluate(world, np.array([c.pose for c in result.candidates]))
+        seated[on] = ratio
+    # with the footprint, the pads sit on more of the face (where the bulge is flattest), never less on average
+    assert seated[True].mean() > seated[False].mean() + 0.02
+    assert seated[True].min() >= seated[False].min()
