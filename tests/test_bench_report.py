@@ -425,3 +425,19 @@ def test_console_pose_errors_carry_the_symmetry_caveat_of_the_markdown(tmp_path,
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
     assert "rotation median 180.0 deg (p90 180.0; not meaningful for symmetric objects)" in line
     assert "100% of 1 objects with ADD-S < 5 mm and translation < 1 cm" in line
+
+
+def test_harness_faults_are_named_before_the_figures_they_lower(tmp_path, capsys):
+    """Two of 20 antipodal trials ended as harness_fault (a bug of manigrasp): the rate 16/20 counts them as
+    failures, and the report says so first, naming the method, rather than only listing them among the modes."""
+    results = _results({("025_mug", "antipodal"): 16, ("025_mug", "random"): 4})
+    results = [(k, replace(r, status=Status.HARNESS_FAULT, detail="RuntimeError: bug"))
+               if k.planner == "antipodal" and k.grasp_index >= 18 else (k, r) for k, r in results]
+    run = make_run(tmp_path / "run", results)
+    assert main(["report", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "WARNING: 2 trial(s) ended as harness_fault" in out and "(parallel_jaw / antipodal 2)" in out
+    assert "**Warning: 2 trial(s) ended as harness_fault" in (run / "report.md").read_text()
+    clean = make_run(tmp_path / "clean", _results({("025_mug", "antipodal"): 16}))
+    assert main(["report", str(clean)]) == 0
+    assert "ended as harness_fault" not in capsys.readouterr().out

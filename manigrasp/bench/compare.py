@@ -95,8 +95,9 @@ def load_side(path: Path) -> Side:
         from manigrasp.bench.rundir import config_dir
 
         meta, results = load_meta(path), load_results(path)
-        warnings = warning_lines(meta, completeness(results, meta, config_dir(path)))
-        return Side(summarize(results), meta, str(path), tuple(warnings))
+        report = summarize(results)
+        warnings = warning_lines(meta, completeness(results, meta, config_dir(path)), report)
+        return Side(report, meta, str(path), tuple(warnings))
     try:
         data = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

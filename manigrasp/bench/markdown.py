@@ -227,10 +227,17 @@ def _rests(results: list[tuple[TrialKey, TrialResult]], meta: dict) -> list[str]
             _table(["object", "pose rank", "probability", "rotation (w, x, y, z)", "height [mm]"], rows)]
 
 
-def warning_lines(meta: dict, done: Completeness | None = None) -> list[str]:
-    """What a reader must know before quoting a figure of the run: that it is incomplete (`Completeness`), or that
-    it was resumed by other code (run.json's ``resumed_with_other_code``: its trials mix two code versions)."""
+def warning_lines(meta: dict, done: Completeness | None = None, report: Report | None = None) -> list[str]:
+    """What a reader must know before quoting a figure of the run: that it is incomplete (`Completeness`), that
+    some trials are harness faults (a bug of manigrasp itself, counted as failures of their method), or that it was
+    resumed by other code (run.json's ``resumed_with_other_code``: its trials mix two code versions)."""
     lines = [done.warning()] if done is not None and done.warning() else []
+    faults = {m: r.failure_modes.get("harness_fault", 0) for m, r in (report.by_method.items() if report else ())}
+    if any(faults.values()):
+        where = ", ".join(f"{method_label(m, len(report.protocols) > 1)} {n}" for m, n in faults.items() if n)
+        lines.append(f"{sum(faults.values())} trial(s) ended as harness_fault, a fault of manigrasp itself and not of "
+                     f"the planner or the physics ({where}): the rates count them as failures; their detail in "
+                     "the results table says what failed")
     for entry in meta.get("resumed_with_other_code") or []:
         if isinstance(entry, dict):
             changes = "; ".join(map(str, entry.get("changes") or []))
@@ -281,7 +288,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         f"{_protocol_line(config)}, seed {meta.get('seed')}, "
         f"manigrasp {meta.get('versions', {}).get('manigrasp')}, mujoco {meta.get('versions', {}).get('mujoco')}, "
         f"commit {meta.get('git_commit') or 'unknown'}, started {meta.get('started')}.",
-        *(f"**Warning: {line}.**" for line in warning_lines(meta, done)),
+        *(f"**Warning: {line}.**" for line in warning_lines(meta, done, report)),
         "\n".join(f"- **{line}**" for line in lead_lines(report, protocol_order(report, meta)))
         + "\n\nRates with 95 % Wilson intervals. " + pooled_line(report) + ".",
         "## Per hand and planner",

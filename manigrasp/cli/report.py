@@ -80,7 +80,7 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
         print_json({"run": run, "completeness": {**asdict(done), "complete": done.complete}, **report.to_json()})
         return 0
     _print_tables(report, meta)
-    for line in warning_lines(meta, done):
+    for line in warning_lines(meta, done, report):
         print(f"WARNING: {line}")
     target = Path(out_dir) if out_dir is not None else Path(run_dir)
     if out_dir is None and not os.access(target, os.W_OK):
