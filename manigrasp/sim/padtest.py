@@ -31,7 +31,7 @@ class PressResult:
     """What a pressed pad measured.
 
     Attributes:
-        normal_force: total normal force of the surface on the pad at rest [N].
+        normal_force: force of the surface on the pad along the press axis at rest (mean over 0.4-0.5 s) [N].
         holding_torque: largest torque about the normal before the pad slipped [N m].
         contacts: number of pad-surface contacts at rest.
     """
@@ -91,10 +91,13 @@ def press_pad(mode: str, force: float, heights: np.ndarray | None = None, torque
     model = pad_rig(mode, heights, config, half)
     data = mujoco.MjData(model)
     surface = model.geom("surface").id
+    forces = []
     while data.time < 0.5:  # the press force ramps up over 0.3 s, then holds
         data.ctrl[0] = -force * min(1.0, data.time / 0.3)
         mujoco.mj_step(model, data)
-    normal, count = _surface_force(model, data, surface)
+        if data.time > 0.4:  # at rest: the mean over the last 0.1 s (a height field's contacts come and go)
+            forces.append(_surface_force(model, data, surface)[0])
+    normal, count = float(np.mean(forces)), _surface_force(model, data, surface)[1]
     turn = model.joint("turn").id
     start, limit = data.time, 10.0
     while data.time - start < limit:
@@ -106,13 +109,18 @@ def press_pad(mode: str, force: float, heights: np.ndarray | None = None, torque
 
 
 def _surface_force(model: mujoco.MjModel, data: mujoco.MjData, surface: int) -> tuple[float, int]:
-    """Sum of the normal forces [N] of the contacts with `surface`, and their count."""
+    """The force [N] the contacts with `surface` push along world z (the press axis), and their count.
+
+    Each contact's whole force (normal and friction, in its contact frame) is turned to world z: on a
+    height field's slopes the contact normals tilt and friction carries part of the press.
+    """
     total, count, wrench = 0.0, 0, np.zeros(6)
     for i in range(data.ncon):
         contact = data.contact[i]
         if surface not in (contact.geom1, contact.geom2):
             continue
         mujoco.mj_contactForce(model, data, i, wrench)
-        total += abs(float(contact.frame[2]) * wrench[0])  # normal component along world z
+        frame = contact.frame.reshape(3, 3)  # rows: normal, tangent 1, tangent 2 (world)
+        total += abs(float(frame[:, 2] @ wrench[:3]))
         count += 1
     return total, count
