@@ -389,6 +389,7 @@ def test_header_names_each_protocols_and_planners_parameters_and_leads_in_config
                        "protocols": [{"name": "standard", "params": {"grip_force": 10.0}}, {"name": "lift"}]}}
     text = write_markdown(summarize(results), results, tmp_path, meta).read_text()
     assert "Protocols `standard` (grip_force=10.0), `lift`; planner `antipodal` (top_k=3)" in text
+    assert "2 combinations, so it mixes protocols): 16/20" in text  # it said "of one planner"
     lead = "- **parallel_jaw / antipodal / "
     assert text.index(f"{lead}standard: 7/10") < text.index(f"{lead}lift: 9/10")
     assert "within one hand x planner x observation x protocol (0.5 = chance)" in text

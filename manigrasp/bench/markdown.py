@@ -97,8 +97,9 @@ def lead_lines(report: Report, order: list[str] | None = None) -> list[str]:
 def pooled_line(report: Report) -> str:
     """The all-trials line, saying what it pools."""
     r, n = report.overall, len(report.by_method)
-    what = (f"{n} combinations, so it mixes planners" if len({m[1] for m in report.by_method}) > 1
-            else f"{n} combinations of one planner" if n > 1 else "one combination, the line above")
+    mixed = [name for i, name in enumerate(("hands", "planners", "observations", "protocols"))
+             if len({m[i] for m in report.by_method}) > 1]
+    what = (f"{n} combinations, so it mixes {' and '.join(mixed)}" if n > 1 else "one combination, the line above")
     return f"Pooled ({POOLED}, {what}): {r.successes}/{r.trials}, rate {format_rate(r)}"
 
 
