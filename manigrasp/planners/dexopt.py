@@ -23,6 +23,10 @@ the normals' dependence on the points through the signed distance's Hessian; `ch
 gradient to the hand's generalised coordinates with MuJoCo's Jacobians (`mj_jac`), so a descent step is
 ``mj_integratePos(model, qpos, -step * g, 1)`` on a hand mounted on a free joint.
 
+`hold_margin` is the planner's load test (not a term of the energy): one linear programme over contact forces
+in linearised friction cones (`friction_pyramid`) with per-contact normal-force caps (what the hand's squeeze
+presses each contact with) that must balance the object's weight and the protocol's perturbations.
+
 The planner (restarts, the batched descent, the pads, the MuJoCo checks, the squeeze direction) is
 `manigrasp.planners.dexopt_planner` (registered as ``dexopt``); it evaluates these terms batched over restarts
 on `GridSdf`, the signed distance of the object's convex parts sampled on a grid.
