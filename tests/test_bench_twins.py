@@ -76,3 +76,14 @@ def test_a_gap_of_exactly_ten_points_is_within_whatever_the_float_rounding() -> 
         assert row.within, (scan, recipe, row.gap_points)
     groups = {("h", "p", "o", "x_scan"): rate(13), ("h", "p", "o", "x"): rate(16)}
     assert not twin_rows(groups)[0].within
+
+
+def test_a_recipe_never_held_gets_no_verdict() -> None:
+    """Both 0/6 (the planner found no grasp on either): the gap is 0, but there is nothing to agree on."""
+    class FakeReport:
+        groups = {("h", "p", "o", "x_scan"): rate(0, 6), ("h", "p", "o", "x"): rate(0, 6),
+                  ("h", "p", "o", "y_scan"): rate(0, 6), ("h", "p", "o", "y"): rate(3, 6)}
+
+    (_, _, table) = markdown_section(FakeReport())  # type: ignore[arg-type]
+    rows = table.splitlines()[2:]
+    assert rows[0].endswith("| +0.0 | n/a (recipe never held) |") and rows[1].endswith("| +50.0 | no |")

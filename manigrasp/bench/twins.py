@@ -65,6 +65,14 @@ def twin_rows(groups: Mapping[tuple[str, ...], Rate]) -> list[TwinRow]:
     return rows
 
 
+def _verdict(row: TwinRow) -> str:
+    """"yes"/"no", or "n/a" where the recipe was never held (the benchmark asks for the gap only where the recipe
+    can be grasped: 0 of 6 against 0 of 6, every trial a planner error, is no agreement)."""
+    if row.recipe_rate.successes == 0:
+        return "n/a (recipe never held)"
+    return "yes" if row.within else "no"
+
+
 def markdown_section(report: Report) -> list[str]:
     """The report's "Scan vs recipe" section (a title and a table), or nothing if the run has no pair."""
     rows = twin_rows(report.groups)
@@ -80,7 +88,7 @@ def markdown_section(report: Report) -> list[str]:
         cells = [*r.method[:4 if protocols else 3], r.recipe, f"{r.scan_rate.successes}/{r.scan_rate.trials}",
                  format_rate(r.scan_rate),
                  f"{r.recipe_rate.successes}/{r.recipe_rate.trials}", format_rate(r.recipe_rate),
-                 f"{r.gap_points:+.1f}", "yes" if r.within else "no"]  # .0f showed 10.4 as "+10 | no"
+                 f"{r.gap_points:+.1f}", _verdict(r)]  # .0f showed 10.4 as "+10 | no"
         lines.append("| " + " | ".join(cells) + " |")
     note = ("The same physical object as a real scan (`<name>_scan`) and as its clean recipe twin (`<name>`); "
             f"gap = recipe rate - scan rate. The benchmark asks for a gap within {GAP_POINTS:g} points wherever "
