@@ -72,9 +72,10 @@ def test_compliant_pad_holds_the_uniform_patch_torque_and_rigid_pad_overshoots_i
 
 
 @pytest.mark.parametrize("hand", ["panda", "robotiq_2f85"])
-def test_the_other_hands_pads_pass_the_flat_face_cases(hand: str) -> None:
+def test_the_other_hands_pads_pass_the_validation_cases(hand: str) -> None:
     """The validation of the parallel_jaw pad, on the pad sizes of the other parallel-jaw hands (panda:
-    1.6 x 1.6 cm, 8 mm thick, a 2 x 2 grid; robotiq_2f85: 2 x 3.35 cm, 2 mm thick, 2 x 3)."""
+    1.6 x 1.6 cm, 8 mm thick, a 2 x 2 grid whose centre, under the egg-crate's crest, is a gap between
+    elements; robotiq_2f85: 2 x 3.35 cm, 2 mm thick, 2 x 3)."""
     spec = load(hand).build_spec()
     name, toward = pads.pad_directions(spec, load(hand).pad_geoms, load(hand).tcp_site)[0]
     pad = pads.pad_geometry(spec.geom(name), toward)
@@ -84,6 +85,10 @@ def test_the_other_hands_pads_pass_the_flat_face_cases(hand: str) -> None:
     assert compliant.holding_torque == pytest.approx(pads.uniform_patch_torque(MU_PAD, FORCE, pad.half), rel=0.15)
     rigid = press_pad("rigid", FORCE, half=half)
     assert rigid.holding_torque > 1.3 * pads.uniform_patch_torque(MU_RIGID, FORCE, pad.half)
+    bumpy = press_pad("compliant", FORCE, bumps(), half=half)
+    assert bumpy.normal_force == pytest.approx(FORCE, rel=0.02)
+    assert bumpy.holding_torque == pytest.approx(compliant.holding_torque, rel=0.25)
+    assert press_pad("rigid", FORCE, bumps(), half=half).holding_torque < 0.75 * rigid.holding_torque
 
 
 def test_the_pad_rubber_friction_is_the_elements_own() -> None:

@@ -121,6 +121,7 @@ def _surface_force(model: mujoco.MjModel, data: mujoco.MjData, surface: int) -> 
             continue
         mujoco.mj_contactForce(model, data, i, wrench)
         frame = contact.frame.reshape(3, 3)  # rows: normal, tangent 1, tangent 2 (world)
-        total += abs(float(frame[:, 2] @ wrench[:3]))
+        push = float(frame[:, 2] @ wrench[:3])  # world z of the force between geom1 and geom2
+        total += push if contact.geom1 == surface else -push
         count += 1
-    return total, count
+    return abs(total), count
