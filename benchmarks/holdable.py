@@ -34,7 +34,7 @@ Measured (2 Dec 2026; 10 N grip, the Allegro's 9 N; verdicts at mu 0.5): all thr
 up to 120 mm; the bowl (159 mm) and the hammer (its 135 mm head) only across a convex part (a 6 mm rim piece,
 the 30 mm handle), and the Inspire not the rim piece. A pinch (sum(f_n) = 2 x grip) holds up to 0.51 kg
 (Allegro 0.46 kg): not the sugar box, mustard, hammer, wood block or drill (10.1, 11.8, 13.0, 14.3, 17.6 N of
-grip needed); the Allegro's 12 mm fingertips on the 8 mm phone box touch its edge (mu_eff 0.13). The measured
+grip needed); the Allegro's 12 mm fingertips on the 8 mm phone box touch its edge (mu_eff 0.12). The measured
 squeezes: Inspire and Fourier 21-28 N of sum(f_n) at 10 N (the Fourier's palm wrap of the hammer's handle
 85 N): everything that fits but the drill and the wood block (14-18 N of grip) and for the Inspire the hammer
 (12.8 N); sugar box and mustard at margins 1.0-1.3. Allegro 24-74 N at 9 N (its fingers wrap): everything
