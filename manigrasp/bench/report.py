@@ -288,21 +288,21 @@ def completeness(results: list[tuple[TrialKey, TrialResult]], meta: dict, base: 
     from manigrasp.bench.trials import groups
     from manigrasp.errors import ManigraspError
 
-    stored = {key.trial_id for key, _ in results}
+    stored = {key for key, _ in results}  # keys, not id strings: compared field by field
     try:
-        enumerated = [(g, [g.key(i).trial_id for i in range(g.n_grasps)])
+        enumerated = [[g.key(i) for i in range(g.n_grasps)]
                       for g in groups(parse_config(meta["config"], where="run.json"), base)]
     except (ManigraspError, KeyError, TypeError) as exc:
         return Completeness(-1, len(stored), note=f"the run's config could not be enumerated ({exc})")
-    expected = {tid for _, ids in enumerated for tid in ids}
+    expected = {key for keys in enumerated for key in keys}
     partial, not_run = [], []
-    for _, ids in enumerated:
-        k = sum(tid in stored for tid in ids)
-        name = ids[0].rpartition("/")[0]
+    for keys in enumerated:
+        k = sum(key in stored for key in keys)
+        name = keys[0].trial_id.rpartition("/")[0]
         if k == 0:
             not_run.append(name)
-        elif k < len(ids):
-            partial.append(f"{name} ({k} of {len(ids)})")
+        elif k < len(keys):
+            partial.append(f"{name} ({k} of {len(keys)})")
     return Completeness(len(expected), len(stored & expected), len(stored - expected), tuple(partial),
                         tuple(not_run))
 
