@@ -6,7 +6,9 @@ Each group of the config (default `quick`) is run twice, once with `scene.pads=r
 seconds per trial of each mode (the trial only: approach, close, lift, perturbations and simulated
 metrics, as the worker runs it) and their successes; then, over the whole config, trials per second
 of each mode with and without planning, and the ratio compliant / rigid. In this process: no worker
-pool, no time budgets. Deterministic results for a seed; the timings are what this machine gave.
+pool, no time budgets. Deterministic results for a seed; the timings are what this machine gave. The last
+line also gives the ratio of this thread's CPU time per simulated trial (`time.thread_time`): on a machine
+shared with other jobs, wall time swells with their load and CPU time much less.
 
     .venv/bin/python benchmarks/bench_pad_speed.py                       # quick: 200 trials per mode
     .venv/bin/python benchmarks/bench_pad_speed.py --objects 004_sugar_box --grasps 5
@@ -117,6 +119,7 @@ def main() -> None:
     plan_s = {m: 0.0 for m in MODES}
     trial_s = {m: 0.0 for m in MODES}
     trials = {m: 0 for m in MODES}
+    cpu_s = {m: 0.0 for m in MODES}
     for group in groups(config, path.parent):
         pair = {m: dataclasses.replace(group, scene=dataclasses.replace(group.scene, pads=m)) for m in MODES}
         plans, seconds, ok = {}, {m: 0.0 for m in MODES}, {m: 0 for m in MODES}
@@ -128,9 +131,10 @@ def main() -> None:
             for mode, g in pair.items():
                 if profile is not None:
                     profile.active = mode
-                start = time.perf_counter()
+                start, cpu = time.perf_counter(), time.thread_time()
                 _, result = worker.run_trial(g, index, plans[mode])
                 seconds[mode] += time.perf_counter() - start
+                cpu_s[mode] += time.thread_time() - cpu
                 if profile is not None:
                     profile.end_trial()
                 ok[mode] += result.status is Status.SUCCESS
@@ -147,6 +151,9 @@ def main() -> None:
               f"({plan_s[mode]:.1f} s planning)")
     print(f"compliant / rigid time per trial: {trial_s['compliant'] / trial_s['rigid']:.2f}x simulated, "
           f"{(trial_s['compliant'] + plan_s['compliant']) / (trial_s['rigid'] + plan_s['rigid']):.2f}x with planning")
+    print(f"compliant / rigid CPU time of this thread per simulated trial: {cpu_s['compliant'] / cpu_s['rigid']:.2f}x "
+          f"({cpu_s['rigid'] / trials['rigid']:.3f} vs {cpu_s['compliant'] / trials['compliant']:.3f} s; on a shared "
+          "machine the steadier figure)")
     if profile is not None:
         profile.report(trial_s, trials)
 
