@@ -366,6 +366,10 @@ def test_an_interrupted_run_says_so_and_what_is_missing(tmp_path, capsys):
     assert "WARNING" not in capsys.readouterr().out and "Warning" not in (complete / "report.md").read_text()
     assert main(["compare", str(run), str(complete)]) == 0  # the gate compares what is there, and says it
     assert f"note: the run {run}: incomplete run: 47 of the 80" in capsys.readouterr().out
+    assert main(["report", str(run), "--json"]) == 0  # a baseline recorded from it says so in every compare
+    (tmp_path / "base.json").write_text(capsys.readouterr().out)
+    assert main(["compare", str(complete), str(tmp_path / "base.json")]) == 1  # the hammer's first 7 held, of 20: 9
+    assert "recorded from an incomplete run (47 of 80 trials stored)" in capsys.readouterr().out
     # a config that cannot be enumerated any more is said, not taken as complete
     gone = completeness(full, {"config": {**meta["config"], "objects": ["no_such_object"]}})
     assert gone.expected == -1 and "could not be enumerated" in gone.warning()

@@ -110,7 +110,11 @@ def load_side(path: Path) -> Side:
         raise ConfigError(f"baseline {path} is not a valid report ({type(exc).__name__}: {exc}); "
                           "write one with `manigrasp report RUN_DIR --json > FILE`") from exc
     run = data.get("run")
-    return Side(report, run if isinstance(run, dict) else {}, str(path))
+    done = data.get("completeness")  # written by `report --json` since it checks completeness
+    warnings = ()
+    if isinstance(done, dict) and done.get("complete") is False:
+        warnings = (f"recorded from an incomplete run ({done.get('stored')} of {done.get('expected')} trials stored)",)
+    return Side(report, run if isinstance(run, dict) else {}, str(path), warnings)
 
 
 def check_counts(report: Report, source: str) -> None:
