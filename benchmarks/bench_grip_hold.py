@@ -7,9 +7,9 @@ lift 10 cm, hold 0.5 s, six 1 x m g perturbations). Printed per hand x gain: the
 displacement [mm] and rotation [deg] of the can in the hand over the whole trial, the grip force [N].
 `--adaptive` also runs the five-finger hands with adaptive (uncoupled) fingers, as they were before the
 fingers' joints were coupled. Measured (2 Dec 2026, the grip loop's closing reach and inspire_left's thumb
-mirrored from the right's): creep at gains 0 / 20 / 40: inspire_right 25.0 / 2.5 / 1.6 mm, fourier_right
-15.3 / 1.8 / 1.2 mm, allegro_right 1.2 / 1.2 / 1.1 mm, inspire_left 25.4 / 2.7 / 1.9 mm, fourier_left
-15.7 / 1.8 / 1.3 mm, allegro_left 0.9 / 0.9 / 0.9 mm, every trial a success. (With robosuite's own left thumb,
+mirrored from the right's): creep at gains 0 / 20 / 40: inspire_right 19.5 / 2.4 / 1.5 mm, fourier_right
+12.0 / 1.5 / 1.2 mm, allegro_right 1.0 / 1.2 / 1.2 mm, inspire_left 19.5 / 2.7 / 1.8 mm, fourier_left
+12.3 / 1.4 / 1.1 mm, allegro_left 0.9 / 1.0 / 1.0 mm, every trial a success. (With robosuite's own left thumb,
 inspire_left crept 2.4 mm at 40: its thumb flexes in a plane tilted 6.5 deg from the right's mirror image.)
 
     .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right fourier_right allegro_right \

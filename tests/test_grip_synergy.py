@@ -44,14 +44,18 @@ def test_fixed_preshape_joints_are_left_out_of_the_hand_synergy(name: str) -> No
         assert scene.hand_synergy() == pytest.approx(0.5)
 
 
-def test_closing_reach_is_the_lead_that_brings_a_finger_servo_to_its_force_limit() -> None:
+def test_closing_reach_is_the_lead_that_brings_the_first_finger_servo_to_its_force_limit() -> None:
     hand = hands.load("fourier_right")
     scene = build_scene(hand, None)
     span = hand.closed_ctrl - hand.open_ctrl
-    # Open hand: the thumb bend's tendon (0.9 N m over a 4.26 rad span) reaches its limit furthest ahead.
+    # Open hand: a finger's tendon (0.6 N m over a 4.7 rad span) reaches its limit first, the thumb bend's
+    # (0.9 N m over 4.26 rad) further ahead.
     thumb, finger = 0.9 / (KP * span[1]), 0.6 / (KP * span[2])
-    assert scene.closing_reach() == pytest.approx(max(thumb, finger))
-    assert 0.4 < scene.closing_reach() < 0.45
+    assert scene.closing_reach() == pytest.approx(min(thumb, finger))
+    assert 0.25 < scene.closing_reach() < 0.26
+    # A grasp's path on which only the thumb bends: its own lead.
+    scene.set_hand_path(hand.open_ctrl, np.where(np.arange(6) == 1, hand.closed_ctrl, hand.open_ctrl))
+    assert scene.closing_reach() == pytest.approx(thumb)
     jaw = hands.load("parallel_jaw")
     scene = build_scene(jaw, None)
     kp, limit = scene.model.actuator_gainprm[scene.hand_actuators[0], 0], scene.model.actuator_forcerange[

@@ -318,14 +318,14 @@ class GripController:
         `hand_synergy` (e.g. `Scene.hand_synergy()`: the mean over the fingers
         that move), if given, keeps the position-phase command at most
         max(`hand_synergy` + `lead`, `reach`) (`reach`, e.g.
-        `Scene.closing_reach()`: the furthest command some finger's servo still
-        pushes harder for), so a slow hand does not find the command already
-        closed at contact. The reach, not only `lead`: a soft servo (the
+        `Scene.closing_reach()`: the furthest command that drives no finger's
+        servo past its force limit), so a slow hand does not find the command
+        already closed at contact. The reach, not only `lead`: a soft servo (the
         dexterous hands' tendons, 0.5 N m/rad) follows a ramp with a lag of
         the ramp rate times its time constant, so a fixed `lead` sets how fast
         it closes (0.09 of the synergy per second for the Fourier hand at 0.1:
         a can is not reached in the 2 s close), while a lead up to its force
-        limit is what the servo can use and no more (the five-finger hands
+        limit is what the servo can use (the five-finger hands
         closed fast enough before only because their fixed thumb rotation
         counted as closed, adding (1 - s) / 6 to the lead). `hand_synergy` is
         also what `stall_check` watches; with a known `stiffness` it is also

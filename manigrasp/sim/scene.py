@@ -282,11 +282,13 @@ class Scene:
         return float(frac.mean()) if len(frac) else 1.0
 
     def closing_reach(self) -> float:
-        """The furthest synergy command some finger's servo still pushes harder for: the largest over the
-        fingers that move along `hand_path` of where the finger is (`finger_synergies`) plus the command
-        lead that brings its position servo to its force limit, f_max / (kp |closed - open|) (0 for an
-        actuator that is not a force-limited position servo). A command further ahead of every finger
-        pushes no harder and closes no faster; it only winds up and lands on the object at contact."""
+        """The furthest synergy command no moving finger's servo is driven past its force limit by: the
+        smallest over the fingers that move along `hand_path` of where the finger is (`finger_synergies`)
+        plus the command lead that brings its position servo to its force limit, f_max / (kp |closed -
+        open|): 0.26 of the synergy for the five-finger hands' fingers (0.6 N m, 0.5 N m/rad, 4.7 rad), 0.30
+        for the Allegro's. Further ahead, the finger that stands there pushes no harder, and a free finger
+        lands on the object with more than its servo can hold. Actuators that are not force-limited position
+        servos are left out; `hand_synergy` if none is one."""
         open_ctrl, closed_ctrl = self._path
         span = closed_ctrl - open_ctrl
         moving = np.abs(span) > SPAN_EPSILON
@@ -298,9 +300,10 @@ class Scene:
             m.actuator_biastype[ids] == mujoco.mjtBias.mjBIAS_AFFINE) & (kp > 0) & np.isclose(
             m.actuator_biasprm[ids, 1], -kp) & m.actuator_forcelimited[ids].astype(bool)
         limit = np.where(span[moving] > 0, m.actuator_forcerange[ids, 1], -m.actuator_forcerange[ids, 0])
-        lead = np.zeros(len(ids))
-        lead[servo] = limit[servo] / (kp[servo] * np.abs(span[moving][servo]))
-        return float(np.max(self.finger_synergies() + np.maximum(lead, 0.0)))
+        if not servo.any():
+            return self.hand_synergy()
+        lead = limit[servo] / (kp[servo] * np.abs(span[moving][servo]))
+        return float(np.min(self.finger_synergies()[servo] + np.maximum(lead, 0.0)))
 
     def forward(self) -> None:
         """`mj_forward`: recompute positions, contacts and forces of the current state."""
