@@ -336,8 +336,8 @@ def test_an_interrupted_run_says_so_and_what_is_missing(tmp_path, capsys):
     """The config enumerates 2 objects x 2 planners x 20 grasps = 80 trials; the store holds the mug's 40 and 7 of
     the hammer's antipodal ones (a run killed there). The report says 47 of 80, names the partial and the missing
     group, and says the rates are over the stored trials; the complete run says nothing of the kind."""
+    from manigrasp.bench.completeness import completeness
     from manigrasp.bench.config import parse_config
-    from manigrasp.bench.report import completeness
     from manigrasp.config import to_mapping
 
     config = to_mapping(parse_config({"name": "t", "objects": ["025_mug", "048_hammer"],

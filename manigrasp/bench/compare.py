@@ -21,7 +21,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from manigrasp.bench.report import Group, Rate, Report, completeness, load_results, report_from_json, summarize
+from manigrasp.bench.completeness import completeness
+from manigrasp.bench.report import Group, Rate, Report, load_results, report_from_json, summarize
 from manigrasp.bench.stats import ProportionTest, lower_than_baseline, wilson_interval
 from manigrasp.errors import ConfigError
 

@@ -9,11 +9,11 @@ from itertools import combinations
 from pathlib import Path
 
 from manigrasp.bench import plots, twins
+from manigrasp.bench.completeness import Completeness
 from manigrasp.bench.plots import method_label
 from manigrasp.bench.report import (
     PLANNING_TIME_HEADER,
     POOLED,
-    Completeness,
     Method,
     Rate,
     Report,
@@ -273,7 +273,7 @@ def _protocol_line(config: dict) -> str:
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
                    meta: dict, done: Completeness | None = None) -> Path:
     """Write ``report.md`` and its PNGs into `run_dir`; returns the markdown path. `done`: how complete the run
-    is (`manigrasp.bench.report.completeness`; None: not checked), said first when it is not."""
+    is (`manigrasp.bench.completeness.completeness`; None: not checked), said first when it is not."""
     run_dir = Path(run_dir)
     images = {
         "Success rate per object": plots.success_by_object(report, run_dir / "success_by_object.png"),

@@ -65,8 +65,9 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
     """
     from dataclasses import asdict
 
+    from manigrasp.bench.completeness import completeness
     from manigrasp.bench.markdown import warning_lines
-    from manigrasp.bench.report import completeness, load_results, summarize
+    from manigrasp.bench.report import load_results, summarize
     from manigrasp.bench.rundir import config_dir, load_meta
 
     meta = load_meta(run_dir)
