@@ -40,6 +40,7 @@ import mujoco
 import numpy as np
 
 from manigrasp.errors import ConfigError
+from manigrasp.sim.scene import position_servos
 
 # Stiffness of the held grasp relative to the closing servo's [-] (the protocols' default `finger_hold_gain`): the
 # robosuite hands' 0.5 N m/rad tendons hold at 20 N m/rad, the Allegro's 1 N m/rad joints at 40 (a finger pushed
@@ -64,10 +65,7 @@ class FingerHold:
             raise ConfigError(f"the hold gain must be >= 1, got {gain}")
         self.model, self.gain = model, float(gain)
         ids = np.asarray(actuators, dtype=int)
-        kp, bias = model.actuator_gainprm[ids, 0], model.actuator_biasprm[ids, :3]
-        servo = (model.actuator_gaintype[ids] == mujoco.mjtGain.mjGAIN_FIXED) & (
-            model.actuator_biastype[ids] == mujoco.mjtBias.mjBIAS_AFFINE) & (kp > 0) & np.isclose(bias[:, 1], -kp) & (
-            bias[:, 0] == 0)
+        servo = position_servos(model, ids)
         self.actuators, self.servo = ids, servo
         self.ids = ids[servo]
         self.kp = model.actuator_gainprm[self.ids, 0].copy()

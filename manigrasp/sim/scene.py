@@ -90,6 +90,16 @@ class FloatingBase:
         return full[self.dofs, self.dofs].copy()
 
 
+def position_servos(model: mujoco.MjModel, actuators: np.ndarray) -> np.ndarray:
+    """(n,) bool: which of `actuators` (ids) are position servos, force kp (u - L) - kv dL/dt (MuJoCo's
+    ``position``: fixed gain kp > 0, affine bias -kp L - kv dL/dt)."""
+    ids = np.asarray(actuators, dtype=int)
+    kp = model.actuator_gainprm[ids, 0]
+    return (model.actuator_gaintype[ids] == mujoco.mjtGain.mjGAIN_FIXED) & (
+        model.actuator_biastype[ids] == mujoco.mjtBias.mjBIAS_AFFINE) & (kp > 0) & np.isclose(
+        model.actuator_biasprm[ids, 1], -kp) & (model.actuator_biasprm[ids, 0] == 0)
+
+
 class Scene:
     """Table + object + hand on a floating base, compiled once (see `build_scene`)."""
 
@@ -282,13 +292,13 @@ class Scene:
         return float(frac.mean()) if len(frac) else 1.0
 
     def closing_reach(self) -> float:
-        """The furthest synergy command no moving finger's servo is driven past its force limit by: the
+        """The furthest synergy command that drives no moving finger's servo past its force limit: the
         smallest over the fingers that move along `hand_path` of where the finger is (`finger_synergies`)
         plus the command lead that brings its position servo to its force limit, f_max / (kp |closed -
         open|): 0.26 of the synergy for the five-finger hands' fingers (0.6 N m, 0.5 N m/rad, 4.7 rad), 0.30
         for the Allegro's. Further ahead, the finger that stands there pushes no harder, and a free finger
-        lands on the object with more than its servo can hold. Actuators that are not force-limited position
-        servos are left out; `hand_synergy` if none is one."""
+        lands on the object with its servo saturated. Actuators that are not force-limited position servos
+        (`position_servos`) are left out; `hand_synergy` if none is one."""
         open_ctrl, closed_ctrl = self._path
         span = closed_ctrl - open_ctrl
         moving = np.abs(span) > SPAN_EPSILON
@@ -296,9 +306,7 @@ class Scene:
             return 1.0
         m, ids = self.model, self.hand_actuators[moving]
         kp = m.actuator_gainprm[ids, 0]
-        servo = (m.actuator_gaintype[ids] == mujoco.mjtGain.mjGAIN_FIXED) & (
-            m.actuator_biastype[ids] == mujoco.mjtBias.mjBIAS_AFFINE) & (kp > 0) & np.isclose(
-            m.actuator_biasprm[ids, 1], -kp) & m.actuator_forcelimited[ids].astype(bool)
+        servo = position_servos(m, ids) & m.actuator_forcelimited[ids].astype(bool)
         limit = np.where(span[moving] > 0, m.actuator_forcerange[ids, 1], -m.actuator_forcerange[ids, 0])
         if not servo.any():
             return self.hand_synergy()
