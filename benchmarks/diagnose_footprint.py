@@ -3,8 +3,10 @@
 For every stored trial of RUN_DIR with a grasp pose (optionally only --objects), the pads' footprint
 (`manigrasp.planners.footprint`, the antipodal planner's pose score) is evaluated on the object's mesh at its
 stored resting pose: the torsion ratio of the patch both pads touch (1 = seated as on a flat face, 0 = one
-pad touches one point or nothing) and its pivot. Printed per object: successes, the ratio's mean and minimum
-over the trials, how many grasps sit below --below and how many of those succeeded, and the failures' ratios.
+pad touches one point or nothing) and the tilt of the more tilted pad's patch off the closing axis [deg]
+(`footprint.patch_tilt`; -inf where no plane is defined). Printed per object: successes, the ratio's mean and
+minimum over the trials, how many grasps sit below --below and how many of those succeeded, the successes'
+median tilt, and each failure's ratio/tilt.
 Comparing a scan with its recipe twin, or a run with `pad_footprint: false` with one without, shows whether
 the grasps that fail are the ones whose pads do not sit on the surface.
 
@@ -50,7 +52,7 @@ def main() -> None:
         if (args.objects is None or key.object in args.objects) and np.isfinite(result.grasp.x_m):
             trials[(key.hand, key.planner, key.object)].append((key.grasp_index, result))
     print(f"{'hand':13s} {'planner':10s} {'object':26s} succ   ratio mean  min   <{args.below:g} (succ)  "
-          "failures' ratios")
+          "succ. tilt  failures' ratio/tilt [deg]")
     for (hand_name, planner, name), rows in sorted(trials.items()):
         hand = hands.load(hand_name)
         asset = catalog.build(catalog.shipped(name)).asset
@@ -63,12 +65,14 @@ def main() -> None:
             continue
         mesh = observation.world_mesh()
         poses = np.array([r.grasp.matrix() for _, r in rows])
-        ratio, _ = footprint.evaluate(mesh, poses)
+        ratio, _, tilt = footprint.seat(mesh, poses)
+        tilt = np.degrees(np.nanmax(np.where(np.isnan(tilt), -np.inf, tilt), axis=1))  # the more tilted pad
         ok = np.array([r.status.value == "success" for _, r in rows])
         low = ratio < args.below
-        fails = " ".join(f"{x:.2f}" for x in ratio[~ok])
+        fails = " ".join(f"{x:.2f}/{t:.0f}" for x, t in zip(ratio[~ok], tilt[~ok], strict=True))
+        seated_tilt = np.median(tilt[ok]) if ok.any() else np.nan
         print(f"{hand_name:13s} {planner:10s} {name:26s} {ok.sum():2d}/{len(ok):<3d} {ratio.mean():5.2f} "
-              f"{ratio.min():5.2f} {low.sum():5d} ({np.sum(ok & low)})      {fails}")
+              f"{ratio.min():5.2f} {low.sum():5d} ({np.sum(ok & low)})   {seated_tilt:5.1f}      {fails}")
 
 
 if __name__ == "__main__":

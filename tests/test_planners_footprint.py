@@ -65,6 +65,25 @@ def test_a_pad_off_the_object_holds_nothing():
     assert ratio[0] == 0.0
 
 
+@pytest.mark.parametrize("degrees", [0.0, 3.0, 8.0])
+def test_the_patch_tilt_is_the_faces_tilt_under_the_pad(degrees):
+    # the box turned about the approach axis: both faces meet the jaws tilted by that angle, whatever the pad
+    # sinks into; a scan's per-point normals would add their noise to it
+    box = trimesh.creation.box((0.05, 0.12, 0.12))
+    box.apply_transform(trimesh.transformations.rotation_matrix(np.radians(degrees), [0.0, 0.0, 1.0]))
+    _, _, tilt = PADS.seat(box, tcp((0.0, 0.0, 0.0))[None])
+    assert np.degrees(tilt[0]) == pytest.approx([degrees, degrees], abs=0.05)
+
+
+def test_a_patch_on_one_line_has_no_tilt():
+    # a pad touching one row of cells (a thin plate's edge) defines no plane: NaN, the planner keeps the pair's
+    plate = trimesh.creation.box((0.05, 0.12, 0.004))
+    plate.apply_translation([0.0, 0.0, 0.0025])  # under one row of the 5 mm cells (centred 2.5 mm off the TCP)
+    ratio, _, tilt = PADS.seat(plate, tcp((0.0, 0.0, 0.0))[None])
+    assert ratio[0] > 0  # touching
+    assert np.isnan(tilt).all()
+
+
 def test_the_more_a_face_curves_under_the_pad_the_less_torsion():
     # upright cylinders squeezed across their axis: the face curves away across the pad's 2 cm width
     ratios = []

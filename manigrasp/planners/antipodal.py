@@ -328,13 +328,16 @@ class AntipodalPlanner:
         return PoseGrid(self.dense_approaches, self.dense_depth_fractions, self.dense_lateral_fractions)
 
     def hold(self, pairs: Pairs, center: np.ndarray, mass: float, hand: Hand,
-             context: PlanContext | None = None, torsion: np.ndarray | None = None) -> np.ndarray:
+             context: PlanContext | None = None, torsion: np.ndarray | None = None,
+             tilt: np.ndarray | None = None) -> np.ndarray:
         """(m,) hold margin h of each pair at the protocol's grip force and loads (module docstring, `hold`;
         `context` None: the standard protocol's, with this planner's own settings); `torsion` (m,) scales
-        each pair's torsional friction gamma (the pads' footprint ratio; None: 1)."""
+        each pair's torsional friction gamma (the pads' footprint ratio; None: 1); `tilt` (m, 2) [rad] the
+        contacts' normals off the grasp line where known (the pads' patches; NaN or None: the pair's normals)."""
         context = resolve(context, grip_fraction=self.grip_fraction, perturbation=self.perturbation)
-        tilt = np.arccos(np.clip(np.stack([-np.einsum("ij,ij->i", pairs.n_p, pairs.axis),
-                                           np.einsum("ij,ij->i", pairs.n_q, pairs.axis)], axis=1), -1.0, 1.0))
+        own = np.arccos(np.clip(np.stack([-np.einsum("ij,ij->i", pairs.n_p, pairs.axis),
+                                          np.einsum("ij,ij->i", pairs.n_q, pairs.axis)], axis=1), -1.0, 1.0))
+        tilt = own if tilt is None else np.where(np.isnan(tilt), own, tilt)
         gamma = self.contact.gamma if torsion is None else self.contact.gamma * np.asarray(torsion, float)
         required = required_grip(pairs.p, pairs.q, center, loads(mass, context.perturbation), self.contact.mu,
                                  gamma, tilt)
@@ -353,9 +356,9 @@ class AntipodalPlanner:
             quality = quality * confidence
 
         def pose_score(poses: np.ndarray, pair_of: np.ndarray) -> np.ndarray:
-            ratio, pivot = footprint.evaluate(mesh, poses)
+            ratio, pivot, tilt = footprint.seat(mesh, poses)
             seated = on_pivot(pairs.take(pair_of), poses, pivot)
-            hold = self.hold(seated, center, mass, hand, context, torsion=ratio)
+            hold = self.hold(seated, center, mass, hand, context, torsion=ratio, tilt=tilt)
             return np.clip(hold / self.hold_ref, 0.0, 1.0) * quality[pair_of]
 
         return pose_score

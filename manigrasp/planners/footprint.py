@@ -93,9 +93,17 @@ class PadFootprint:
 
     def evaluate(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Torsion ratio (k,) and pivot (k, 2) (x, z in the TCP frame [m]) at TCP poses (k, 4, 4) (module docstring)."""
+        ratio, pivot, _ = self.seat(mesh, poses)
+        return ratio, pivot
+
+    def seat(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Torsion ratio (k,), pivot (k, 2) and each pad's patch tilt (k, 2) [rad] (`patch_tilt`; NaN where
+        it is undefined) at TCP poses (k, 4, 4)."""
         if len(poses) == 0:
-            return np.zeros(0), np.zeros((0, 2))
-        return patch_torsion(self.gaps(mesh, poses), self.cells, self.compression)
+            return np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2))
+        gaps = self.gaps(mesh, poses)
+        ratio, pivot = patch_torsion(gaps, self.cells, self.compression)
+        return ratio, pivot, patch_tilt(gaps, self.cells, self.compression)
 
 
 def pressure(gaps: np.ndarray, compression: float) -> np.ndarray:
@@ -131,6 +139,27 @@ def patch_torsion(gaps: np.ndarray, cells: np.ndarray, compression: float) -> tu
     torsion, pivot = _median_torsion(weights, points)
     seated = (weights.reshape(len(gaps), 2, -1).sum(axis=2) > 0).all(axis=1)
     return np.where(seated, torsion / flat, 0.0), pivot
+
+
+def patch_tilt(gaps: np.ndarray, cells: np.ndarray, compression: float) -> np.ndarray:
+    """(k, 2) angle [rad] between the closing axis and the normal of the surface each pad touches, from the cell
+    gaps (k, 2, n) at `cells` (n, 2) [m]: the slope of the plane fitted to the touched cells' gaps (least
+    squares weighted by their loads, `pressure`). What a pad pressed flat on a patch feels, where a scan's
+    per-point normals carry the scan's noise. NaN where fewer than three cells off one line touch."""
+    w = pressure(gaps, compression)  # (k, 2, n)
+    g = np.where(w > 0, gaps, 0.0)
+    mean_x, mean_g = w @ cells, (w * g).sum(axis=-1)  # (k, 2, 2), (k, 2) (the shares sum to 1)
+    dx = cells[None, None] - mean_x[..., None, :]  # (k, 2, n, 2)
+    dg = g - mean_g[..., None]
+    a = np.einsum("...n,...ni,...nj->...ij", w, dx, dx)  # (k, 2, 2, 2)
+    b = np.einsum("...n,...ni,...n->...i", w, dx, dg)
+    det = a[..., 0, 0] * a[..., 1, 1] - a[..., 0, 1] * a[..., 1, 0]
+    scale = np.einsum("...ii->...", a) ** 2
+    ok = det > 1e-6 * np.maximum(scale, 1e-300)
+    det = np.where(ok, det, 1.0)
+    sx = (a[..., 1, 1] * b[..., 0] - a[..., 0, 1] * b[..., 1]) / det
+    sz = (a[..., 0, 0] * b[..., 1] - a[..., 1, 0] * b[..., 0]) / det
+    return np.where(ok, np.arctan(np.hypot(sx, sz)), np.nan)
 
 
 def _median_torsion(weights: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
