@@ -66,8 +66,11 @@ sinks `pad_compression` on a flat face shares the grip among the cells within
 reach, and the patch's torsion radius about the point it pivots on (the
 weighted geometric median of the cells' loads) is compared with a flat face
 under the whole pad. The pose's hold margin is the pair's, computed on the
-grasp line moved to that pivot with gamma times that ratio; the pose's score
-is the pair's with that hold margin, and ranks it. A pad half over an edge,
+grasp line moved to that pivot with gamma times that ratio and with each
+contact's tilt that of the plane fitted to the surface its pad touches
+(`footprint.patch_tilt`: what a pad pressed on a patch feels; a scan's point
+normals carry its noise, and contact p's tilt is 0 by construction); the
+pose's score is the pair's with that hold margin, and ranks it. A pad half over an edge,
 or on a face that bulges or curves away by millimetres (a scanned carton,
 whose grasps near its rounded edges load one end of each pad and let it turn
 in the grip), ranks below a pose whose pads sit flat; on a flat face fully
