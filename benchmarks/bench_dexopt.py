@@ -17,6 +17,12 @@ measured:
 
     .venv/bin/python benchmarks/bench_dexopt.py                               # 3 hands x 3 objects x 5 grasps
     .venv/bin/python benchmarks/bench_dexopt.py --hands allegro_right --objects 025_mug --grasps 10 --trials
+
+With --run RUN_DIR --config CONFIG (a `manigrasp bench` run of dexopt and its config): each group is planned
+again exactly as the run planned it (same seed, protocol context, planner parameters; the same code must be
+checked out), every candidate that passed the checks is kept, the run's trials are matched to them by TCP
+position, and the hold margin of each trial's grasp is printed with its outcome; then per hand the successes
+of the trials whose grasp passes the load test (margin >= 1) and of those that do not.
 """
 
 from __future__ import annotations
@@ -100,6 +106,50 @@ def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
     return out
 
 
+def hold_vs_outcome(run_dir: str, config: str) -> None:
+    """Hold margin of each dexopt trial's grasp in a stored run against its outcome (module docstring)."""
+    import sqlite3
+
+    import manigrasp.planners.dexopt_planner as dexopt_planner
+    from manigrasp.bench.config import load_config
+    from manigrasp.bench.observe import observe_with_info
+    from manigrasp.bench.trials import groups
+    from manigrasp.bench.worker import _asset, scene_for
+
+    keep_all = lambda poses, distance, angle: np.arange(len(poses))  # noqa: E731
+    dexopt_planner.suppress = keep_all  # every candidate that passed the checks, to match the run's against
+    db = sqlite3.connect(f"{run_dir}/results.sqlite")
+    tally: dict[str, list[int]] = {}
+    for g in groups(load_config(config)):
+        if g.planner.name != "dexopt":
+            continue
+        scene = scene_for(g)
+        context = PlanContext.from_params(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params)
+        pose = settle_object(scene)
+        observation, _ = observe_with_info(g.observation, _asset(g), pose, scene, seed=g.seed, camera=g.camera)
+        planner = DexOptPlanner(**dict(g.planner.params))
+        found = planner.synthesise(observation, scene.hand, 10**6, g.rng(), context.pregrasp_offset, context)
+        if not found:
+            continue
+        position = np.array([s.pose[:3, 3] for s in found])
+        rows = db.execute("select grasp_index, status, grasp_x_m, grasp_y_m, grasp_z_m from trials where object=? "
+                          "and hand=? and planner=? and grasp_x_m is not null order by grasp_index",
+                          (g.object_source.name, g.hand, g.planner_label)).fetchall()
+        for index, status, *xyz in rows:
+            gap = np.linalg.norm(position - np.asarray(xyz, float), axis=1)
+            j = int(np.argmin(gap))
+            if gap[j] > 1e-6:
+                print(f"{g.hand} {g.object_source.name} {index}: no planned grasp at the trial's pose (other code?)")
+                continue
+            hold = found[j].hold
+            print(f"{g.hand:<14} {g.object_source.name:<20} {index:>2} {status:<16} hold {hold:6.2f}", flush=True)
+            t = tally.setdefault(g.hand, [0, 0, 0, 0])
+            t[0 if hold >= planner.min_hold_margin else 2] += status == "success"
+            t[1 if hold >= planner.min_hold_margin else 3] += 1
+    for hand, (s1, n1, s0, n0) in tally.items():
+        print(f"{hand}: passing the load test {s1}/{n1} succeeded, failing it {s0}/{n0}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--hands", nargs="+", default=list(HANDS))
@@ -109,7 +159,14 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=DexOptPlanner.iterations)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--trials", action="store_true", help="run each grasp through the standard protocol")
+    parser.add_argument("--run", help="a stored run of dexopt: its trials' hold margins against their outcomes")
+    parser.add_argument("--config", help="the run's config (with --run)")
     args = parser.parse_args()
+    if args.run:
+        if not args.config:
+            parser.error("--run needs --config")
+        hold_vs_outcome(args.run, args.config)
+        return
     print(f"# dexopt: restarts {args.restarts}, iterations {args.iterations}, {args.grasps} grasps per call, seed "
           f"{args.seed}; {platform.processor() or platform.machine()}, OMP_NUM_THREADS="
           f"{os.environ['OMP_NUM_THREADS']}")
