@@ -230,15 +230,15 @@ def _rests(results: list[tuple[TrialKey, TrialResult]], meta: dict) -> list[str]
 
 def warning_lines(meta: dict, done: Completeness | None = None, report: Report | None = None) -> list[str]:
     """What a reader must know before quoting a figure of the run: that it is incomplete (`Completeness`), that
-    some trials are harness faults (a bug of manigrasp itself, counted as failures of their method), or that it was
-    resumed by other code (run.json's ``resumed_with_other_code``: its trials mix two code versions)."""
+    some trials are harness faults (a bug of manigrasp itself, left out of every rate: `Rate.harness_faults`), or
+    that it was resumed by other code (run.json's ``resumed_with_other_code``: its trials mix two code versions)."""
     lines = [done.warning()] if done is not None and done.warning() else []
-    faults = {m: r.failure_modes.get("harness_fault", 0) for m, r in (report.by_method.items() if report else ())}
+    faults = {m: r.harness_faults for m, r in (report.by_method.items() if report else ())}
     if any(faults.values()):
         where = ", ".join(f"{method_label(m, len(report.protocols) > 1)} {n}" for m, n in faults.items() if n)
         lines.append(f"{sum(faults.values())} trial(s) ended as harness_fault, a fault of manigrasp itself and not of "
-                     f"the planner or the physics ({where}): the rates count them as failures; their detail in "
-                     "the results table says what failed")
+                     f"the planner or the physics ({where}): they are left out of every rate and count (they are "
+                     "not physics results); their detail in the results table says what failed")
     for entry in meta.get("resumed_with_other_code") or []:
         if isinstance(entry, dict):
             changes = "; ".join(map(str, entry.get("changes") or []))

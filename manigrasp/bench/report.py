@@ -37,7 +37,12 @@ PREDICTORS = {
 class Rate:
     """Trials, successes, their rate and its Wilson 95 % interval, failure-mode counts, planning time.
 
+    A trial that ended as `harness_fault` (a bug of manigrasp itself, neither physics nor the planner) is
+    not mixed into the physics statistics (DESIGN.md): it is counted in `harness_faults` only, outside
+    `trials`, `successes`, the rate and `failure_modes`.
+
     Attributes:
+        harness_faults: trials of this set that ended as `harness_fault`, left out of every other figure.
         median_planning_time_s: median over the planning calls of this set of trials of one call's wall
             time [s] (the ``planning_time_s`` that ``manigrasp plan`` prints: one call plans every candidate
             of an object x hand x planner x observation); NaN when no call was timed.
@@ -52,17 +57,20 @@ class Rate:
     failure_modes: dict[str, int] = field(default_factory=dict)
     median_planning_time_s: float = math.nan
     planning_calls: int = 0
+    harness_faults: int = 0
 
     @classmethod
     def of(cls, results: list[TrialResult], plan_times: list[float] | None = None) -> Rate:
         """The rate of a list of trial results; `plan_times`: one wall time per planning call [s]."""
+        faults = sum(r.status is Status.HARNESS_FAULT for r in results)
+        times = plan_times if plan_times is not None else planning_call_times(results)
+        results = [r for r in results if r.status is not Status.HARNESS_FAULT]
         n = len(results)
         k = sum(r.success for r in results)
         low, high = wilson_interval(k, n)
         modes = Counter(_mode(r) for r in results if not r.success)
-        times = plan_times if plan_times is not None else planning_call_times(results)
         return cls(n, k, k / n if n else math.nan, low, high, dict(sorted(modes.items())),
-                   float(np.median(times)) if times else math.nan, len(times))
+                   float(np.median(times)) if times else math.nan, len(times), faults)
 
 
 def planning_call_times(results: list[TrialResult]) -> list[float]:
