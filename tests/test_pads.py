@@ -261,6 +261,6 @@ def _torsion_regularisers(mode: str) -> np.ndarray:
 def test_an_element_holds_torsion_with_no_more_creep_than_the_rigid_pad() -> None:
     """MuJoCo's soft friction lets a held contact slide at R f / b; an elliptic cone's torsion row has the normal
     row's regulariser times (mu / mu_t)^2 / impratio. A thin object resting on one element per pad holds its
-    torsion by that row alone; with the first version's element contacts (solimp 0.99, half the armature) its R
+    torsion by that row alone; with the first version's element contacts (solimp 0.99, armature k (dt / 0.5)^2) its R
     was twice the rigid pad's, and a phone box turned 4-5 deg/s in the grip at 28 % of its torsion capacity."""
     assert _torsion_regularisers("compliant").max() < _torsion_regularisers("rigid").min()

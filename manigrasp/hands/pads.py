@@ -98,10 +98,10 @@ carried by one or two elements, each with the torsion of its whole cell, where a
 real pad has a patch as small as the strip. On a height field an element meets
 several of its prisms at once, each contact with the cell's torsion, so the
 egg-crate case counts it more than once: at the 35 N grip every hand keeps its
-torque within 25 %, but `robotiq_2f85`'s 2 mm pad (1.6 mm travel) reads 2.4x
-at 10 N and 0.35x at 70 N (`benchmarks/bench_pads.py`).
+torque within 25 %, but `robotiq_2f85`'s 2 mm pad (1.6 mm travel) reads 1.59x
+at 10 N (`benchmarks/bench_pads.py`).
 
-Cost (`benchmarks/bench_pad_speed.py --profile`, quick on `parallel_jaw`, one
+Cost of the first version (`benchmarks/bench_pad_speed.py --profile`, quick on `parallel_jaw`, one
 shared 2-core machine): a compliant trial took 1.70x a rigid one's time
 (0.285 vs 0.168 s), nearly all of it inside `mj_step` (111 vs 54 us per step).
 Of the extra 58 us per step, 28 are narrowphase tests of the elements against
@@ -112,17 +112,18 @@ geoms reach the collision filter every step but fail the bounding test: keeping
 them out by contype/conaffinity saved 2-3 us per step on stored mid-grasp
 states, which is why the elements still meet the table and the hand.
 Measured and not taken (thread CPU time per step, `parallel_jaw` holding a mesh
-cube: rigid 25 us, this model 47 us): spheres as elements (MuJoCo's convex
-collision treats a sphere as a point with a radius, so a shallow contact needs
-no EPA) cost 38 us, but a sphere no wider than its cell is a hemisphere whose
-flank pushes a thin object's edge sideways, and a wider one reaches past the
-pad's rim and the finger's back (standard's antipodal `parallel_jaw`, of 20:
-scissors 9 and 2, phone box 10 and 1 with radius 5 and 15 mm, measured before
-the creep fix above, against this model's 18 and 16; with the fix, 3 of 8 of the
-5 mm spheres' failed trials held on replay); a 2 x 2 grid on the 2 x 3 cm pad costs 38 us but holds
-scissors 6, and on the egg-crate keeps 1.49x its flat torque; a looser CCD
-tolerance (1e-4) saved 2 us; condim 3 saves about 1 us and loses the cell
-torsion a one-element contact needs.
+cube: rigid 25 us, the first version 47 us): spheres as elements (MuJoCo's
+convex collision treats a sphere as a point with a radius, so a shallow contact
+needs no EPA) cost 38 us, but a sphere no wider than its cell is a hemisphere
+whose flank pushes a thin object's edge sideways, and a wider one reaches past
+the pad's rim and the finger's back (standard's antipodal `parallel_jaw`, of
+20: scissors 9 and 2, phone box 10 and 1 with radius 5 and 15 mm, measured
+before the creep fix above, against this model's 16 and 17; with the fix, 3 of
+8 of the 5 mm spheres' failed trials held on replay); a 2 x 2 grid on the
+2 x 3 cm pad costs 38 us but holds scissors 6, and on the egg-crate keeps 1.49x
+its flat torque; a looser CCD tolerance (1e-4) saved 2 us; condim 3 saves about
+1 us and loses the cell torsion a one-element contact needs. This model costs
+2.05x a rigid trial's CPU time on quick (README).
 """
 
 from __future__ import annotations
