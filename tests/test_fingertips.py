@@ -95,7 +95,7 @@ def can(tmp_path_factory: pytest.TempPathFactory):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [n for n in DEXTEROUS if n.endswith("right")])
+@pytest.mark.parametrize("name", DEXTEROUS)
 def test_hand_placed_can_holds_with_rubber_fingertips_and_creeps_less_than_2_mm(name: str, can) -> None:
     """The standard protocol (lift 10 cm, hold, six m g perturbations) on a side power grasp of a 0.35 kg can,
     as `tests/test_dexterous_grip.py` runs it with rigid pads (`benchmarks/bench_grip_hold.py`)."""
