@@ -135,7 +135,8 @@ class DexOptPlanner:
 
     Attributes:
         restarts: random initial configurations optimised together (96: a pool from which the load test of
-            step 6 can pick grasps that hold; 48 gave 26, 22, 12/80 on the dexterous config for Inspire,
+            step 6 can pick grasps that hold; with it 31, 27, 18/80 on the dexterous config (standard, 10 N) for
+            Inspire, Fourier, Allegro, 1.09 s CPU per Allegro grasp; 48 without it gave 26, 22, 12/80 for Inspire,
             Fourier, Allegro against 26, 18, 8/80 with 32, where fewer than 10 grasps passed).
         iterations: descent steps.
         step_translation: [m], step_rotation: [rad], step_joints: [rad]: initial Adam steps.
