@@ -44,11 +44,11 @@ from manigrasp.hands.registry import load as load_hand  # noqa: E402
 from manigrasp.objects import catalog  # noqa: E402
 from manigrasp.planners.base import Observation  # noqa: E402
 from manigrasp.planners.collision import HandProbe  # noqa: E402
-from manigrasp.planners.context import PlanContext  # noqa: E402
+from manigrasp.planners.context import PlanContext, grasping_friction  # noqa: E402
 from manigrasp.planners.dexopt_planner import DexOptPlanner, _probe_contacts, choose_pads  # noqa: E402
 from manigrasp.protocol import PROTOCOLS, settle_object  # noqa: E402
 from manigrasp.protocol.grasp import as_grasp  # noqa: E402
-from manigrasp.sim import build_scene  # noqa: E402
+from manigrasp.sim import SceneConfig, build_scene  # noqa: E402
 
 HANDS = ("allegro_right", "inspire_right", "fourier_right")
 OBJECTS = ("005_tomato_soup_can", "025_mug", "004_sugar_box")
@@ -68,14 +68,14 @@ def pairwise_diversity(poses: np.ndarray) -> tuple[float, float]:
 def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
     hand = load_hand(hand_name)
     asset = catalog.build(catalog.shipped(obj)).asset
-    scene = build_scene(hand, asset, None)
+    scene = build_scene(hand, asset, SceneConfig())
     rest = settle_object(scene)
     observation = Observation.from_asset(asset, rest)
     planner = DexOptPlanner(restarts=args.restarts, iterations=args.iterations)
     planner.kinematics(hand)  # the hand's model is built once per process, not per call: not timed
     cpu, wall = time.process_time(), time.perf_counter()
     protocol = PROTOCOLS.load("standard", grip_force=10.0)
-    context = PlanContext.from_params(protocol.params)
+    context = PlanContext.from_params(protocol.params, grasping_friction(SceneConfig(), hand))
     found = planner.synthesise(observation, hand, args.grasps, np.random.default_rng(args.seed), None, context)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     hk, sdf = planner.kinematics(hand), planner.object_sdf(observation)
@@ -124,7 +124,8 @@ def hold_vs_outcome(run_dir: str, config: str) -> None:
         if g.planner.name != "dexopt":
             continue
         scene = scene_for(g)
-        context = PlanContext.from_params(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params)
+        context = PlanContext.from_params(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params,
+                                          grasping_friction(g.scene, scene.hand))
         pose = settle_object(scene)
         observation, _ = observe_with_info(g.observation, _asset(g), pose, scene, seed=g.seed, camera=g.camera)
         planner = DexOptPlanner(**dict(g.planner.params))

@@ -209,3 +209,33 @@ def test_squeeze_caps_put_the_protocols_grip_on_the_weaker_side_and_pad_forces_b
     # Two pads on one joint (a finger with two links): any split with the sum = torque; nnls finds one >= 0.
     forces = pad_forces(np.array([[1.0], [2.0]]), np.array([4.0]))
     assert np.all(forces >= 0) and forces @ [1.0, 2.0] == pytest.approx(4.0)
+
+
+def test_the_hold_test_assumes_the_scenes_contact_friction_unless_the_planner_sets_its_own(tmp_path) -> None:
+    """The same grasps (same seed): their hold margins at the rubber's 1.0 exceed those at 0.5 (friction
+    carries the weight), 0.5 is what a context without a friction gives, and an explicit `friction` wins."""
+    from dataclasses import replace
+
+    from manigrasp.contact.defaults import STANDARD_MU
+    from manigrasp.objects import build_object
+    from manigrasp.planners.context import PlanContext
+
+    asset = build_object(trimesh.creation.cylinder(0.033, 0.10, sections=48), name="dexopt_test_can", mass=0.35,
+                         cache_root=tmp_path).asset
+    observation = Observation.from_asset(asset)
+    hand = load_hand("inspire_right")
+    base = replace(PlanContext.standard(), grip_force=10.0)
+    rubber = replace(base, contact_friction=1.0)
+
+    def margins(planner: DexOptPlanner, context: PlanContext) -> dict[float, float]:
+        found = planner.synthesise(observation, hand, 100, np.random.default_rng(5), None, context)
+        return {round(s.energy, 9): s.hold for s in found}
+
+    planner = DexOptPlanner(restarts=8, iterations=60)
+    assert planner.contact_friction(base) == STANDARD_MU and planner.contact_friction(rubber) == 1.0
+    assert DexOptPlanner(friction=0.7).contact_friction(rubber) == 0.7
+    unknown, rigid, soft = margins(planner, base), margins(planner, replace(base, contact_friction=0.5)), \
+        margins(planner, rubber)
+    assert unknown == rigid and soft.keys() == rigid.keys()
+    assert all(soft[e] >= rigid[e] for e in rigid) and any(soft[e] > rigid[e] > 0 for e in rigid)
+    assert margins(DexOptPlanner(restarts=8, iterations=60, friction=0.5), rubber) == rigid

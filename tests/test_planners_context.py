@@ -20,7 +20,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.geometry import pregrasp_pose
 from manigrasp.objects.catalog import ObjectSource
 from manigrasp.planners.collision import HandProbe
-from manigrasp.planners.context import PlanContext, takes_context
+from manigrasp.planners.context import PlanContext, grasping_friction, takes_context
 from manigrasp.protocol import PROTOCOLS
 from manigrasp.sim import SceneConfig
 
@@ -66,6 +66,8 @@ def test_the_grip_force_is_the_protocols_capped_at_the_hands_maximum(jaw) -> Non
 def test_a_bad_context_is_a_config_error() -> None:
     with pytest.raises(ConfigError, match="pregrasp_offset"):
         _context(-0.01)
+    with pytest.raises(ConfigError, match="contact_friction"):
+        replace(PlanContext.standard(), contact_friction=-0.1)
     with pytest.raises(ConfigError, match="antipodal: pregrasp_offset"):
         planners.load("antipodal", pregrasp_offset=float("nan"))
 
@@ -193,3 +195,40 @@ def test_the_harness_plans_for_the_groups_protocol(tmp_path: Path) -> None:
     plan = worker.plan_group(group)
     assert plan.error is None, plan.error
     assert len(plan.candidates) == 4 and {c.pregrasp_offset for c in plan.candidates} == {0.06}
+
+
+# ------------------------------------------------------------ the scene's contact friction
+@pytest.mark.parametrize("hand_name", ["parallel_jaw", "inspire_right", "allegro_right"])
+def test_the_grasping_friction_is_the_rubbers_with_compliant_pads_and_the_hands_with_rigid(hand_name) -> None:
+    from manigrasp.hands.registry import load as load_hand
+
+    hand = load_hand(hand_name)  # pads (parallel_jaw) or rubber-covered fingertips (the dexterous hands)
+    assert grasping_friction(SceneConfig(pads="compliant"), hand) == 1.0
+    assert grasping_friction(SceneConfig(pads="rigid"), hand) == 0.5
+    assert grasping_friction(SceneConfig(pads="compliant", pad_friction=0.8, hand_friction=0.3), hand) == 0.8
+    assert grasping_friction(SceneConfig(pads="rigid", pad_friction=0.8, hand_friction=0.3), hand) == 0.3
+    bare = replace(hand, pad_geoms=(), fingertip_geoms=())  # nothing rubber-covered: the hand's own friction
+    assert grasping_friction(SceneConfig(pads="compliant", hand_friction=0.3), bare) == 0.3
+    assert PlanContext.standard().contact_friction is None  # no scene: each planner assumes its own
+
+
+@pytest.mark.parametrize(("pads", "friction"), [("compliant", 1.0), ("rigid", 0.5)])
+def test_the_harness_tells_the_planner_the_scenes_contact_friction(tmp_path: Path, monkeypatch, pads: str,
+                                                                    friction: float) -> None:
+    seen: list[PlanContext] = []
+    real = planners.plan
+
+    def spy(planner, observation, hand, n, rng, context=None):
+        seen.append(context)
+        return real(planner, observation, hand, n, rng, context=context)
+
+    monkeypatch.setattr(planners, "plan", spy)
+    mesh = tmp_path / "ctx_box.obj"
+    trimesh.creation.box((0.05,) * 3).export(mesh)
+    source = ObjectSource(name="ctx_box", mesh=str(mesh), mass=0.3)
+    group = Group(source, "parallel_jaw", NamedEntry("antipodal"), NamedEntry("standard"), "ground_truth",
+                  SceneConfig(pads=pads), 2, 3, 60.0)
+    plan = worker.plan_group(group)
+    assert plan.error is None, plan.error
+    assert [c.contact_friction for c in seen] == [friction]
+    assert seen[0].perturbation == PROTOCOLS.load("standard").params.perturb_force_multiple

@@ -37,12 +37,16 @@ class PlanContext:
             `grip_force` is None [-].
         perturbation: the largest load beyond the object's weight that the protocol applies, in units
             of the object's weight m g, taken along each of +-x, +-y, +-z [-] (0: the weight only).
+        contact_friction: sliding friction [-] of the hand surfaces that grasp in this scene
+            (`grasping_friction`), or None: unknown, each planner assumes its own. A planner with its
+            own contact model may ignore it (antipodal and power do; dexopt's hold test uses it).
     """
 
     pregrasp_offset: float
     grip_force: float | None
     grip_fraction: float
     perturbation: float
+    contact_friction: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.pregrasp_offset) and self.pregrasp_offset >= 0):
@@ -53,6 +57,9 @@ class PlanContext:
             raise ConfigError(f"grip_fraction must be in (0, 1], got {self.grip_fraction}")
         if not (math.isfinite(self.perturbation) and self.perturbation >= 0):
             raise ConfigError(f"perturbation must be >= 0, got {self.perturbation}")
+        if self.contact_friction is not None and not (math.isfinite(self.contact_friction)
+                                                      and self.contact_friction >= 0):
+            raise ConfigError(f"contact_friction must be a finite friction >= 0 or None, got {self.contact_friction}")
 
     def grip_force_for(self, hand: Hand) -> float:
         """The grip force [N] the protocol closes `hand` to (capped at its maximum, as the close phase does)."""
@@ -60,8 +67,9 @@ class PlanContext:
         return min(target, hand.max_grip_force)
 
     @classmethod
-    def from_params(cls, params: Any) -> PlanContext:
-        """The context of a protocol's parameters (a `protocol.execution.GraspParams` or a subclass).
+    def from_params(cls, params: Any, contact_friction: float | None = None) -> PlanContext:
+        """The context of a protocol's parameters (a `protocol.execution.GraspParams` or a subclass), in a
+        scene whose grasping surfaces have `contact_friction` (None: unknown; `grasping_friction`).
 
         The perturbation is the protocol's own load in units of m g: `perturb_force_multiple` (standard),
         `force_multiple` (six_direction), the peak acceleration of the shaking over g
@@ -77,7 +85,8 @@ class PlanContext:
         else:
             perturbation = 0.0
         return cls(pregrasp_offset=float(params.pregrasp_offset), grip_force=params.grip_force,
-                   grip_fraction=float(params.grip_force_fraction), perturbation=perturbation)
+                   grip_fraction=float(params.grip_force_fraction), perturbation=perturbation,
+                   contact_friction=None if contact_friction is None else float(contact_friction))
 
     @staticmethod
     def standard() -> PlanContext:
@@ -90,6 +99,16 @@ def _standard() -> PlanContext:
     from manigrasp.protocol.standard import StandardParams
 
     return PlanContext.from_params(StandardParams())
+
+
+def grasping_friction(scene: Any, hand: Hand) -> float:
+    """The sliding friction [-] of `hand`'s grasping surfaces against the object in a scene of `scene`
+    (a `manigrasp.sim.SceneConfig`): with ``pads: compliant``, the rubber's `pad_friction` if the hand has
+    pads or rubber-covered fingertips (`Hand.pad_geoms`, `Hand.fingertip_geoms`); otherwise, and with
+    ``pads: rigid``, `hand_friction` (the hand geoms take contact priority, so theirs is the contact's)."""
+    if scene.pads == "compliant" and (hand.pad_geoms or hand.fingertip_geoms):
+        return float(scene.pad_friction)
+    return float(scene.hand_friction)
 
 
 def resolve(context: PlanContext | None, pregrasp_offset: float | None = None, grip_fraction: float | None = None,

@@ -160,8 +160,10 @@ class DexOptPlanner:
         nms_distance: [m]; nms_angle: [rad] (non-maximum suppression thresholds).
         pregrasp_offset: pre-grasp distance back along the approach [m] over which the pre-shape is checked;
             None: the protocol's (`PlanContext.pregrasp_offset`).
-        friction: sliding friction [-] of the hand-object contacts the hold test assumes (the scene's rigid
-            hand friction by default; 1.0 for rubber fingertips, `scene.pads: compliant`).
+        friction: sliding friction [-] of the hand-object contacts the hold test assumes; None (the
+            default): the scene's, `PlanContext.contact_friction` (the fingertips' rubber, 1.0, with
+            ``scene.pads: compliant``; the hand's 0.5 with rigid pads), or 0.5 (`STANDARD_MU`) when the
+            context does not know it (a planner called directly, `manigrasp plan`). `contact_friction`.
         torsion: torsional friction [m] of those contacts (soft fingers).
         min_hold_margin: grasps whose hold margin (step 6) reaches this come first [-].
         density: of an object without a built asset, for its mass [kg/m^3].
@@ -191,7 +193,7 @@ class DexOptPlanner:
     nms_distance: float = DEFAULT_DISTANCE
     nms_angle: float = DEFAULT_ANGLE
     pregrasp_offset: float | None = None
-    friction: float = STANDARD_MU
+    friction: float | None = None
     torsion: float = STANDARD_TORSION_M
     min_hold_margin: float = 1.0
     density: float = DEFAULT_DENSITY
@@ -212,10 +214,20 @@ class DexOptPlanner:
                     "preshape_backoff"):
             if not float(getattr(self, key)) > 0:
                 raise ConfigError(f"dexopt: {key} must be > 0, got {getattr(self, key)}")
-        if self.friction < 0 or self.torsion < 0 or self.min_hold_margin < 0 or not self.density > 0:
+        negative_friction = self.friction is not None and self.friction < 0
+        if negative_friction or self.torsion < 0 or self.min_hold_margin < 0 or not self.density > 0:
             raise ConfigError("dexopt: friction, torsion and min_hold_margin must be >= 0, density > 0")
         if self.max_penetration < 0 or self.table_clearance < 0 or not 0 <= self.init_closure <= 1:
             raise ConfigError("dexopt: max_penetration and table_clearance must be >= 0, init_closure in [0, 1]")
+
+    def contact_friction(self, context: PlanContext | None = None) -> float:
+        """The sliding friction [-] the hold test assumes: `friction` if set, else the scene's
+        (`PlanContext.contact_friction` of `context`), else `STANDARD_MU`."""
+        if self.friction is not None:
+            return float(self.friction)
+        if context is not None and context.contact_friction is not None:
+            return float(context.contact_friction)
+        return STANDARD_MU
 
     # ------------------------------------------------------------------ planner interface
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
@@ -414,6 +426,7 @@ class DexOptPlanner:
             mesh = observation.world_mesh()
             mass = self.density * float(mesh.volume if mesh.is_watertight else mesh.convex_hull.volume)
         external = loads(mass, context.perturbation)
+        mu = self.contact_friction(context)
         probe = HandProbe(hk.hand, observation, clearance=0.0)
         addresses = probe.hand_qpos_addresses()
         names = [hk.model.joint(j).name for j in hk.joints]
@@ -456,7 +469,7 @@ class DexOptPlanner:
             joints, press = path
             caps = squeeze_caps(press[touching], hk.pad_finger[chosen][touching] == 0, grip)
             hold = hold_margin(x[touching], normal[touching], caps, observation.center_of_mass, external,
-                               self.friction, self.torsion)
+                               mu, self.torsion)
             passed.append(Synthesis(pose=tcp, q=q[i].copy(), joints=joints, energy=float(energy[i]),
                                     terms={key: float(v[i]) for key, v in terms.items()},
                                     contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold))
