@@ -70,7 +70,7 @@ def main() -> None:
             continue
         mesh = observation.world_mesh()
         poses = np.array([r.grasp.matrix() for _, r in rows])
-        ratio, _, tilt = footprint.seat(mesh, poses)
+        ratio, _, tilt, _ = footprint.seat(mesh, poses)
         tilt = np.degrees(np.nanmax(np.where(np.isnan(tilt), -np.inf, tilt), axis=1))  # the more tilted pad
         ok = np.array([r.status.value == "success" for _, r in rows])
         low = ratio < args.below

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from manigrasp import planners
-from manigrasp.objects import build_object
+from manigrasp import hands, planners
+from manigrasp.objects import build_object, catalog
 from manigrasp.planners.footprint import PadFootprint, pressure
 
 # parallel_jaw's pads: 2 x 3 cm faces centred on the TCP, 4 cm from it on the open jaw
@@ -71,17 +71,33 @@ def test_the_patch_tilt_is_the_faces_tilt_under_the_pad(degrees):
     # sinks into; a scan's per-point normals would add their noise to it
     box = trimesh.creation.box((0.05, 0.12, 0.12))
     box.apply_transform(trimesh.transformations.rotation_matrix(np.radians(degrees), [0.0, 0.0, 1.0]))
-    _, _, tilt = PADS.seat(box, tcp((0.0, 0.0, 0.0))[None])
+    tilt = PADS.seat(box, tcp((0.0, 0.0, 0.0))[None]).tilt
     assert np.degrees(tilt[0]) == pytest.approx([degrees, degrees], abs=0.05)
 
 
-def test_a_patch_on_one_line_has_no_tilt():
-    # a pad touching one row of cells (a thin plate's edge) defines no plane: NaN, the planner keeps the pair's
-    plate = trimesh.creation.box((0.05, 0.12, 0.004))
-    plate.apply_translation([0.0, 0.0, 0.0025])  # under one row of the 5 mm cells (centred 2.5 mm off the TCP)
-    ratio, _, tilt = PADS.seat(plate, tcp((0.0, 0.0, 0.0))[None])
-    assert ratio[0] > 0  # touching
-    assert np.isnan(tilt).all()
+def test_a_flat_face_supports_the_pad_to_the_uniform_patch_kern():
+    # a pad flat on a face resists a torque about either axis of its face with its pressure until its centre of
+    # pressure reaches the kern, L / 6 of its side (the discrete 4 x 6 cells: 3.1 and 4.9 mm)
+    box = trimesh.creation.box((0.05, 0.12, 0.12))
+    support = PADS.seat(box, tcp((0.0, 0.0, 0.0))[None]).support[0]
+    assert support[:, 0] == pytest.approx(0.02 / 6, rel=0.07)
+    assert support[:, 1] == pytest.approx(0.03 / 6, rel=0.07)
+
+
+@pytest.mark.parametrize("degrees", [0.0, 8.0])
+def test_a_pad_on_a_strip_pivots_about_it_and_feels_the_strips_tilt(degrees):
+    # a thin plate's edge (a bowl's rim) under one row of the 5 mm cells, its faces turned by `degrees` about the
+    # row: the gaps along one row cannot tell that slope, the faces the rays hit can; and the pad's pressure has
+    # no lever across the row (the object pivots about it), all of it along the row
+    plate = trimesh.creation.box((0.01, 0.12, 0.004))
+    plate.apply_transform(trimesh.transformations.rotation_matrix(np.radians(degrees), [0.0, 1.0, 0.0]))
+    plate.apply_translation([0.0, 0.0, 0.0025])  # centred on the row of cells 2.5 mm off the TCP
+    seat = PADS.seat(plate, tcp((0.0, 0.0, 0.0))[None])
+    assert seat.ratio[0] > 0  # touching
+    assert np.degrees(seat.tilt[0]) == pytest.approx([degrees, degrees], abs=0.05)
+    assert seat.support[0, :, 1] == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert seat.support[0, :, 0] == pytest.approx(PADS.seat(trimesh.creation.box((0.05, 0.12, 0.12)),
+                                                             tcp((0.0, 0.0, 0.0))[None]).support[0, :, 0])
 
 
 def test_the_more_a_face_curves_under_the_pad_the_less_torsion():
@@ -123,3 +139,18 @@ def test_the_planner_seats_its_pads_on_a_bulged_face(jaw, tmp_path):
     # with the footprint, the pads sit on more of the face (where the bulge is flattest), never less on average
     assert seated[True].mean() > seated[False].mean() + 0.02
     assert seated[True].min() >= seated[False].min()
+
+
+def test_the_planner_holds_a_bowl_by_the_wall_not_the_pads_ends():
+    # a bowl held by its 4 mm rim hangs 8 cm off the grasp line: what holds it is the pads' pressure along the
+    # wall. Poses whose pads only reach the rim with their ends (one row of cells) turn it in the grip (the
+    # footprint without `patch_support` chose only those: 0 of 20 held on the standard protocol)
+    jaw = hands.load("parallel_jaw")
+    obs = planners.Observation.from_asset(catalog.build(catalog.shipped("024_bowl")).asset)
+    result = planners.plan(planners.load("antipodal"), obs, jaw, 10, np.random.default_rng(0))
+    assert len(result.candidates) == 10
+    world = obs.world_mesh()
+    poses = np.array([c.pose for c in result.candidates])
+    assert np.all(np.array([c.width for c in result.candidates]) < 0.01)  # on the rim
+    support = PADS.seat(world, poses).support
+    assert support[:, :, 1].min() > 0.002  # every pad bears on the wall (a uniform patch over 12 mm: 2 mm)

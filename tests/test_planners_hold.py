@@ -55,6 +55,29 @@ def test_a_tilted_normal_needs_more_grip():
     assert tilted > straight
 
 
+def test_the_pads_pressure_takes_the_tipping_torque_of_a_thin_rim():
+    """A bowl held by its 4 mm rim: the centre of mass R along the grasp line, so the weight tips it about the
+    horizontal axis across the line. Point contacts take that with a friction couple 4 mm wide; pads whose
+    centre of pressure can move e along the wall take 2 G e of it with their pressure (closed form below)."""
+    mass, radius, width, e = 0.147, 0.08, 0.004, 0.005
+    p, q = np.array([[-width / 2, 0.0, 0.0]]), np.array([[width / 2, 0.0, 0.0]])
+    centre, weight = np.array([radius, 0.0, -0.02]), loads(mass)[:1]
+    mg = mass * GRAVITY
+    points = required_grip(p, q, centre, weight, MU, GAMMA)[0]
+    assert points == pytest.approx(mg * (1 + 2 * radius / width) / (2 * MU), rel=1e-4)
+    # across = y: the torque R m g about y is taken by pressure moving along z (support[..., 1])
+    support = np.array([[[0.0, e], [0.0, e]]])
+    pads = required_grip(p, q, centre, weight, MU, GAMMA, support=support, across=np.array([[0.0, 1.0, 0.0]]))[0]
+    # 2 mu G = m g + 2 (R m g - 2 G e) / w while 2 G e < R m g
+    expected = mg * (1 + 2 * radius / width) / (2 * MU + 4 * e / width)
+    assert expected < radius * mg / (2 * e)
+    assert pads == pytest.approx(expected, rel=1e-4)
+    # support along the other axis (a pad on a strip across the wall) takes none of it
+    strip = required_grip(p, q, centre, weight, MU, GAMMA, support=support[:, :, ::-1],
+                          across=np.array([[0.0, 1.0, 0.0]]))[0]
+    assert strip == pytest.approx(points, rel=1e-4)
+
+
 @pytest.mark.parametrize("d", [0.0, 0.01, 0.03, 0.06])
 def test_the_closed_form_agrees_with_the_wrench_resistance_lp(d):
     """The LP (linearised, inscribed cones) cannot hold below the exact elliptic requirement, and holds at twice it

@@ -66,11 +66,16 @@ sinks `pad_compression` on a flat face shares the grip among the cells within
 reach, and the patch's torsion radius about the point it pivots on (the
 weighted geometric median of the cells' loads) is compared with a flat face
 under the whole pad. The pose's hold margin is the pair's, computed on the
-grasp line moved to that pivot with gamma times that ratio and with each
+grasp line moved to that pivot with gamma times that ratio, with each
 contact's tilt that of the plane fitted to the surface its pad touches
 (`footprint.patch_tilt`: what a pad pressed on a patch feels; a scan's point
-normals carry its noise, and contact p's tilt is 0 by construction); the
-pose's score is the pair's with that hold margin, and ranks it. A pad half over an edge,
+normals carry its noise, and contact p's tilt is 0 by construction; a pad
+on a single row of cells takes the tilt of the faces it touches), and with
+the torque across the grasp line taken in part by the pads' pressure, up to
+the grip times the patch's kern (`footprint.patch_support`: a pad along a
+bowl's wall holds it up where a pad touching the rim with its end lets it
+tip about that line); the pose's score is the pair's with that hold margin,
+and ranks it. A pad half over an edge,
 or on a face that bulges or curves away by millimetres (a scanned carton,
 whose grasps near its rounded edges load one end of each pad and let it turn
 in the grip), ranks below a pose whose pads sit flat; on a flat face fully
@@ -332,18 +337,21 @@ class AntipodalPlanner:
 
     def hold(self, pairs: Pairs, center: np.ndarray, mass: float, hand: Hand,
              context: PlanContext | None = None, torsion: np.ndarray | None = None,
-             tilt: np.ndarray | None = None) -> np.ndarray:
+             tilt: np.ndarray | None = None, support: np.ndarray | None = None,
+             across: np.ndarray | None = None) -> np.ndarray:
         """(m,) hold margin h of each pair at the protocol's grip force and loads (module docstring, `hold`;
         `context` None: the standard protocol's, with this planner's own settings); `torsion` (m,) scales
         each pair's torsional friction gamma (the pads' footprint ratio; None: 1); `tilt` (m, 2) [rad] the
-        contacts' normals off the grasp line where known (the pads' patches; NaN or None: the pair's normals)."""
+        contacts' normals off the grasp line where known (the pads' patches; NaN or None: the pair's normals);
+        `support` (m, 2, 2) [m] and `across` (m, 3) the pads' kerns and the axis across their faces
+        (`hold.required_grip`; None: point contacts)."""
         context = resolve(context, grip_fraction=self.grip_fraction, perturbation=self.perturbation)
         own = np.arccos(np.clip(np.stack([-np.einsum("ij,ij->i", pairs.n_p, pairs.axis),
                                           np.einsum("ij,ij->i", pairs.n_q, pairs.axis)], axis=1), -1.0, 1.0))
         tilt = own if tilt is None else np.where(np.isnan(tilt), own, tilt)
         gamma = self.contact.gamma if torsion is None else self.contact.gamma * np.asarray(torsion, float)
         required = required_grip(pairs.p, pairs.q, center, loads(mass, context.perturbation), self.contact.mu,
-                                 gamma, tilt)
+                                 gamma, tilt, support, across)
         return hold_margin(context.grip_force_for(hand), required)
 
     def _pose_score(self, pairs: Pairs, eps: np.ndarray, center: np.ndarray, mass: float, hand: Hand,
@@ -359,9 +367,10 @@ class AntipodalPlanner:
             quality = quality * confidence
 
         def pose_score(poses: np.ndarray, pair_of: np.ndarray) -> np.ndarray:
-            ratio, pivot, tilt = footprint.seat(mesh, poses)
-            seated = on_pivot(pairs.take(pair_of), poses, pivot)
-            hold = self.hold(seated, center, mass, hand, context, torsion=ratio, tilt=tilt)
+            seat = footprint.seat(mesh, poses)
+            seated = on_pivot(pairs.take(pair_of), poses, seat.pivot)
+            hold = self.hold(seated, center, mass, hand, context, torsion=seat.ratio, tilt=seat.tilt,
+                             support=seat.support, across=poses[:, :3, 0])
             return np.clip(hold / self.hold_ref, 0.0, 1.0) * quality[pair_of]
 
         return pose_score

@@ -28,6 +28,12 @@ Model (vectorised over poses; pure NumPy and trimesh ray casts):
    T(c) / (2 G) is the patch's torsion radius; on a flat face fully under both
    pads it is the uniform patch's mean |r| (0.0097 m for 2 x 3 cm).
 
+4. Each pad's patch resists a torque across the grasp line with its pressure,
+   up to its force times its kern (`patch_support`): a pad touching one row of
+   cells (a bowl's rim under the pad's end) has none across the row, and the
+   object tips about it. Each pad's tilt (`patch_tilt`) is that of the plane
+   fitted to its cells' gaps, or, on one row, that of the faces it touches.
+
 `PadFootprint.evaluate` returns, per pose, the ratio of that torsion radius to
 the flat face's (1: seated like on a flat face; 0.5: half the torsion) and the
 pivot c in the TCP frame (x, z) [m], where the planner puts the grasp line.
@@ -36,6 +42,7 @@ pivot c in the TCP frame (x, z) [m], where the planner puts the grasp line.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -48,6 +55,22 @@ from manigrasp.planners.pairs import Pairs
 WEISZFELD_STEPS = 8  # relative error of the torsion < 0.1 % from the centroid start
 DEFAULT_COMPRESSION = 0.001  # [m], the compliant pad's compression at the standard grip (hands.pads)
 DEFAULT_GRID = (4, 6)  # cells across (x) and along (z) a pad face
+
+
+class Seat(NamedTuple):
+    """How two pads sit on the surface at k TCP poses (`PadFootprint.seat`).
+
+    Attributes:
+        ratio: (k,) torsion ratio (`patch_torsion`).
+        pivot: (k, 2) the point the object turns about, (x, z) in the TCP frame [m].
+        tilt: (k, 2) each pad's patch tilt [rad] (`patch_tilt`; NaN where the pad touches nothing).
+        support: (k, 2, 2) how far each pad's centre of pressure can move along x and z [m] (`patch_support`).
+    """
+
+    ratio: np.ndarray
+    pivot: np.ndarray
+    tilt: np.ndarray
+    support: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -79,31 +102,41 @@ class PadFootprint:
 
     def gaps(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> np.ndarray:
         """(k, 2, n) gap [m] of each cell of each pad (finger 1, 2) at TCP poses (k, 4, 4) (inf: off the object)."""
+        return self.cast(mesh, poses)[0]
+
+    def cast(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Gaps (k, 2, n) [m] (`gaps`) and the inward normal of the face each cell's ray hits, in the TCP frame
+        (k, 2, n, 3) (NaN: off the object), at TCP poses (k, 4, 4)."""
         cells = self.cells
         k, n = len(poses), len(cells)
         out = np.empty((k, 2, n))
+        inward = np.full((k, 2, n, 3), np.nan)
+        normals = np.asarray(mesh.face_normals, float)
         for finger, side in enumerate((-1.0, 1.0)):
             local = np.column_stack([cells[:, 0], np.full(n, side * self.open_half_width), cells[:, 1]])
             origins = np.einsum("kij,nj->kni", poses[:, :3, :3], local) + poses[:, None, :3, 3]
             direction = -side * poses[:, :3, 1]  # finger 1 closes along +y, finger 2 along -y
-            _, dist = first_hits(mesh, origins.reshape(-1, 3), np.repeat(direction, n, axis=0))
+            faces, dist = first_hits(mesh, origins.reshape(-1, 3), np.repeat(direction, n, axis=0))
             out[:, finger] = dist.reshape(k, n)
+            world = np.where((faces >= 0)[:, None], -normals[np.maximum(faces, 0)], np.nan).reshape(k, n, 3)
+            inward[:, finger] = np.einsum("kji,knj->kni", poses[:, :3, :3], world)
         nearest = out.min(axis=2, keepdims=True)
-        return np.where(np.isfinite(out), out - np.where(np.isfinite(nearest), nearest, 0.0), np.inf)
+        gaps = np.where(np.isfinite(out), out - np.where(np.isfinite(nearest), nearest, 0.0), np.inf)
+        return gaps, np.where(np.isfinite(gaps)[..., None], inward, np.nan)
 
     def evaluate(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Torsion ratio (k,) and pivot (k, 2) (x, z in the TCP frame [m]) at TCP poses (k, 4, 4) (module docstring)."""
-        ratio, pivot, _ = self.seat(mesh, poses)
-        return ratio, pivot
+        seat = self.seat(mesh, poses)
+        return seat.ratio, seat.pivot
 
-    def seat(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Torsion ratio (k,), pivot (k, 2) and each pad's patch tilt (k, 2) [rad] (`patch_tilt`; NaN where
-        it is undefined) at TCP poses (k, 4, 4)."""
+    def seat(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> Seat:
+        """How the pads sit at TCP poses (k, 4, 4) (`Seat`)."""
         if len(poses) == 0:
-            return np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2))
-        gaps = self.gaps(mesh, poses)
+            return Seat(np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2, 2)))
+        gaps, inward = self.cast(mesh, poses)
         ratio, pivot = patch_torsion(gaps, self.cells, self.compression)
-        return ratio, pivot, patch_tilt(gaps, self.cells, self.compression)
+        return Seat(ratio, pivot, patch_tilt(gaps, self.cells, self.compression, inward),
+                    patch_support(gaps, self.cells, self.compression))
 
 
 def pressure(gaps: np.ndarray, compression: float) -> np.ndarray:
@@ -141,11 +174,17 @@ def patch_torsion(gaps: np.ndarray, cells: np.ndarray, compression: float) -> tu
     return np.where(seated, torsion / flat, 0.0), pivot
 
 
-def patch_tilt(gaps: np.ndarray, cells: np.ndarray, compression: float) -> np.ndarray:
+def patch_tilt(gaps: np.ndarray, cells: np.ndarray, compression: float,
+               inward: np.ndarray | None = None) -> np.ndarray:
     """(k, 2) angle [rad] between the closing axis and the normal of the surface each pad touches, from the cell
     gaps (k, 2, n) at `cells` (n, 2) [m]: the slope of the plane fitted to the touched cells' gaps (least
     squares weighted by their loads, `pressure`). What a pad pressed flat on a patch feels, where a scan's
-    per-point normals carry the scan's noise. NaN where fewer than three cells off one line touch."""
+    per-point normals carry the scan's noise.
+
+    Where the touched cells do not span a plane (fewer than three off one line: a pad on a strip, such as a
+    thin rim or the pad's end on an edge), the gaps cannot tell the slope across the strip; the load-weighted
+    mean of the touched faces' inward normals `inward` (k, 2, n, 3) in the TCP frame (`PadFootprint.cast`)
+    gives the tilt there. Without `inward`: NaN there."""
     w = pressure(gaps, compression)  # (k, 2, n)
     g = np.where(w > 0, gaps, 0.0)
     mean_x, mean_g = w @ cells, (w * g).sum(axis=-1)  # (k, 2, 2), (k, 2) (the shares sum to 1)
@@ -159,7 +198,33 @@ def patch_tilt(gaps: np.ndarray, cells: np.ndarray, compression: float) -> np.nd
     det = np.where(ok, det, 1.0)
     sx = (a[..., 1, 1] * b[..., 0] - a[..., 0, 1] * b[..., 1]) / det
     sz = (a[..., 0, 0] * b[..., 1] - a[..., 1, 0] * b[..., 0]) / det
-    return np.where(ok, np.arctan(np.hypot(sx, sz)), np.nan)
+    fitted = np.arctan(np.hypot(sx, sz))
+    if inward is None:
+        return np.where(ok, fitted, np.nan)
+    mean = np.einsum("...n,...ni->...i", w, np.where(w[..., None] > 0, inward, 0.0))  # (k, 2, 3)
+    closing = np.array([1.0, -1.0])[None, :] * mean[..., 1]  # finger 1 closes along +y, finger 2 along -y
+    norm = np.linalg.norm(mean, axis=-1)
+    strip = np.where(norm > 0, np.arccos(np.clip(closing / np.maximum(norm, 1e-300), -1.0, 1.0)), np.nan)
+    return np.where(ok, fitted, strip)
+
+
+def patch_support(gaps: np.ndarray, cells: np.ndarray, compression: float) -> np.ndarray:
+    """(k, 2, 2) [m] how far each pad's centre of pressure can move across (x) and along (z) its face before
+    part of its patch lets go, from the cell gaps (k, 2, n) at `cells` (n, 2) [m]: the kern of the patch.
+
+    A pad pressed with force f on a patch that reaches distances d_i from its centre of pressure (loads w_i,
+    `pressure`) resists a torque about the other axis of its face with its normal pressure, up to f e. For a
+    uniform rectangle of length L the elastic foundation keeps every part in contact up to e = L / 6 (the
+    kern: its moment of the pressure over its extreme distance); here e = sum w_i d_i^2 / (2 sum w_i |d_i|),
+    which is that kern on a uniform patch (L / 6, and 4.9 mm on the 6 cells of a 3 cm face) and varies
+    continuously with the loads, so a cell barely within reach adds little. A pad touching one row of cells (a
+    thin rim, or its end on an edge) has none along the rows' normal: the object pivots about that line."""
+    w = pressure(gaps, compression)  # (k, 2, n)
+    centre = w @ cells  # (k, 2, 2) the centres of pressure
+    d = np.abs(cells[None, None] - centre[..., None, :])  # (k, 2, n, 2)
+    second = np.einsum("...n,...ni->...i", w, d**2)
+    first = np.einsum("...n,...ni->...i", w, d)
+    return np.where(first > 1e-12, second / (2.0 * np.maximum(first, 1e-12)), 0.0)
 
 
 def _median_torsion(weights: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

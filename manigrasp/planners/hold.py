@@ -13,7 +13,10 @@ The balance of the object splits exactly (two contacts on one line):
 - along a: f_1 - f_2 = -F.a; a symmetric jaw shares it, f_1,2 = G -/+ (F.a) / 2;
 - across a: the tangential forces t_1 + t_2 = -F_perp and their couple
   (w / 2) a x (t_2 - t_1) = -tau_perp fix t_1 and t_2 (a tipping torque
-  needs a wide grasp);
+  needs a wide grasp); with pads (`support`, from `footprint.patch_support`)
+  each pad's normal pressure first takes up to f_i e_i of each component of
+  tau_perp (e_i: how far its centre of pressure can move along the other
+  axis of its face), and the couple only what is left;
 - about a: only the contacts' torsion resists tau_a = a.(r x F), the
   gravity torque m g d of a grasp a distance d from the centre of mass:
   gamma (sqrt(f_1^2 - (|t_1|/mu_1)^2) + sqrt(f_2^2 - (|t_2|/mu_2)^2)) >= |tau_a|.
@@ -51,8 +54,9 @@ def loads(mass: float, perturbation: float = 1.0, gravity: float = GRAVITY) -> n
 
 
 def _split(p: np.ndarray, q: np.ndarray, center: np.ndarray,
-           forces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Axial load (m, L), tangential loads of contacts 1 and 2 (m, L) and |torque about the line| (m, L) [N, N m]."""
+           forces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Unit axis (m, 3) and width (m,) of the grasp line, axial load (m, L), load across the line (m, L, 3),
+    torque across the line (m, L, 3) and |torque about the line| (m, L) [N, N m]."""
     line = q - p
     width = np.linalg.norm(line, axis=1)
     a = line / np.maximum(width, 1e-12)[:, None]
@@ -62,10 +66,15 @@ def _split(p: np.ndarray, q: np.ndarray, center: np.ndarray,
     torque = np.cross(r[:, None], forces[None])  # (m, L, 3)
     tau_a = np.einsum("mlj,mj->ml", torque, a)
     tau_perp = torque - tau_a[..., None] * a[:, None]
+    return a, width, axial, f_perp, tau_perp, np.abs(tau_a)
+
+
+def _tangential(a: np.ndarray, width: np.ndarray, f_perp: np.ndarray,
+                tau_perp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """|tangential load| of contacts 1 and 2 (m, L) [N]: their sum balances the load across the line, their
+    couple (arm: the width) the torque across it."""
     couple = (2.0 / np.maximum(width, 1e-12))[:, None, None] * np.cross(a[:, None], tau_perp)
-    t1 = np.linalg.norm(-f_perp - couple, axis=2) / 2.0
-    t2 = np.linalg.norm(-f_perp + couple, axis=2) / 2.0
-    return axial, t1, t2, np.abs(tau_a)
+    return np.linalg.norm(-f_perp - couple, axis=2) / 2.0, np.linalg.norm(-f_perp + couple, axis=2) / 2.0
 
 
 def effective_friction(mu: float, tilt: np.ndarray) -> np.ndarray:
@@ -75,7 +84,8 @@ def effective_friction(mu: float, tilt: np.ndarray) -> np.ndarray:
 
 
 def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.ndarray, mu: float,
-                  gamma: float | np.ndarray, tilt: np.ndarray | None = None) -> np.ndarray:
+                  gamma: float | np.ndarray, tilt: np.ndarray | None = None,
+                  support: np.ndarray | None = None, across: np.ndarray | None = None) -> np.ndarray:
     """(m,) the smallest grip force [N] with which contacts p, q (m, 3) [m] hold every one of `forces` (L, 3) [N]
     acting at `center` (3,) [m] (module docstring).
 
@@ -83,6 +93,11 @@ def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.n
         mu: sliding friction [-]; gamma: torsional friction of a soft finger [m], one for all or one per
             pair (m,) (e.g. scaled by how the pads sit on the surface: `footprint`); at least 1e-9.
         tilt: (m, 2) angles [rad] between each contact's inward normal and the grasp line (default 0).
+        support: (m, 2, 2) [m] how far each pad's (1, 2) centre of pressure can move, along `across` and along
+            the third axis a x `across`, before part of its patch lets go (`footprint.patch_support`): a pad
+            pressed with f resists up to f times that of the torque across the line about the other axis
+            with its normal pressure, on top of the contacts' friction couple. None: points (no such moment).
+        across: (m, 3) unit vectors across the grasp line (the pads' faces' first axis); with `support`.
     """
     m = len(p)
     if m == 0:
@@ -90,15 +105,33 @@ def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.n
     gamma = np.maximum(np.broadcast_to(np.asarray(gamma, float), (m,)), 1e-9)[:, None]
     tilt = np.zeros((m, 2)) if tilt is None else np.asarray(tilt, float)
     mu_eff = effective_friction(mu, tilt)  # (m, 2)
-    axial, t1, t2, tau = _split(p, q, np.asarray(center, float), np.asarray(forces, float))
+    a, width, axial, f_perp, tau_perp, tau = _split(p, q, np.asarray(center, float), np.asarray(forces, float))
+    t1, t2 = _tangential(a, width, f_perp, tau_perp)
     need1, need2 = t1 / mu_eff[:, :1], t2 / mu_eff[:, 1:]  # (m, L) normal force each contact needs for sliding
     lo = np.maximum.reduce([need1 + axial / 2.0, need2 - axial / 2.0, np.abs(axial) / 2.0])
     hi = lo + tau / (2.0 * gamma)  # there sqrt(f^2 - need^2) >= f - need >= tau / (2 gamma) at both contacts
+    if support is not None:
+        # the pads' pressure only lowers what the friction must take: the point-contact requirement bounds it
+        lo = np.abs(axial) / 2.0
+        u = np.asarray(across, float)
+        u = u - np.einsum("mj,mj->m", u, a)[:, None] * a
+        u = u / np.maximum(np.linalg.norm(u, axis=1), 1e-12)[:, None]
+        v = np.cross(a, u)
+        tau_u, tau_v = np.einsum("mlj,mj->ml", tau_perp, u), np.einsum("mlj,mj->ml", tau_perp, v)
+        s = np.asarray(support, float)  # torque about u: pressure moving along v, and about v: along u
 
     def holds(grip: np.ndarray) -> np.ndarray:
         f1, f2 = grip - axial / 2.0, grip + axial / 2.0
-        torsion = np.sqrt(np.clip(f1**2 - need1**2, 0.0, None)) + np.sqrt(np.clip(f2**2 - need2**2, 0.0, None))
-        return gamma * torsion >= tau
+        n1, n2 = need1, need2
+        if support is not None:
+            about_u = np.maximum(np.abs(tau_u) - (f1 * s[:, :1, 1] + f2 * s[:, 1:, 1]), 0.0) * np.sign(tau_u)
+            about_v = np.maximum(np.abs(tau_v) - (f1 * s[:, :1, 0] + f2 * s[:, 1:, 0]), 0.0) * np.sign(tau_v)
+            left = about_u[..., None] * u[:, None] + about_v[..., None] * v[:, None]
+            c1, c2 = _tangential(a, width, f_perp, left)
+            n1, n2 = c1 / mu_eff[:, :1], c2 / mu_eff[:, 1:]
+        ok = (f1 >= n1) & (f2 >= n2)
+        torsion = np.sqrt(np.clip(f1**2 - n1**2, 0.0, None)) + np.sqrt(np.clip(f2**2 - n2**2, 0.0, None))
+        return ok & (gamma * torsion >= tau)
 
     for _ in range(BISECTION_STEPS):
         mid = 0.5 * (lo + hi)
