@@ -199,9 +199,12 @@ def test_planner_returns_deterministic_valid_grasps_that_do_not_penetrate(tmp_pa
 def test_squeeze_caps_put_the_protocols_grip_on_the_weaker_side_and_pad_forces_balance_the_torques() -> None:
     from manigrasp.planners.dexopt_planner import pad_forces, squeeze_caps
 
-    # Thumb presses 2, three fingers 1 each: the thumb is the weaker side (2 < 3); the grip 10 N is its force.
+    # Thumb presses 2, three fingers 1 each: the thumb is the weaker side (2 < 3); the grip 10 N is its force,
+    # and the fingers press back with no more than it: 10 N shared as their presses are (not 15 N).
     caps = squeeze_caps(np.array([2.0, 1.0, 1.0, 1.0]), np.array([True, False, False, False]), 10.0)
-    np.testing.assert_allclose(caps, [10.0, 5.0, 5.0, 5.0])
+    np.testing.assert_allclose(caps, [10.0, 10 / 3, 10 / 3, 10 / 3])
+    uneven = squeeze_caps(np.array([1.0, 3.0, 1.0]), np.array([False, True, False]), 9.0)
+    np.testing.assert_allclose(uneven, [4.5, 9.0, 4.5])  # the thumb (3) the stronger side: the fingers' 9 N
     one_side = squeeze_caps(np.array([1.0, 1.0]), np.array([False, False]), 4.0)
     np.testing.assert_allclose(one_side, [2.0, 2.0])  # one side only: its total is the grip
     # Pads on independent joints (rows = I): each pad presses its joint's torque; a pulling torque gives 0.

@@ -44,9 +44,12 @@
 
 6. Load feasibility (as BODex asks of a grasp, in the protocol's terms): the normal force the squeeze presses
    each pad with (`pad_forces`: lambda >= 0 with sum_i lambda_i J_i^T n_i = A^T f, the squeeze's actuator
-   forces f through the joint -> command map A, scipy nnls) is scaled so that the grip force the protocol
-   regulates, min(thumb, rest) of the normal forces, is its grip force (`PlanContext.grip_force_for`):
-   `squeeze_caps`. `dexopt.hold_margin` (one LP) then asks whether contact forces within those caps, inside
+   forces f through the joint -> command map A, scipy nnls) is scaled, each side of the grasp (the thumb's
+   pads, the others') on its own, so that the side's total is the grip force the protocol regulates,
+   min(thumb, rest) of the normal forces (`PlanContext.grip_force_for`): `squeeze_caps`. The regulator holds
+   the weaker side at the grip and the stronger side cannot press harder than the weaker pushes back (the
+   object moves until they balance; the sum of normal forces in the simulation is about twice the grip).
+   `dexopt.hold_margin` (one LP) then asks whether contact forces within those caps, inside
    linearised friction cones (`friction`) with soft-contact torsion (`torsion`), balance the object's
    weight alone and with each of the protocol's perturbations (`hold.loads`; the object's mass from its
    asset). Candidates whose margin reaches `min_hold_margin` come first (lowest energy first among them),
@@ -536,15 +539,20 @@ def pad_forces(rows: np.ndarray, torque: np.ndarray) -> np.ndarray:
 
 def squeeze_caps(press: np.ndarray, thumb: np.ndarray, grip: float) -> np.ndarray:
     """(k,) the largest normal force [N] of each contact at the protocol's squeeze: the pads' relative forces
-    `press` (k,) scaled so that the grip force the protocol regulates (`manigrasp.sim.grip_force`: the smaller
-    of the `thumb` (k,) contacts' total and the others') is `grip` [N]; with one side empty, its total."""
+    `press` (k,) scaled, the `thumb` (k,) contacts and the others each on their own, so that each side's total
+    is `grip` [N], the grip force the protocol regulates (`manigrasp.sim.grip_force`: the smaller of the two
+    sides' totals). The stronger side is not credited with more: it presses only as hard as the weaker side
+    pushes back. (Scaling both sides by the weaker one's factor credited the Allegro's fingers with up to
+    50 N against a 9 N thumb, where the simulation's sum of normal forces stays near 2 x 9 N, and passed
+    grasps that then dropped in the perturbations.)"""
     press = np.clip(np.asarray(press, float), 0.0, None)
     thumb = np.asarray(thumb, bool)
-    sides = [press[thumb].sum(), press[~thumb].sum()]
-    sides = [v for v in sides if v > 0]
-    if not sides:
-        return np.zeros_like(press)
-    return grip * press / min(sides)
+    out = np.zeros_like(press)
+    for side in (thumb, ~thumb):
+        total = press[side].sum()
+        if total > 0:
+            out[side] = grip * press[side] / total
+    return out
 
 
 def choose_pads(sdf: GridSdf, pads: np.ndarray, finger: np.ndarray) -> np.ndarray:
