@@ -122,14 +122,17 @@ def test_bad_input_is_a_one_line_error(call, match) -> None:  # noqa: ANN001
 
 @pytest.mark.parametrize(("factor", "dropped_at"), [(1.5, None), (0.85, "-z"), (0.6, "+x")])
 def test_the_required_grip_separates_holding_from_dropping_in_closed_loop(box_scene, factor, dropped_at) -> None:  # noqa: ANN001
-    """The 0.3 kg cube in the parallel jaw (two pads, mu 0.5) under `standard`: the capacity model asks for a
-    grip of F = 2 m g / (2 mu) = 2 m g, so friction 2 mu F carries 2 m g. At 1.5 F the grasp passes. At 0.85 F
+    """The 0.3 kg cube in the parallel jaw (two pads of the scene's pad friction mu: the compliant pads' rubber,
+    1.0, by default) under `standard`: the capacity model asks for a grip of F = 2 m g / (2 mu), so friction
+    2 mu F carries 2 m g. At 1.5 F the grasp passes. At 0.85 F
     (1.7 m g) it carries the weight with a sideways m g (sqrt(2) m g) and drops only under the downward
     perturbation, the model's worst direction; at 0.6 F (1.2 m g) already under the first sideways one."""
     from manigrasp.protocol import PROTOCOLS, Status
 
-    need = float(cap.required_grip(cap.frictional_load(box_scene.asset.mass), 0.5))
-    assert need == pytest.approx(2 * 0.3 * G)
+    config = box_scene.scene.config
+    mu = config.pad_friction if config.pads == "compliant" else config.hand_friction
+    need = float(cap.required_grip(cap.frictional_load(box_scene.asset.mass), mu))
+    assert need == pytest.approx(2 * 0.3 * G / (2 * mu))
     protocol = PROTOCOLS.load("standard", grip_force=factor * need)
     result = protocol.run(box_scene.scene, box_scene.top_grasp, np.random.default_rng(0), None,
                           object_pose=box_scene.rest, seed=0)

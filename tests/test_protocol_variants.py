@@ -61,10 +61,12 @@ def test_shake_end_to_end_on_a_box(box: tuple) -> None:
 
 
 def test_violent_shake_drops_a_box_that_survives_the_lift(box: tuple) -> None:
-    """10 N of grip holds 2 x 0.5 x 10 = 10 N of friction: more than the 2.9 N weight (the lift passes),
-    less than m (g + a) = 17.7 N at the peaks of a 5 cm, 5 Hz shake along the vertical approach axis
-    (a = (2 pi 5)^2 0.05 = 49 m/s^2), so the cube slides out during the shaking."""
-    result = _run(box, "shake", grip_force=10.0, shake_amplitude=0.05, shake_frequency=5.0, shake_angle_deg=0.0)
+    """5 N of grip on the default compliant pads (rubber, mu 1.0) holds 2 x 1.0 x 5 = 10 N of friction: more
+    than the 2.9 N weight (the lift passes), less than m (g + a) = 17.7 N at the peaks of a 5 cm, 5 Hz shake
+    along the vertical approach axis (a = (2 pi 5)^2 0.05 = 49 m/s^2), so the cube slides out during the
+    shaking."""
+    assert box[0].config.pads == "compliant" and box[0].config.pad_friction == 1.0
+    result = _run(box, "shake", grip_force=5.0, shake_amplitude=0.05, shake_frequency=5.0, shake_angle_deg=0.0)
     assert result.status is Status.DROPPED_PERTURB, result.detail
     assert result.detail.startswith("shake")
     assert result.last_phase is Phase.LIFT

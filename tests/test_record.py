@@ -74,13 +74,16 @@ def test_recording_holds_scene_trial_and_status(recorded: tuple[Path, TrialResul
         "/world/object/object", "/world/object/object/visual/object_visual",
         "/world/object/object/collision/object_part_000",    # convex parts, separate (hidden in the blueprint)
         "/world/hand/palm", "/world/hand/finger1", "/world/hand/finger2",
-        "/world/hand/finger1/collision/finger1_pad",
+        "/world/hand/finger1/collision/finger1_link",
+        # compliant pads (the default): the elements are drawn, the pad box they replace is not
+        "/world/hand/padel_finger1_pad_00/collision/padel_finger1_pad_00",
         "/world/contacts", "/world/contacts/force",
         "/world/plan/grasp", "/world/plan/pregrasp", "/world/plan/contacts",
         "/plots/grip_force", "/plots/in_hand/displacement_mm", "/plots/in_hand/rotation_deg",
         "/plots/perturb_force", "/trial/phase", "/trial/log", "/trial/status", "/trial/plan",
     }
     assert expected <= set(summary.entities), expected - set(summary.entities)
+    assert not any(e.endswith("/finger1_pad") for e in summary.entities)
     assert summary.n_blueprints == 1
     assert summary.status == result.status.value
     low, high = summary.time_range

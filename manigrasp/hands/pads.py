@@ -264,7 +264,8 @@ def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], 
         thin = min(radius, pad.thickness / 3)  # half-thickness of the flattened element
         stiffness = element_stiffness(model, area, pad.thickness)
         body = geom.parent
-        geom.contype, geom.conaffinity = 0, 0
+        geom.contype, geom.conaffinity = 0, 0  # kept (its face is the pad's geometry) but no longer touches,
+        geom.rgba = [*np.asarray(geom.rgba, float)[:3], 0.0]  # nor drawn: the elements are the pad now
         for i, (point, k) in enumerate(zip(points, stiffness, strict=True)):
             _add_element(body, f"{ELEMENT_PREFIX}{name}_{i:02d}", point - thin * pad.normal, pad,
                          np.array([radius, radius, thin]), float(k), pad.thickness * model.travel_fraction, model,

@@ -121,9 +121,12 @@ def _rgba(model: mujoco.MjModel, geom: int) -> np.ndarray:
 
 
 def geom_mesh(model: mujoco.MjModel, geom: int) -> GeomMesh | None:
-    """`geom` as a `GeomMesh` (None for geom types that are not drawn: heightfields, SDFs)."""
-    kind = int(model.geom_type[geom])
+    """`geom` as a `GeomMesh` (None for what is not drawn: heightfields, SDFs, and fully transparent visual geoms,
+    such as a compliant pad's box, whose elements are drawn instead; collision geoms are drawn whatever their rgba)."""
     visual = is_visual(model, geom)
+    if visual and _rgba(model, geom)[3] <= 0.0:
+        return None
+    kind = int(model.geom_type[geom])
     if kind == mujoco.mjtGeom.mjGEOM_MESH:
         vertices, faces = _mesh_arrays(model, geom, hull=not visual)
     else:

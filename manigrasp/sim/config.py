@@ -51,10 +51,11 @@ class SceneConfig:
         table_friction: sliding friction of the table [-].
         open_settle_time: simulated time [s] the hand alone is driven with its
             open command to find its open joint configuration (done once per scene).
-        pads: "rigid" (the default: the pad boxes as modelled) or "compliant" (the
-            hands' pad boxes become elastic-foundation patches, `manigrasp.hands.pads`, and
-            a dexterous hand's rubber-covered fingertips, `Hand.fingertip_geoms`, touch with
-            `pad_friction`; opt-in until its effect on the recipes is explained, see the README).
+        pads: "compliant" (the default: the hands' pad boxes become elastic-foundation
+            patches, `manigrasp.hands.pads`, and a dexterous hand's rubber-covered fingertips,
+            `Hand.fingertip_geoms`, touch with `pad_friction`) or "rigid" (the pad boxes as
+            modelled, at `hand_friction`: the model of runs before the switch, kept to reproduce
+            them; every run.json records which).
         pad_modulus: Young's modulus of the compliant pads' rubber [Pa].
         pad_pitch: spacing of the compliant pads' contact elements [m].
         pad_friction: sliding friction of the compliant pads' rubber against objects [-]
@@ -84,7 +85,7 @@ class SceneConfig:
     table_half_extents: tuple[float, float, float] = (0.4, 0.4, 0.02)
     table_friction: float = STANDARD_MU
     open_settle_time: float = 0.5
-    pads: str = "rigid"
+    pads: str = "compliant"
     pad_modulus: float = 3.4e5
     pad_pitch: float = 0.01
     pad_friction: float = PAD_FRICTION
