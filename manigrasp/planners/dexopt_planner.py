@@ -542,9 +542,9 @@ def squeeze_caps(press: np.ndarray, thumb: np.ndarray, grip: float) -> np.ndarra
     `press` (k,) scaled, the `thumb` (k,) contacts and the others each on their own, so that each side's total
     is `grip` [N], the grip force the protocol regulates (`manigrasp.sim.grip_force`: the smaller of the two
     sides' totals). The stronger side is not credited with more: it presses only as hard as the weaker side
-    pushes back. (Scaling both sides by the weaker one's factor credited the Allegro's fingers with up to
-    50 N against a 9 N thumb, where the simulation's sum of normal forces stays near 2 x 9 N, and passed
-    grasps that then dropped in the perturbations.)"""
+    pushes back. (Scaling both sides by the weaker one's factor gave the Allegro's grasps caps summing to 44 N
+    (median) where the simulation presses 21 N at its 9 N grip, and passed grasps that then dropped in the
+    perturbations; benchmarks/diagnose_dexterous.py.)"""
     press = np.clip(np.asarray(press, float), 0.0, None)
     thumb = np.asarray(thumb, bool)
     out = np.zeros_like(press)
