@@ -118,6 +118,8 @@ def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.n
         u = u / np.maximum(np.linalg.norm(u, axis=1), 1e-12)[:, None]
         v = np.cross(a, u)
         tau_u, tau_v = np.einsum("mlj,mj->ml", tau_perp, u), np.einsum("mlj,mj->ml", tau_perp, v)
+        f_u, f_v = np.einsum("mlj,mj->ml", f_perp, u), np.einsum("mlj,mj->ml", f_perp, v)
+        arm = (2.0 / np.maximum(width, 1e-12))[:, None]
         s = np.asarray(support, float)  # torque about u: pressure moving along v, and about v: along u
 
     def holds(grip: np.ndarray) -> np.ndarray:
@@ -126,9 +128,10 @@ def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.n
         if support is not None:
             about_u = np.maximum(np.abs(tau_u) - (f1 * s[:, :1, 1] + f2 * s[:, 1:, 1]), 0.0) * np.sign(tau_u)
             about_v = np.maximum(np.abs(tau_v) - (f1 * s[:, :1, 0] + f2 * s[:, 1:, 0]), 0.0) * np.sign(tau_v)
-            left = about_u[..., None] * u[:, None] + about_v[..., None] * v[:, None]
-            c1, c2 = _tangential(a, width, f_perp, left)
-            n1, n2 = c1 / mu_eff[:, :1], c2 / mu_eff[:, 1:]
+            # `_tangential` in the (u, v) basis: the couple (2 / w) a x (about_u u + about_v v)
+            cu, cv = -arm * about_v, arm * about_u
+            n1 = np.hypot(f_u + cu, f_v + cv) / 2.0 / mu_eff[:, :1]
+            n2 = np.hypot(f_u - cu, f_v - cv) / 2.0 / mu_eff[:, 1:]
         ok = (f1 >= n1) & (f2 >= n2)
         torsion = np.sqrt(np.clip(f1**2 - n1**2, 0.0, None)) + np.sqrt(np.clip(f2**2 - n2**2, 0.0, None))
         return ok & (gamma * torsion >= tau)
