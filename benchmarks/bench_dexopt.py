@@ -11,7 +11,8 @@ measured:
 - diversity: mean pairwise distance between the grasps' TCP poses: translation [mm] and rotation [deg];
 - pads<2mm: mean number of fingers whose pad is within 2 mm of the object's collision parts;
 - hold: how many grasps hold the standard protocol's loads at its 10 N squeeze by the planner's own load test
-  (hold margin >= 1, `dexopt.hold_margin`), and their median margin;
+  (hold margin >= 1, `dexopt.hold_margin`, at the friction of the hand's grasping surfaces in the default
+  scene, `PlanContext.contact_friction`), and their median margin;
 - with --trials: each grasp run through the `standard` protocol (grip force 10 N, as configs/dexterous.yaml)
   in the same scene: successes / grasps and the failure statuses.
 
