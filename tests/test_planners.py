@@ -13,7 +13,7 @@ import trimesh
 
 from manigrasp import hands, planners
 from manigrasp.errors import ConfigError, PlannerError, UnknownNameError
-from manigrasp.objects import build_object
+from manigrasp.objects import build_object, catalog
 from manigrasp.planners.jaw_poses import jaw_clears_table
 from manigrasp.planners.nms import rotation_angles, suppress
 from manigrasp.planners.pairs import Pairs
@@ -302,3 +302,18 @@ def test_cli_plan_table_and_json(capsys, monkeypatch):
 
     assert main(["plan", "--object", "foam_brick", "--hand", "parallel_jaw", "--planner", "nope"]) == 2
     assert "unknown planner 'nope'" in capsys.readouterr().err
+
+
+def test_a_scans_lip_pinches_do_not_count_as_grasps_for_the_dense_pass():
+    # The potted meat can's scan has a 2-9 mm lip whose pinches score ~0.05. Greedy NMS in rank order keeps only
+    # 16-18 of the scan's distinct body grasps, so without `dense_floor` the walk's last few are pinches (which slip
+    # in the lift) and step 6 does not run; with it, step 6 packs the body grasps and no pinch is returned.
+    asset = catalog.build(catalog.shipped("010_potted_meat_can_scan")).asset
+    obs, hand = planners.Observation.from_asset(asset), hands.load("parallel_jaw")
+    widths = {}
+    for floor in (0.0, 0.1):
+        plan = planners.plan(planners.load("antipodal", dense_floor=floor), obs, hand, 20, np.random.default_rng(0))
+        widths[floor] = np.array([c.width for c in plan.candidates])
+    assert len(widths[0.0]) == len(widths[0.1]) == 20
+    assert (widths[0.0] < 0.01).sum() >= 2, widths[0.0]
+    assert (widths[0.1] < 0.01).sum() == 0, widths[0.1]
