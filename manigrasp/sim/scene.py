@@ -262,6 +262,7 @@ class Scene:
         for row in rows:
             row.setflags(write=False)
         self._path = (rows[0], rows[1])
+        self._reach_lead = self._servo_leads()
 
     def hand_ctrlrange(self) -> np.ndarray:
         """(n_act, 2) [lower, upper] command range of the hand actuators (NaN where not limited)."""
@@ -298,20 +299,30 @@ class Scene:
         open|): 0.26 of the synergy for the five-finger hands' fingers (0.6 N m, 0.5 N m/rad, 4.7 rad), 0.30
         for the Allegro's. Further ahead, the finger that stands there pushes no harder, and a free finger
         lands on the object with its servo saturated. Actuators that are not force-limited position servos
-        (`position_servos`) are left out; `hand_synergy` if none is one."""
+        (`position_servos`) are left out; `hand_synergy` if none is one. (The grip loop asks at every control
+        tick: the leads, fixed for a path, are computed when the path is set.)"""
+        if self._reach_lead is None:
+            return 1.0
+        servo, lead = self._reach_lead
+        if not servo.any():
+            return self.hand_synergy()
+        return float(np.min(self.finger_synergies()[servo] + lead))
+
+    def _servo_leads(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """For `closing_reach`, of the actuators that move along `hand_path`: which are force-limited position
+        servos (mask) and, for those, the command lead to their force limit, max(0, f_max / (kp |span|));
+        None when nothing moves."""
         open_ctrl, closed_ctrl = self._path
         span = closed_ctrl - open_ctrl
         moving = np.abs(span) > SPAN_EPSILON
         if not moving.any():
-            return 1.0
+            return None
         m, ids = self.model, self.hand_actuators[moving]
         kp = m.actuator_gainprm[ids, 0]
         servo = position_servos(m, ids) & m.actuator_forcelimited[ids].astype(bool)
         limit = np.where(span[moving] > 0, m.actuator_forcerange[ids, 1], -m.actuator_forcerange[ids, 0])
-        if not servo.any():
-            return self.hand_synergy()
         lead = limit[servo] / (kp[servo] * np.abs(span[moving][servo]))
-        return float(np.min(self.finger_synergies()[servo] + np.maximum(lead, 0.0)))
+        return servo, np.maximum(lead, 0.0)
 
     def forward(self) -> None:
         """`mj_forward`: recompute positions, contacts and forces of the current state."""
