@@ -100,13 +100,10 @@ class PadFootprint:
         gx, gz = np.meshgrid(xs, zs, indexing="ij")
         return np.stack([gx.ravel(), gz.ravel()], axis=1)
 
-    def gaps(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> np.ndarray:
-        """(k, 2, n) gap [m] of each cell of each pad (finger 1, 2) at TCP poses (k, 4, 4) (inf: off the object)."""
-        return self.cast(mesh, poses)[0]
-
     def cast(self, mesh: trimesh.Trimesh, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Gaps (k, 2, n) [m] (`gaps`) and the inward normal of the face each cell's ray hits, in the TCP frame
-        (k, 2, n, 3) (NaN: off the object), at TCP poses (k, 4, 4)."""
+        """Gaps (k, 2, n) [m] of each cell of each pad (finger 1, 2; inf: off the object) and the inward normal of
+        the face each cell's ray hits, in the TCP frame (k, 2, n, 3) (NaN: off the object), at TCP poses
+        (k, 4, 4)."""
         cells = self.cells
         k, n = len(poses), len(cells)
         out = np.empty((k, 2, n))
@@ -134,9 +131,9 @@ class PadFootprint:
         if len(poses) == 0:
             return Seat(np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2, 2)))
         gaps, inward = self.cast(mesh, poses)
-        ratio, pivot = patch_torsion(gaps, self.cells, self.compression)
-        return Seat(ratio, pivot, patch_tilt(gaps, self.cells, self.compression, inward),
-                    patch_support(gaps, self.cells, self.compression))
+        weights = pressure(gaps, self.compression)
+        ratio, pivot = patch_torsion(weights, self.cells)
+        return Seat(ratio, pivot, patch_tilt(weights, gaps, self.cells, inward), patch_support(weights, self.cells))
 
 
 def pressure(gaps: np.ndarray, compression: float) -> np.ndarray:
@@ -160,32 +157,32 @@ def pressure(gaps: np.ndarray, compression: float) -> np.ndarray:
     return np.where(total > 0, share / np.where(total > 0, total, 1.0), 0.0)
 
 
-def patch_torsion(gaps: np.ndarray, cells: np.ndarray, compression: float) -> tuple[np.ndarray, np.ndarray]:
-    """Torsion ratio (k,) and pivot (k, 2) of two pads with cell gaps (k, 2, n) at `cells` (n, 2) [m].
+def patch_torsion(weights: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Torsion ratio (k,) and pivot (k, 2) of two pads whose cells at `cells` (n, 2) [m] carry the shares
+    `weights` (k, 2, n) of their pad's force (`pressure` of the cells' gaps).
 
     The ratio is min_c sum f_i |r_i - c| over both pads (each pad's shares summing to 1) divided by the same
     on a flat face fully under both pads (module docstring, steps 2-3). A pad off the object: ratio 0.
     """
-    weights = pressure(gaps, compression).reshape(len(gaps), -1)  # (k, 2n)
     points = np.concatenate([cells, cells])  # (2n, 2)
     flat = _median_torsion(np.full((1, len(points)), 1.0 / len(cells)), points)[0][0]
-    torsion, pivot = _median_torsion(weights, points)
-    seated = (weights.reshape(len(gaps), 2, -1).sum(axis=2) > 0).all(axis=1)
+    torsion, pivot = _median_torsion(weights.reshape(len(weights), -1), points)  # over both pads' 2n cells
+    seated = (weights.sum(axis=2) > 0).all(axis=1)
     return np.where(seated, torsion / flat, 0.0), pivot
 
 
-def patch_tilt(gaps: np.ndarray, cells: np.ndarray, compression: float,
+def patch_tilt(weights: np.ndarray, gaps: np.ndarray, cells: np.ndarray,
                inward: np.ndarray | None = None) -> np.ndarray:
     """(k, 2) angle [rad] between the closing axis and the normal of the surface each pad touches, from the cell
     gaps (k, 2, n) at `cells` (n, 2) [m]: the slope of the plane fitted to the touched cells' gaps (least
-    squares weighted by their loads, `pressure`). What a pad pressed flat on a patch feels, where a scan's
-    per-point normals carry the scan's noise.
+    squares weighted by their loads `weights` (k, 2, n), `pressure` of the gaps). What a pad pressed flat on a
+    patch feels, where a scan's per-point normals carry the scan's noise.
 
     Where the touched cells do not span a plane (fewer than three off one line: a pad on a strip, such as a
     thin rim or the pad's end on an edge), the gaps cannot tell the slope across the strip; the load-weighted
     mean of the touched faces' inward normals `inward` (k, 2, n, 3) in the TCP frame (`PadFootprint.cast`)
     gives the tilt there. Without `inward`: NaN there."""
-    w = pressure(gaps, compression)  # (k, 2, n)
+    w = weights
     g = np.where(w > 0, gaps, 0.0)
     mean_x, mean_g = w @ cells, (w * g).sum(axis=-1)  # (k, 2, 2), (k, 2) (the shares sum to 1)
     dx = cells[None, None] - mean_x[..., None, :]  # (k, 2, n, 2)
@@ -208,9 +205,10 @@ def patch_tilt(gaps: np.ndarray, cells: np.ndarray, compression: float,
     return np.where(ok, fitted, strip)
 
 
-def patch_support(gaps: np.ndarray, cells: np.ndarray, compression: float) -> np.ndarray:
+def patch_support(weights: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """(k, 2, 2) [m] how far each pad's centre of pressure can move across (x) and along (z) its face before
-    part of its patch lets go, from the cell gaps (k, 2, n) at `cells` (n, 2) [m]: the kern of the patch.
+    part of its patch lets go, from the cells' loads `weights` (k, 2, n) (`pressure`) at `cells` (n, 2) [m]:
+    the kern of the patch.
 
     A pad pressed with force f on a patch that reaches distances d_i from its centre of pressure (loads w_i,
     `pressure`) resists a torque about the other axis of its face with its normal pressure, up to f e. For a
@@ -219,7 +217,7 @@ def patch_support(gaps: np.ndarray, cells: np.ndarray, compression: float) -> np
     which is that kern on a uniform patch (L / 6, and 4.9 mm on the 6 cells of a 3 cm face) and varies
     continuously with the loads, so a cell barely within reach adds little. A pad touching one row of cells (a
     thin rim, or its end on an edge) has none along the rows' normal: the object pivots about that line."""
-    w = pressure(gaps, compression)  # (k, 2, n)
+    w = weights
     centre = w @ cells  # (k, 2, 2) the centres of pressure
     d = np.abs(cells[None, None] - centre[..., None, :])  # (k, 2, n, 2)
     second = np.einsum("...n,...ni->...i", w, d**2)
