@@ -16,15 +16,13 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
 import trimesh
 
-from manigrasp.control import ImpedanceController, default_gains
 from manigrasp.hands import load
 from manigrasp.hands.pads import pad_directions, pad_geometry, uniform_patch_torque
 from manigrasp.objects import build_object
-from manigrasp.sim import SceneConfig, build_scene
-from manigrasp.sim.padtest import bumps, press_pad
+from manigrasp.sim import SceneConfig
+from manigrasp.sim.padtest import bumps, jaw_closed_on, press_pad
 
 
 def pad_half(hand: str) -> tuple[float, float, float]:
@@ -37,15 +35,7 @@ def pad_half(hand: str) -> tuple[float, float, float]:
 
 def step_cost(config: SceneConfig, asset, steps: int = 2000) -> tuple[float, int]:
     """Mean wall time of one step [ms] with the hand closed on a cube, and the contacts at the end."""
-    scene = build_scene("parallel_jaw", asset, config)
-    pose = np.eye(4)
-    pose[:3, :3], pose[:3, 3] = np.diag([1.0, -1.0, -1.0]), [0.0, 0.0, 0.025]
-    scene.reset(mount=pose, synergy=1.0)
-    ctrl = ImpedanceController(scene.base, default_gains(scene.base))
-    ctrl.set_target(pose)
-    for _ in range(300):
-        ctrl.apply()
-        scene.step()
+    scene = jaw_closed_on(asset, config)
     start = time.perf_counter()
     scene.step(steps)
     return (time.perf_counter() - start) / steps * 1e3, scene.data.ncon

@@ -13,7 +13,7 @@ import pytest
 from manigrasp.errors import ConfigError
 from manigrasp.hands import load, pads
 from manigrasp.sim import SceneConfig, build_scene
-from manigrasp.sim.padtest import PAD_HALF, bumps, press_pad
+from manigrasp.sim.padtest import PAD_HALF, bumps, jaw_closed_on, press_pad
 
 MU_RIGID = SceneConfig().hand_friction  # the rigid pads and the rest of the hand
 MU_PAD = SceneConfig().pad_friction  # the compliant pads' rubber
@@ -233,19 +233,10 @@ def _torsion_regularisers(mode: str) -> np.ndarray:
     """efc_R of the torsion rows of the pad-object contacts, `parallel_jaw` closed on a 5 cm cube (mesh)."""
     import trimesh
 
-    from manigrasp.control import ImpedanceController, default_gains
     from manigrasp.objects import build_object
 
     cube = build_object(trimesh.creation.box((0.05,) * 3), name="box", mass=0.3).asset
-    scene = build_scene("parallel_jaw", cube, SceneConfig(pads=mode))
-    pose = np.eye(4)
-    pose[:3, :3], pose[:3, 3] = np.diag([1.0, -1.0, -1.0]), [0.0, 0.0, 0.025]
-    scene.reset(mount=pose, synergy=1.0)
-    ctrl = ImpedanceController(scene.base, default_gains(scene.base))
-    ctrl.set_target(pose)
-    for _ in range(300):
-        ctrl.apply()
-        scene.step()
+    scene = jaw_closed_on(cube, SceneConfig(pads=mode))
     model, data = scene.model, scene.data
     rows = []
     for i in range(data.ncon):

@@ -18,8 +18,11 @@ import mujoco
 import numpy as np
 
 from manigrasp.contact.defaults import STANDARD_ROLLING_M
+from manigrasp.control import ImpedanceController, default_gains
 from manigrasp.hands import pads
+from manigrasp.sim.compose import ObjectSource
 from manigrasp.sim.config import SceneConfig
+from manigrasp.sim.scene import Scene, build_scene
 
 PAD_HALF = (0.01, 0.015, 0.003)  # [m], the parallel_jaw pad box (x, y in the face; z thickness)
 SURFACE_HALF = 0.04  # [m], half side of the square surface
@@ -125,3 +128,19 @@ def _surface_force(model: mujoco.MjModel, data: mujoco.MjData, surface: int) -> 
         total += push if contact.geom1 == surface else -push
         count += 1
     return abs(total), count
+
+
+def jaw_closed_on(asset: ObjectSource, config: SceneConfig | None = None, steps: int = 300) -> Scene:
+    """A `parallel_jaw` scene (`config`) closed on `asset` from above, its TCP 2.5 cm over the table at the
+    origin (the centre of a 5 cm cube), the base held there by impedance control for `steps` steps: the
+    pads' contacts in a real grasp (their solver rows, the cost of a step)."""
+    scene = build_scene("parallel_jaw", asset, config)
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = np.diag([1.0, -1.0, -1.0]), [0.0, 0.0, 0.025]
+    scene.reset(mount=pose, synergy=1.0)
+    ctrl = ImpedanceController(scene.base, default_gains(scene.base))
+    ctrl.set_target(pose)
+    for _ in range(steps):
+        ctrl.apply()
+        scene.step()
+    return scene
