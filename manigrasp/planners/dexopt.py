@@ -326,17 +326,16 @@ def friction_pyramid(normals: np.ndarray, mu: float, edges: int = PYRAMID_EDGES)
     """(k, edges, 3) generators n_i + mu (cos a_j u_i + sin a_j v_i), a_j = 2 pi j / edges, of the pyramids
     inscribed in the friction cones of half-angle atan(mu) about the unit inward `normals` (k, 3).
 
-    u_i is horizontal and v_i the world vertical projected onto the tangent plane (`perpendicular_basis`), so
-    with `edges` a multiple of 4 the pyramid is exact along the vertical (the weight's direction) and the
-    horizontal; elsewhere it keeps at least cos(pi / edges) of the cone's friction (conservative)."""
+    u_i is horizontal and v_i = n_i x u_i the world vertical projected onto the tangent plane
+    (`perpendicular_basis`), so with `edges` a multiple of 4 the pyramid is exact along the vertical (the
+    weight's direction) and the horizontal; elsewhere it keeps at least cos(pi / edges) of the cone's
+    friction (conservative). The generators are `contact.cone_edges` with its first tangent u_i."""
+    from manigrasp.contact import cone_edges
     from manigrasp.planners.geometry import perpendicular_basis
 
     n = np.atleast_2d(np.asarray(normals, float))
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    u, v = perpendicular_basis(n)
-    angle = 2.0 * np.pi * np.arange(edges) / edges
-    tangent = np.cos(angle)[None, :, None] * u[:, None] + np.sin(angle)[None, :, None] * v[:, None]
-    return n[:, None] + mu * tangent
+    return cone_edges(n, mu, edges, tangents=perpendicular_basis(n)[0])
 
 
 def hold_margin(points: np.ndarray, normals: np.ndarray, caps: np.ndarray, center: np.ndarray, loads: np.ndarray,
