@@ -30,9 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from manigrasp.contact.defaults import STANDARD_GRAVITY
 from manigrasp.errors import ConfigError
 
-STANDARD_GRAVITY = 9.81  # [m/s^2]
 BALANCED_SQUEEZE = 2.0  # sum(f_n) / grip force of a balanced two-sided squeeze [-]
 
 

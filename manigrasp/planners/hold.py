@@ -40,7 +40,8 @@ from __future__ import annotations
 
 import numpy as np
 
-GRAVITY = 9.81  # [m/s^2]
+from manigrasp.contact.defaults import STANDARD_GRAVITY as GRAVITY  # [m/s^2]
+
 GRIP_TOLERANCE = 1e-4  # relative precision of the bisection on the grip force
 BISECTION_STEPS = 24  # 2^-24 of the initial bracket: well under GRIP_TOLERANCE
 AXES = np.vstack([np.eye(3), -np.eye(3)])  # +x, +y, +z, -x, -y, -z

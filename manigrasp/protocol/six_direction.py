@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from manigrasp.contact.defaults import STANDARD_GRAVITY
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Protocol, register
 from manigrasp.protocol.execution import GraspParams, TrialRun
@@ -26,8 +27,6 @@ from manigrasp.protocol.grasp import Grasp
 from manigrasp.protocol.phases import close, place_pregrasp, require_fingers
 from manigrasp.protocol.result import Phase, Status
 from manigrasp.protocol.standard import DIRECTIONS
-
-STANDARD_GRAVITY = 9.81  # [m/s^2]
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import mujoco
 
 from manigrasp.config import OMIT_DEFAULT
-from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
+from manigrasp.contact.defaults import STANDARD_GRAVITY, STANDARD_MU, STANDARD_TORSION_M
 from manigrasp.errors import ConfigError
 from manigrasp.hands.pads import PAD_FRICTION, PadModel
 
@@ -77,7 +77,7 @@ class SceneConfig:
     integrator: str = "implicitfast"
     cone: str = "elliptic"
     impratio: float = 10.0
-    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    gravity: tuple[float, float, float] = (0.0, 0.0, -STANDARD_GRAVITY)
     hand_friction: float = STANDARD_MU
     hand_torsional_friction: float = STANDARD_TORSION_M
     hand_condim: int = 4
