@@ -315,10 +315,7 @@ class AntipodalPlanner:
         """Pairs on the mesh; centre of mass = the object frame's origin; the asset's mass (else volume x density)."""
         mesh = observation.world_mesh()
         center = observation.center_of_mass
-        if observation.asset is not None:
-            mass = float(observation.asset.mass)
-        else:
-            mass = self.density * float(mesh.volume if mesh.is_watertight else mesh.convex_hull.volume)
+        mass = observation.object_mass(self.density)
         return _Target(self.pairs(mesh, hand, rng), center, torque_scale(mesh.vertices, center), mass,
                        HandProbe(hand, observation, self.clearance), mesh=mesh)
 

@@ -111,6 +111,14 @@ class Observation:
             raise PlannerError("this observation has no mesh")
         return self.mesh.copy().apply_transform(self.object_pose)
 
+    def object_mass(self, density: float) -> float:
+        """The object's mass [kg]: the built asset's, else `density` [kg/m^3] x the world mesh's volume (its
+        convex hull's where the mesh is not watertight)."""
+        if self.asset is not None:
+            return float(self.asset.mass)
+        mesh = self.world_mesh()
+        return density * float(mesh.volume if mesh.is_watertight else mesh.convex_hull.volume)
+
     @classmethod
     def from_asset(cls, asset: ObjectAsset, object_pose: np.ndarray | None = None,
                    table_height: float = 0.0) -> Observation:

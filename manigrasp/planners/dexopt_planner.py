@@ -423,12 +423,7 @@ class DexOptPlanner:
         docstring, steps 4-6)."""
         context = resolve(context)
         grip = context.grip_force_for(hk.hand)
-        if observation.asset is not None:
-            mass = float(observation.asset.mass)
-        else:
-            mesh = observation.world_mesh()
-            mass = self.density * float(mesh.volume if mesh.is_watertight else mesh.convex_hull.volume)
-        external = loads(mass, context.perturbation)
+        external = loads(observation.object_mass(self.density), context.perturbation)
         mu = self.contact_friction(context)
         probe = HandProbe(hk.hand, observation, clearance=0.0)
         addresses = probe.hand_qpos_addresses()
