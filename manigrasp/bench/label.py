@@ -15,8 +15,8 @@ dexterous set is written in the native format alone, and its `Exported.note` say
 
 Grasps are written in the object's frame (``inv(object_pose) @ grasp``), best first (trial order),
 with labels: status, success, trial id, seed, the protocol's measures and the object's settled pose.
-Trials that executed no grasp (`planner_error`: the planner returned fewer than asked) have no
-grasp to write; the summary counts them.
+Trials that executed no grasp (`no_grasp`: the planner returned fewer than asked; `planner_error`: it
+failed) have no grasp to write; the summary counts them.
 """
 
 from __future__ import annotations
@@ -33,9 +33,10 @@ from manigrasp.bench.config import BenchConfig
 from manigrasp.bench.store import ResultsStore, joints_from_text
 from manigrasp.errors import ManigraspError
 from manigrasp.graspsets import GraspSet, ObjectRef, acronym, native
-from manigrasp.protocol.result import PoseRecord, Status
+from manigrasp.protocol.result import PLANNER_FAILURES, PoseRecord, Status
 from manigrasp.runfiles import META_NAME, STORE_NAME
 
+_PLANNER_FAILED = frozenset(s.value for s in PLANNER_FAILURES)  # stored statuses of trials without a grasp
 POSE_FIELDS = ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")
 LABEL_COLUMNS = ("status", "trial_id", "seed", "detail", "last_phase", "max_translation_m", "max_rotation_deg",
                  "grip_force_n", "sim_force_closure", "sim_epsilon_l1", "planned_epsilon_l1", "fingers_in_contact",
@@ -124,7 +125,7 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
     names = _file_names(by_group)
     for group, members in by_group.items():
         members.sort(key=lambda r: int(r["grasp_index"]))
-        kept = [r for r in members if not (r["status"] == Status.PLANNER_ERROR.value and _nan_grasp(r))]
+        kept = [r for r in members if not (r["status"] in _PLANNER_FAILED and _nan_grasp(r))]
         skipped += len(members) - len(kept)
         if not kept:
             continue

@@ -1,7 +1,8 @@
 """PNG plots of a run (matplotlib, headless Agg backend).
 
 Every outcome has one fixed colour in every run (`STATUS_COLOURS`): success is the only green, the six
-`dropped_perturb` directions are shades of one orange family, and each other failure has its own hue.
+`dropped_perturb` directions are shades of one orange family, the planner's two failures (`planner_error`,
+`no_grasp`) two shades of magenta, and each other failure has its own hue.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ STATUS_COLOURS: dict[str, str] = {
     "dropped_perturb": "#7f0000",
     "unstable": "#252525",
     "planner_error": "#e7298a",
+    "no_grasp": "#f1b6da",  # a light shade of planner_error: both are failures of the planner
     "invalid_grasp": "#41b6c4",
     "timeout": "#08306b",
     "harness_fault": "#9e9ac8",

@@ -23,7 +23,7 @@ import numpy as np
 
 from manigrasp.bench.store import ResultsStore, joints_from_text
 from manigrasp.errors import ManigraspError
-from manigrasp.protocol.result import PoseRecord, Status, TrialResult
+from manigrasp.protocol.result import PLANNER_FAILURES, PoseRecord, TrialResult
 from manigrasp.runfiles import META_NAME, RECORDINGS_DIR, STORE_NAME
 
 POSE_FIELDS = ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")
@@ -190,7 +190,8 @@ def record_trials(run_dir: Path, which: str | Iterable[str] = "failures", base: 
 
 
 def _executed_nothing(result: TrialResult) -> bool:
-    return result.status is Status.PLANNER_ERROR and not math.isfinite(result.grasp.x_m)
+    """A trial that failed in the planner (`planner_error`, `no_grasp`) and stored no grasp."""
+    return result.status in PLANNER_FAILURES and not math.isfinite(result.grasp.x_m)
 
 
 def _replay(trial_id: str, trial: StoredTrial, record: Path | None) -> Replay:

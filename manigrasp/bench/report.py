@@ -20,7 +20,7 @@ import numpy as np
 from manigrasp.bench.stats import AucEstimate, auc_with_interval, wilson_interval
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.errors import ConfigError
-from manigrasp.protocol.result import Status, TrialResult
+from manigrasp.protocol.result import PLANNER_FAILURES, Status, TrialResult
 from manigrasp.runfiles import STORE_NAME
 
 # Metrics whose power to predict physical success is reported (column, higher-is-better sign).
@@ -39,7 +39,8 @@ class Rate:
 
     A trial that ended as `harness_fault` (a bug of manigrasp itself, neither physics nor the planner) is
     not mixed into the physics statistics (DESIGN.md): it is counted in `harness_faults` only, outside
-    `trials`, `successes`, the rate and `failure_modes`.
+    `trials`, `successes`, the rate and `failure_modes`. A failure of the planner (`planner_error`, or
+    `no_grasp`: no candidate for the trial) is a failed trial like any other.
 
     Attributes:
         harness_faults: trials of this set that ended as `harness_fault`, left out of every other figure.
@@ -281,15 +282,16 @@ def pose_errors(by_group: dict[Group, list[TrialResult]]) -> dict[Method, PoseEr
 
 
 # Statuses of trials that never reached the simulator: they have no metrics to rank.
-_NOT_SIMULATED = frozenset(s for s in Status if s.value in ("planner_error", "invalid_grasp", "harness_fault"))
+_NOT_SIMULATED = PLANNER_FAILURES | {Status.INVALID_GRASP, Status.HARNESS_FAULT}
 
 
 def metric_aucs(results: list[TrialResult]) -> dict[str, AucEstimate]:
     """ROC AUC of each analytic metric predicting physical success, with n and a 95 % interval.
 
-    Only trials that reached the simulator count (planner errors, invalid grasps and harness faults have no
-    metrics); NaN values of a metric are dropped (its n says how many remain). A metric with one value in
-    the set, or a set with one outcome, has an undefined AUC (`AucEstimate.undefined` says why).
+    Only trials that reached the simulator count (planner errors, trials without a grasp (`no_grasp`),
+    invalid grasps and harness faults have no metrics); NaN values of a metric are dropped (its n says how
+    many remain). A metric with one value in the set, or a set with one outcome, has an undefined AUC
+    (`AucEstimate.undefined` says why).
     """
     simulated = [r for r in results if r.status not in _NOT_SIMULATED]
     labels = np.array([r.success for r in simulated], bool)

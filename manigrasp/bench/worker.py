@@ -4,11 +4,13 @@ Each worker keeps its compiled scenes (one per object x hand x physics) and
 reuses them across trials by resetting state, never recompiling per grasp.
 Every failure inside a trial becomes that trial's status, and every failure of
 a group's planning (settling, observing, the planner) that group's: a
-perception failure or a planner's exception is `planner_error`, anything else
-(a harness bug) is `harness_fault` with the traceback's last lines in
-`detail`, never a physics status. The process pool (`manigrasp.bench.pool`)
-adds the hard wall-clock budgets: it hears `timed_start` and ends a worker
-that overruns.
+perception failure or a planner's exception (or invalid candidate) is
+`planner_error`, anything else (a harness bug) is `harness_fault` with the
+traceback's last lines in `detail`, never a physics status. A planner that
+returns fewer candidates than requested leaves its last trials without a
+grasp: they are `no_grasp` ("planner returned 3 of 20 requested candidates").
+The process pool (`manigrasp.bench.pool`) adds the hard wall-clock budgets: it
+hears `timed_start` and ends a worker that overruns.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from manigrasp.bench.observe import ObservationInfo, observe_with_info
 from manigrasp.bench.store import TrialKey, joints_text
 from manigrasp.bench.trials import Group
 from manigrasp.errors import ManigraspError, PerceptionError
-from manigrasp.protocol.result import PoseRecord, Status, TrialResult
+from manigrasp.protocol.result import PoseRecord, Status, TrialResult, short_plan_detail
 from manigrasp.record.policy import trial_recording
 
 _SCENES: dict[tuple, object] = {}
@@ -197,8 +199,8 @@ def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, 
     if plan.error is not None:
         return key, TrialResult(plan.status, detail=plan.error[:800], planning_time_s=planning_time, seed=seed)
     if index >= len(plan.candidates):
-        detail = f"planner returned {len(plan.candidates)} of {group.n_grasps} requested candidates"
-        return key, TrialResult(Status.PLANNER_ERROR, detail=detail, planning_time_s=planning_time, seed=seed)
+        detail = short_plan_detail(len(plan.candidates), group.n_grasps)
+        return key, TrialResult(Status.NO_GRASP, detail=detail, planning_time_s=planning_time, seed=seed)
     from manigrasp.protocol import PROTOCOLS
     from manigrasp.protocol.grasp import as_grasp
 

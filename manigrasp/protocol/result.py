@@ -2,11 +2,22 @@
 
 A failure is a status, never a missing row or a score: every trial the
 harness enumerates ends as exactly one `TrialResult`.
+
+Two statuses fail a trial before it is simulated, both counted against the planner:
+`planner_error` (the planner or perception raised, or the planner returned an invalid
+candidate: NaN, not a rotation...) and `no_grasp` (the planner ran, but returned fewer
+candidates than the group asked for, so this trial has no grasp to try: an object too
+wide for the jaw). Stores written before `no_grasp` existed hold such trials as
+`planner_error` with the detail "planner returned N of M requested candidates";
+`TrialResult.from_flat` reads them as `no_grasp` (the detail text is the worker's, and
+no other status carries it), so an old run reports like a new one; the stored rows (and
+`manigrasp export` of them, which copies the rows) are not rewritten.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 
@@ -15,7 +26,13 @@ from scipy.spatial.transform import Rotation
 
 
 class Status(StrEnum):
-    """Outcome of one trial (DESIGN.md, "The standard protocol")."""
+    """Outcome of one trial (DESIGN.md, "The standard protocol").
+
+    `PLANNER_ERROR`: the planner (or the perception before it) failed: it raised or crashed its worker,
+    or returned an invalid candidate (a planner call that overran its budget is `TIMEOUT`). `NO_GRASP`: the planner found no grasp to try for this
+    trial (it returned fewer candidates than requested; the module docstring). Both are failures of
+    the planner: they count in every success rate's denominator, and were never simulated.
+    """
 
     SUCCESS = "success"
     PREGRASP_COLLISION = "pregrasp_collision"
@@ -24,9 +41,14 @@ class Status(StrEnum):
     DROPPED_PERTURB = "dropped_perturb"
     UNSTABLE = "unstable"
     PLANNER_ERROR = "planner_error"
+    NO_GRASP = "no_grasp"
     INVALID_GRASP = "invalid_grasp"
     TIMEOUT = "timeout"
     HARNESS_FAULT = "harness_fault"
+
+
+PLANNER_FAILURES = frozenset({Status.PLANNER_ERROR, Status.NO_GRASP})
+"""The statuses of a trial that failed in the planner, before any grasp was executed (`Status`)."""
 
 
 class Phase(StrEnum):
@@ -107,6 +129,13 @@ class PoseRecord:
         out[:3, 3] = values[:3]
         return out
 
+
+def short_plan_detail(returned: int, requested: int) -> str:
+    """The detail of a `no_grasp` trial: how many candidates the planner returned of how many requested."""
+    return f"planner returned {returned} of {requested} requested candidates"
+
+
+_SHORT_PLAN = re.compile(r"planner returned \d+ of \d+ requested candidates")  # `short_plan_detail`'s text
 
 # Nested records of a trial, flattened as <prefix>_<field> columns.
 _NESTED = (("planned", "planned"), ("sim", "simulated"), ("grasp", "grasp"), ("object", "object_pose"),
@@ -213,8 +242,12 @@ class TrialResult:
     @classmethod
     def from_flat(cls, row: dict[str, object]) -> TrialResult:
         """Inverse of `flat`. A row stored before `perturb_direction` existed (absent or not a string) gets
-        the direction its `detail` began with ("+x: object moved ..."), as it was written then."""
+        the direction its `detail` began with ("+x: object moved ..."), as it was written then; one stored
+        before `no_grasp` existed as `planner_error` with the detail `short_plan_detail` writes is read as
+        `no_grasp` (module docstring)."""
         row = dict(row)
+        if row.get("status") == Status.PLANNER_ERROR.value and _SHORT_PLAN.fullmatch(str(row.get("detail") or "")):
+            row["status"] = Status.NO_GRASP.value
         phase = str(row.pop("last_phase", "") or "")
         row["last_phase"] = Phase(phase) if phase in {p.value for p in Phase} else phase
         direction = row.get("perturb_direction")
