@@ -29,9 +29,10 @@ class Status(StrEnum):
     """Outcome of one trial (DESIGN.md, "The standard protocol").
 
     `PLANNER_ERROR`: the planner (or the perception before it) failed: it raised or crashed its worker,
-    or returned an invalid candidate (a planner call that overran its budget is `TIMEOUT`). `NO_GRASP`: the planner found no grasp to try for this
-    trial (it returned fewer candidates than requested; the module docstring). Both are failures of
-    the planner: they count in every success rate's denominator, and were never simulated.
+    or returned an invalid candidate (a planner call that overran its budget is `TIMEOUT`). `NO_GRASP`:
+    the planner found no grasp to try for this trial (it returned fewer candidates than requested; the
+    module docstring). Both are failures of the planner: they count in every success rate's denominator,
+    and were never simulated.
     """
 
     SUCCESS = "success"
