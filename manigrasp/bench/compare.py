@@ -11,7 +11,10 @@ A gate that cannot fail is no gate: anything it cannot judge raises `ConfigError
 alpha outside (0, 1), counts that are not counts (successes > trials, NaN, negative), no trials in common,
 and two sides whose physics (scene) parameters, or the parameters of a protocol, hand, planner or object
 present on both sides, differ; so do their `grasps_per_object` (a ranked planner's first 5 candidates are
-not the population of its first 20) and, when perception groups are compared, their cameras.
+not the population of its first 20) and, when perception groups are compared, their cameras. An object x hand
+present on both sides that one side leaves out (`manigrasp.bench.config.ObjectEntry.exclude`) and the other
+runs is refused too, so that a run does not quietly compare over a smaller set of groups than its baseline's;
+the reason texts are not compared (they change no trial).
 """
 
 from __future__ import annotations
@@ -153,7 +156,8 @@ def check_comparable(new: Side, base: Side, perception: bool = False) -> list[st
     for key in ("hands", "objects"):
         ours, theirs = _entries(new_config.get(key)), _entries(base_config.get(key))
         for name in sorted(ours.keys() & theirs.keys()):
-            differ += _differences(ours[name], theirs[name], f"{key[:-1]} {name!r}")
+            differ += _differences(_without_exclude(ours[name]), _without_exclude(theirs[name]), f"{key[:-1]} {name!r}")
+    differ += _exclusion_differences(new_config, base_config)
     ours, theirs = _planners(new_config), _planners(base_config)
     for label in sorted(ours.keys() & theirs.keys()):
         differ += _differences(ours[label], theirs[label], f"planner {label!r}")
@@ -206,6 +210,34 @@ def _entries(value: object) -> dict[str, object]:
         name = (entry.get("label") or entry.get("name")) if isinstance(entry, dict) else entry
         out[str(name)] = entry
     return out
+
+
+def _without_exclude(entry: object) -> object:
+    """An object entry without its ``exclude`` (compared by `_exclusion_differences`)."""
+    return {k: v for k, v in entry.items() if k != "exclude"} if isinstance(entry, dict) else entry
+
+
+def _exclusion_differences(new: dict, base: dict) -> list[str]:
+    """Each object x hand present on both sides that one side leaves out (``exclude`` of its object entry) and
+    the other runs: "object '035_power_drill' x hand 'allegro_right' (left out here: <reason>; run in the
+    baseline)"."""
+    hands = [h for h in _entries(new.get("hands")) if h in _entries(base.get("hands"))]
+    ours, theirs = _entries(new.get("objects")), _entries(base.get("objects"))
+    out = []
+    for name in sorted(ours.keys() & theirs.keys()):
+        left = [_exclusions(ours[name]), _exclusions(theirs[name])]
+        for hand in hands:
+            if (hand in left[0]) != (hand in left[1]):
+                here = f"left out here: {left[0][hand]}" if hand in left[0] else "run here"
+                there = f"left out in the baseline: {left[1][hand]}" if hand in left[1] else "run in the baseline"
+                out.append(f"object {name!r} x hand {hand!r} ({here}; {there})")
+    return out
+
+
+def _exclusions(entry: object) -> dict[str, str]:
+    """The hands a recorded object entry leaves out, with their reasons."""
+    exclude = entry.get("exclude") if isinstance(entry, dict) else None
+    return {str(k): str(v) for k, v in exclude.items()} if isinstance(exclude, dict) else {}
 
 
 def _differences(new: object, base: object, where: str) -> list[str]:

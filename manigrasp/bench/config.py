@@ -8,8 +8,10 @@ refused; a list field takes a single value as a one-element list (and ``camera:`
 a single mapping as one setup). One protocol is ``protocol:``; several, run side by
 side, are ``protocols:`` (a list of names or {name, params}); giving both is an
 error, but an override of one replaces the other (``protocols=[standard, lift]`` on a
-config with ``protocol:``, ``protocol=lift`` on one with ``protocols:``). ``key=value`` overrides
-(dotted for nested keys) are applied before validation. Every error is one
+config with ``protocol:``, ``protocol=lift`` on one with ``protocols:``). An object entry may leave out
+hands that cannot hold it, each with the reason (``exclude: {allegro_right: "reason"}``, `ObjectEntry.exclude`);
+every key must be a hand of the config, and an override ``hands=[...]`` drops the exclusions of the hands it
+leaves out. ``key=value`` overrides (dotted for nested keys) are applied before validation. Every error is one
 `ConfigError` line, raised before anything is written.
 """
 
@@ -30,6 +32,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.objects import catalog
 from manigrasp.objects.pipeline import DEFAULT_DENSITY
 from manigrasp.perception.setup import CameraSetup
+from manigrasp.registry import nearest
 from manigrasp.sim.config import SceneConfig
 
 OBSERVATIONS = ("ground_truth", "estimated_pose", "point_cloud")
@@ -46,6 +49,12 @@ class ObjectEntry:
         scale: factor applied to a mesh's vertices (0.001 for millimetres).
         mass: mass [kg] (default: the shipped figure, else from density).
         density: [kg/m^3] when no mass is known.
+        exclude: hands of the config that do not run this object, each with the reason it is left out
+            (``{allegro_right: "1.9 kg: more than its 9 N squeeze holds"}``); None: every hand runs it.
+            `manigrasp.bench.trials.groups` makes no group of a left-out pair, `manigrasp.bench.trials.left_out`
+            lists them for the report, and `manigrasp.bench.compare` refuses to compare two runs that leave
+            out different pairs of a hand and object they share. Left out of run.json when None, so a config
+            without exclusions keeps its run identity (an empty mapping is None).
     """
 
     name: str | None = None
@@ -54,12 +63,28 @@ class ObjectEntry:
     scale: float = 1.0
     mass: float | None = None
     density: float = DEFAULT_DENSITY
+    exclude: Mapping[str, str] | None = field(default=None, metadata={OMIT_DEFAULT: True})
 
     def __post_init__(self) -> None:
         for key in ("scale", "density", "mass"):
             value = getattr(self, key)
             if value is not None and not value > 0:
-                raise ConfigError(f"object {self.name or self.mesh or self.ycb or ''}: {key} must be > 0, got {value}")
+                raise ConfigError(f"object {self.label}: {key} must be > 0, got {value}")
+        if self.exclude is not None:
+            for hand, reason in self.exclude.items():
+                if not isinstance(reason, str) or not reason.strip():
+                    raise ConfigError(f"object {self.label}: exclude.{hand}: give the reason the hand is left out "
+                                      f"(a non-empty string), got {reason!r}")
+            object.__setattr__(self, "exclude", dict(self.exclude) or None)
+
+    @property
+    def label(self) -> str:
+        """How error messages name the entry: its name, mesh or ycb folder."""
+        return self.name or self.mesh or self.ycb or ""
+
+    def excluded(self, hand: str) -> str | None:
+        """The reason `hand` is left out of this object, or None if it runs it."""
+        return (self.exclude or {}).get(hand)
 
     def source(self, base: Path | None = None) -> catalog.ObjectSource:
         """The `ObjectSource` this entry names (paths resolved against `base`)."""
@@ -215,6 +240,7 @@ class BenchConfig:
             raise ConfigError("trial_timeout_s must be > 0")
         _refuse_duplicates("hand", self.hands)
         _refuse_duplicates("object", self.objects)
+        self._check_exclusions()
         labels(self.planners)  # refuses identical planner entries
         if isinstance(self.camera, tuple):
             if not self.camera:
@@ -222,6 +248,18 @@ class BenchConfig:
             if len(self.camera) == 1:  # one setup, however written: the same config and run identity
                 object.__setattr__(self, "camera", self.camera[0])
         camera_labels(self.camera_setups)  # refuses identical setups
+
+    def _check_exclusions(self) -> None:
+        """Every `ObjectEntry.exclude` key is a hand of the config, and some hand runs some object."""
+        for entry in self.objects:
+            for hand in entry.exclude or {}:
+                if hand not in self.hands:
+                    hint = nearest(hand, list(self.hands))
+                    raise ConfigError(f"object {entry.label}: exclude.{hand}: {hand!r} is not a hand of this config"
+                                      f"{f' (did you mean {hint!r}?)' if hint else ''}; its hands: "
+                                      f"{', '.join(self.hands)}")
+        if all(entry.excluded(hand) for entry in self.objects for hand in self.hands):
+            raise ConfigError("every object excludes every hand of the config: nothing would run")
 
     def _resolve_protocols(self) -> None:
         """`protocol` or `protocols`, not both; one protocol however written is `protocol` (default standard)."""
@@ -322,6 +360,11 @@ def _normalise(data: dict[str, Any], where: str = "config") -> dict[str, Any]:
             data[key] = [data[key]]
     if "objects" in data:
         data["objects"] = [{"name": o} if isinstance(o, str) else o for o in data["objects"]]
+        for i, entry in enumerate(data["objects"]):
+            exclude = entry.get("exclude") if isinstance(entry, Mapping) else None
+            if exclude is not None and not isinstance(exclude, Mapping):
+                raise ConfigError(f"{where}.objects[{i}].exclude: map each hand left out to the reason "
+                                  f"({{allegro_right: \"too heavy for its grip\"}}), got {type(exclude).__name__}")
     if "planners" in data:
         data["planners"] = [{"name": p} if isinstance(p, str) else p for p in data["planners"]]
     if data.get("protocol") is not None and "protocols" in data:  # run.json of several holds protocol: null
@@ -358,7 +401,10 @@ def parse_config(data: Mapping[str, Any], overrides: Sequence[str] = (), where: 
         raise ConfigError(f"{where}: expected a mapping at the top level, got {type(data).__name__}")
     try:
         data = apply_overrides(_protocol_replaced(dict(data), overrides), overrides)
-        return from_mapping(BenchConfig, _normalise(data, where), where)
+        data = _normalise(data, where)
+        if any(item.partition("=")[0].strip() == "hands" for item in overrides if "=" in item):
+            data = _exclusions_of(data)
+        return from_mapping(BenchConfig, data, where)
     except RecursionError:
         raise ConfigError(f"{where}: nested too deeply") from None
 
@@ -382,6 +428,21 @@ def _protocol_replaced(data: dict[str, Any], overrides: Sequence[str]) -> dict[s
     for key in given:
         data.pop(PROTOCOL_KEYS[1 - PROTOCOL_KEYS.index(key)], None)
     return data
+
+
+def _exclusions_of(data: dict[str, Any]) -> dict[str, Any]:
+    """`data` (normalised) with each object's ``exclude`` keeping only the hands it lists: an override
+    ``hands=[...]`` names the hands of the run, and leaves out the exclusions of the others with them."""
+    hands = data.get("hands")
+    if not isinstance(hands, list) or not isinstance(data.get("objects"), list):
+        return data
+    objects = []
+    for entry in data["objects"]:
+        if isinstance(entry, Mapping) and isinstance(entry.get("exclude"), Mapping):
+            kept = {h: r for h, r in entry["exclude"].items() if h in hands}
+            entry = {k: v for k, v in entry.items() if k != "exclude"} | ({"exclude": kept} if kept else {})
+        objects.append(entry)
+    return {**data, "objects": objects}
 
 
 def load_config(path: str | Path, overrides: Sequence[str] = ()) -> BenchConfig:

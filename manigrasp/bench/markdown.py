@@ -22,7 +22,7 @@ from manigrasp.bench.report import (
     format_rate,
 )
 from manigrasp.bench.store import TrialKey
-from manigrasp.bench.trials import REST_LABEL
+from manigrasp.bench.trials import REST_LABEL, LeftOut, left_out
 from manigrasp.protocol.result import PoseRecord, TrialResult
 from manigrasp.runfiles import REPORT_NAME
 
@@ -247,6 +247,39 @@ def warning_lines(meta: dict, done: Completeness | None = None, report: Report |
     return lines
 
 
+def left_out_of(meta: dict) -> list[LeftOut]:
+    """The object x hand pairs the run's config (run.json) leaves out, with their reasons (`trials.left_out`).
+
+    A recorded config that no longer parses (written by other code) is read as recorded: each object entry's
+    ``exclude`` for the hands listed, the object named by its entry.
+    """
+    from manigrasp.bench.config import parse_config
+    from manigrasp.errors import ManigraspError
+
+    config = meta.get("config")
+    objects = config.get("objects") if isinstance(config, dict) else None
+    if not isinstance(objects, list) or not any(isinstance(o, dict) and o.get("exclude") for o in objects):
+        return []
+    folder = meta.get("config_dir")
+    try:
+        return left_out(parse_config(config, where="run.json"), Path(folder) if isinstance(folder, str) else None)
+    except (ManigraspError, TypeError, ValueError):
+        hands = config.get("hands") if isinstance(config.get("hands"), list) else []
+        return [LeftOut(str(o.get("name") or o.get("mesh") or o.get("ycb")), str(hand), str(reason))
+                for o in objects if isinstance(o, dict) and isinstance(o.get("exclude"), dict)
+                for hand, reason in o["exclude"].items() if hand in hands]
+
+
+def left_out_section(pairs: list[LeftOut]) -> list[str]:
+    """The "Left out by the config" section (nothing when every object x hand ran)."""
+    if not pairs:
+        return []
+    return ["## Left out by the config",
+            f"{len(pairs)} object x hand pair(s) ran no trial (the object entry's `exclude` in the config), so no rate "
+            "or count of this report includes them; the reasons are the config's.",
+            _table(["hand", "object", "reason"], [[p.hand, p.object, p.reason] for p in pairs])]
+
+
 def _entry(entry: object) -> str:
     """A recorded protocol or planner entry as "`name`", with its parameters when it has any: the tables label a
     run's entries by name, so a `standard` run at a 10 N grip must say so where the figures are."""
@@ -292,6 +325,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         *(f"**Warning: {line}.**" for line in warning_lines(meta, done, report)),
         "\n".join(f"- **{line}**" for line in lead_lines(report, protocol_order(report, meta)))
         + "\n\nRates with 95 % Wilson intervals. " + pooled_line(report) + ".",
+        *left_out_section(left_out_of(meta)),
         "## Per hand and planner",
         _table([*headers, "trials", "successes", "rate [95% CI]", "failure modes", PLANNING_TIME_HEADER],
                [[*method_cells(report, m), r.trials, r.successes, format_rate(r), _modes(r.failure_modes),

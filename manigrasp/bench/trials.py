@@ -33,6 +33,12 @@ with fewer runs as many as it has): one group per pose, its object labelled
 Counting an object's poses builds it (from the cache when built). Each resting
 pose is its own experiment (the object lies differently), so its seed derives
 from that label.
+
+An object entry's ``exclude`` (`manigrasp.bench.config.ObjectEntry.exclude`) leaves
+out the hands it names: `groups` makes no group of such an object x hand (in any
+resting pose, planner, observation or protocol), and `left_out` lists the pairs with
+their reasons for the report. Seeds derive from names, so leaving a pair out changes
+no other group's seed or trial ids.
 """
 
 from __future__ import annotations
@@ -123,7 +129,7 @@ class Group:
 
 def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
     """Every group of `config`, in config order (objects, resting poses, then hands, planners, observations,
-    camera setups, protocols).
+    camera setups, protocols), but none of an object x hand that the object's entry excludes (`left_out`).
 
     Object sources are resolved here, so an unknown object or a missing mesh
     file is an error before any trial runs.
@@ -139,10 +145,11 @@ def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
     protocols = list(zip(config.protocol_entries, config.protocol_labels, strict=True))
     several = len(protocols) > 1
     out = []
-    for source in sources:
-        for scene, object_label in rest_scenes(config.scene, source):
+    for entry, source in zip(config.objects, sources, strict=True):
+        hands = [hand for hand in config.hands if entry.excluded(hand) is None]
+        for scene, object_label in rest_scenes(config.scene, source) if hands else ():
             name = object_label or source.name
-            for hand in config.hands:
+            for hand in hands:
                 for planner, label in zip(config.planners, labels, strict=True):
                     for observation in config.observation:
                         seed = stable_seed(config.seed, name, hand, label, observation)
@@ -150,6 +157,42 @@ def groups(config: BenchConfig, base: Path | None = None) -> list[Group]:
                                       seed, config.trial_timeout_s, label, camera, suffix,
                                       protocol_label if several else "", object_label)
                                 for camera, suffix in setups[observation] for protocol, protocol_label in protocols]
+    return out
+
+
+@dataclass(frozen=True)
+class LeftOut:
+    """An object x hand of a config that runs no trial, and why (`manigrasp.bench.config.ObjectEntry.exclude`).
+
+    Attributes:
+        object: the object's name (as in trial ids, before any ``@rest<i>``).
+        hand: the hand's name.
+        reason: the config's reason.
+    """
+
+    object: str
+    hand: str
+    reason: str
+
+
+def left_out(config: BenchConfig, base: Path | None = None) -> list[LeftOut]:
+    """The object x hand pairs of `config` that `groups` leaves out, in config order, with their reasons.
+
+    An object whose source cannot be resolved here (a mesh or YCB folder read on another machine) is named
+    by its entry (`ObjectEntry.label`), so a report can always say what was left out.
+    """
+    from manigrasp.errors import ManigraspError
+
+    out = []
+    for entry in config.objects:
+        pairs = [(hand, entry.excluded(hand)) for hand in config.hands if entry.excluded(hand) is not None]
+        if not pairs:
+            continue
+        try:
+            name = entry.source(base).name
+        except (ManigraspError, OSError):
+            name = entry.label
+        out += [LeftOut(name, hand, str(reason)) for hand, reason in pairs]
     return out
 
 

@@ -44,7 +44,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="config overrides, anywhere on the line, dotted for nested keys (grasps_per_object=5 "
                         "scene.timestep=0.001); a list field takes one value or a list (objects=mug, "
                         "hands=[panda, parallel_jaw]); protocols=[standard, lift] runs several protocols side by "
-                        "side and replaces the config's protocol: (protocol=NAME replaces its protocols:)")
+                        "side and replaces the config's protocol: (protocol=NAME replaces its protocols:); "
+                        "hands=[...] names the hands of the run and drops the config's exclusions (an object's "
+                        "exclude:) of the others")
     p.add_argument("--out", required=True, type=Path, metavar="RUN_DIR", help="run directory")
     p.add_argument("--jobs", type=int, default=1,
                    help="worker processes (default 1; capped at the cores of this machine)")

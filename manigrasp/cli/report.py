@@ -17,7 +17,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "report", help="summarise a run: success rates per hand x planner, failure modes, metric AUCs, report.md",
         description="Print the run's rates per hand x planner (x observation x protocol) and per object (95 % "
                     "Wilson intervals), failure modes, the median planning call and each metric's AUC for success "
-                    "per hand x planner (95 % bootstrap interval), a warning if the run is incomplete, and "
+                    "per hand x planner (95 % bootstrap interval), a warning if the run is incomplete, the "
+                    "object x hand pairs the config leaves out (an object's `exclude`) with their reasons, and "
                     "write report.md with PNG plots into RUN_DIR (or --out). The stored results are "
                     "only read: a read-only RUN_DIR works (its report.md is then skipped unless --out).")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
@@ -34,8 +35,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                     "over its groups in both (Holm-corrected across them), and over all groups in both pooled. "
                     "Groups found on one side only are listed; an incomplete run is noted. Exit 0: no significant "
                     "regression; 1: a regression; 2: cannot judge (different protocol, planner, hand, object, "
-                    "physics or grasps_per_object, or cameras where perception groups are compared; no common "
-                    "trials, a malformed baseline, alpha outside (0, 1)).")
+                    "physics or grasps_per_object, an object x hand in both that one side leaves out (`exclude`), "
+                    "or cameras where perception groups are compared; no common trials, a malformed baseline, "
+                    "alpha outside (0, 1)).")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
     p.add_argument("baseline", type=Path, metavar="BASELINE",
                    help="a baseline run directory or JSON file (`manigrasp report RUN_DIR --json > FILE`)")
@@ -66,7 +68,7 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
     from dataclasses import asdict
 
     from manigrasp.bench.completeness import completeness
-    from manigrasp.bench.markdown import warning_lines
+    from manigrasp.bench.markdown import left_out_of, warning_lines
     from manigrasp.bench.report import load_results, summarize
     from manigrasp.bench.rundir import config_dir, load_meta
 
@@ -78,9 +80,13 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
         run = {k: meta.get(k) for k in ("config", "seed", "versions", "git_commit", "started")}
         if meta.get("resumed_with_other_code"):
             run["resumed_with_other_code"] = meta["resumed_with_other_code"]
-        print_json({"run": run, "completeness": {**asdict(done), "complete": done.complete}, **report.to_json()})
+        pairs = left_out_of(meta)
+        print_json({"run": run, "completeness": {**asdict(done), "complete": done.complete}, **report.to_json(),
+                    **({"left_out": [asdict(p) for p in pairs]} if pairs else {})})
         return 0
     _print_tables(report, meta)
+    for pair in left_out_of(meta):
+        print(f"left out by the config: {pair.hand} x {pair.object} ({pair.reason})")
     for line in warning_lines(meta, done, report):
         print(f"WARNING: {line}")
     target = Path(out_dir) if out_dir is not None else Path(run_dir)
