@@ -8,8 +8,10 @@ displacement [mm] and rotation [deg] of the can in the hand over the whole trial
 `--adaptive` also runs the five-finger hands with adaptive (uncoupled) fingers, as they were before the
 fingers' joints were coupled. Measured (2 Dec 2026, the grip loop's closing reach and inspire_left's thumb
 mirrored from the right's): creep at gains 0 / 20 / 40: inspire_right 19.5 / 2.4 / 1.5 mm, fourier_right
-12.0 / 1.5 / 1.2 mm, allegro_right 1.0 / 1.2 / 1.2 mm, inspire_left 19.5 / 2.7 / 1.8 mm, fourier_left
-12.3 / 1.4 / 1.1 mm, allegro_left 0.9 / 1.0 / 1.0 mm, every trial a success. (With robosuite's own left thumb,
+12.0 / 1.5 / 1.2 mm, allegro_right 1.0 / 1.4 / 1.4 mm, inspire_left 19.5 / 2.7 / 1.8 mm, fourier_left
+12.3 / 1.4 / 1.1 mm, allegro_left 0.9 / 1.2 / 1.2 mm, every trial a success (the Allegro's fingers held per
+finger, without a force floor: `manigrasp.control.hold`; with the floor on every joint it crept 1.2 and 1.0 mm).
+(With robosuite's own left thumb,
 inspire_left crept 2.4 mm at 40: its thumb flexes in a plane tilted 6.5 deg from the right's mirror image.)
 
     .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right fourier_right allegro_right \

@@ -25,6 +25,24 @@ inspire_right 7 vs 10).
   (a hand-placed can then creeps 11 mm in the Inspire hand); at `FLOOR` the squeeze stays on the object and the
   can creeps under 2 mm in every hand (`benchmarks/bench_grip_hold.py`).
 
+The floor is for a finger that closes along one path: a tendon or linkage that one actuator drives (each finger
+of the five-finger hands), which follows the object along the path it closed on. A finger with several servoed
+joints that close (the Allegro's fingers: three, its thumb: two) has its joint configuration held instead (floor
+0: stiff against opening, pushing nothing where the object yields): with a floor on each joint, a finger the
+object moves away from keeps pushing on every joint in a ratio that no longer matches the contact it held, so it
+curls on along the object and rolls it. Measured on the Allegro's dexopt grasps (tomato soup can, potted meat can,
+mug, banana x 5, `standard` at 10 N; replayed with an observer, from the start of the lift to the first
+perturbation): with the floor on every joint, 12/20 succeeded; the 5 that dropped in the perturbations had
+turned 8.7 deg in the hand (median; successes 1.2 deg), 4.8 deg of it carried by the fingers' own motion (the
+rotation of their contact points in the hand; the rest slip, largest 4.0 mm), their fingers curled on by up to
+0.12 rad (median of the largest joint motion; successes 0.02 rad). Held per finger: 15/20; the mug's grasps that
+dropped turn 2.2-2.3 deg instead of 8.7-9.2 deg. Not the cause there: the thumb at its 0.7 N m limit (1.4 N m in
+a replay: 12/20), the grip level (7 or 8 N: 13, 12/20), a slower lift (0.03 m/s: 11/20), the hold gain (10 or 200
+with the floor: 12, 11/20; 10, 20, 80 held per finger: 16, 16, 15/20); without the hold 6/20, with the full
+force as the floor 4/20 (fingers that follow at full force roll the object further). The five-finger hands'
+tendon fingers keep the floor: without it, inspire_right's dexopt grasps of the same objects held 14/20, with it
+17/20.
+
 The closing direction of each actuator is given to `engage` (the closed row of the hand's path minus its open
 row); actuators that do not move with the squeeze (finger spread, thumb rotation: they hold the pre-shape and
 are stiff already) are left as they are. `release` restores the model's gains and force ranges (the scene's
@@ -58,16 +76,24 @@ class FingerHold:
             `release`).
         actuators: ids of the hand's actuators.
         gain: stiffness multiple of the held grasp [-] (>= 1).
+        fingers: (n,) the finger each of `actuators` moves (e.g. `Scene.actuator_fingers`; -1: none or several);
+            the servos of a finger with several that close are held without a floor (see the module docstring).
+            None: every actuator its own finger (each held servo gets the floor).
     """
 
-    def __init__(self, model: mujoco.MjModel, actuators: np.ndarray, gain: float = HOLD_GAIN) -> None:
+    def __init__(self, model: mujoco.MjModel, actuators: np.ndarray, gain: float = HOLD_GAIN,
+                 fingers: np.ndarray | None = None) -> None:
         if not gain >= 1.0:
             raise ConfigError(f"the hold gain must be >= 1, got {gain}")
         self.model, self.gain = model, float(gain)
         ids = np.asarray(actuators, dtype=int)
+        fingers = np.full(len(ids), -1) if fingers is None else np.asarray(fingers, dtype=int)
+        if fingers.shape != ids.shape:
+            raise ConfigError(f"fingers must be ({len(ids)},), got shape {fingers.shape}")
         servo = position_servos(model, ids)
         self.actuators, self.servo = ids, servo
         self.ids = ids[servo]
+        self.fingers = fingers[servo]
         self.kp = model.actuator_gainprm[self.ids, 0].copy()
         self.kv = -model.actuator_biasprm[self.ids, 2].copy()
         self.forcerange = model.actuator_forcerange[self.ids].copy()
@@ -87,7 +113,8 @@ class FingerHold:
         Each held servo keeps its current spring force f = kp (u - L) (clamped to its force range): its command
         becomes u' = L + f / kp' (clamped to the control range), its stiffness kp' = gain kp, its damping
         sqrt(gain) kv (same damping ratio), and its force range [f_min, f_max] in the closing direction,
-        f_min = `FLOOR` f (a servo pushed to its limit keeps a margin of stiffness).
+        f_min = `FLOOR` f if it is the only held servo of its finger (or its finger is unknown), else 0 (the
+        finger's joint configuration is held).
         """
         m = self.model
         closing = np.asarray(closing, dtype=float)
@@ -96,6 +123,8 @@ class FingerHold:
         sign = np.sign(closing[self.servo])
         take = sign != 0
         ids, kp0, kv0, sign = self.ids[take], self.kp[take], self.kv[take], sign[take]
+        fingers = self.fingers[take]
+        shared = (fingers >= 0) & (np.sum(fingers[:, None] == fingers[None, :], axis=1) > 1)
         low, high = self.forcerange[take, 0], self.forcerange[take, 1]
         limited = self.forcelimited[take].astype(bool)
         length = data.actuator_length[ids]
@@ -103,7 +132,7 @@ class FingerHold:
         spring = np.where(limited, np.clip(spring, low, high), spring)
         push = np.maximum(sign * spring, 0.0)  # force in the closing direction [N or N m]
         limit = np.where(limited, np.where(sign > 0, high, -low), np.inf)
-        floor = FLOOR * push
+        floor = np.where(shared, 0.0, FLOOR) * push
         kp = self.gain * kp0
         m.actuator_gainprm[ids, 0] = kp
         m.actuator_biasprm[ids, 1] = -kp

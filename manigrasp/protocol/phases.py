@@ -33,7 +33,7 @@ def finger_hold(run: TrialRun, gain: float) -> FingerHold:
     scene = run.scene
     if scene not in _HOLDS or _HOLDS[scene].gain != gain:
         release_hold(run)
-        _HOLDS[scene] = FingerHold(scene.model, scene.hand_actuators, gain)
+        _HOLDS[scene] = FingerHold(scene.model, scene.hand_actuators, gain, scene.actuator_fingers)
     return _HOLDS[scene]
 
 

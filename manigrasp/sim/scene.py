@@ -124,6 +124,7 @@ class Scene:
         self.base_qpos = model.jnt_qposadr[base_joints].copy()
         self.hand_bodies = np.flatnonzero(model.body_rootid == self.root_body)
         self.finger_of_body = self._finger_map()
+        self.actuator_fingers = self._actuator_fingers()
         self._open_qpos = self._hand_open_qpos()
         self.object_body = mujoco.mj_name2id(model, _BODY, OBJECT_BODY)
         self.object_geoms = self._object_geoms()
@@ -149,6 +150,25 @@ class Scene:
             while b != self.root_body and b not in fingers:
                 b = int(self.model.body_parentid[b])
             out[body] = fingers.get(b, -1)
+        return out
+
+    def _actuator_fingers(self) -> np.ndarray:
+        """(n_act,) index into `hand.finger_bodies` of the finger each hand actuator moves, -1 if none or several:
+        the finger of its joint (joint transmission) or of every joint its tendon spans (a finger's tendon)."""
+        m = self.model
+        out = np.full(len(self.hand_actuators), -1)
+        for i, a in enumerate(self.hand_actuators):
+            kind, target = int(m.actuator_trntype[a]), int(m.actuator_trnid[a, 0])
+            if kind in (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT):
+                joints = [target]
+            elif kind == mujoco.mjtTrn.mjTRN_TENDON:
+                wraps = range(m.tendon_adr[target], m.tendon_adr[target] + m.tendon_num[target])
+                joints = [int(m.wrap_objid[w]) for w in wraps if m.wrap_type[w] == mujoco.mjtWrap.mjWRAP_JOINT]
+            else:
+                continue
+            fingers = {int(self.finger_of_body[m.jnt_bodyid[j]]) for j in joints}
+            if len(fingers) == 1:
+                out[i] = fingers.pop()
         return out
 
     def _hand_open_qpos(self) -> list[tuple[int, np.ndarray]]:

@@ -1,0 +1,161 @@
+"""`FingerHold` per finger: a finger with several closing servos has its joint configuration held (no force floor),
+a finger that one actuator closes follows the object with the floor; `Scene.actuator_fingers` tells them apart.
+
+Closed loop: an Allegro fingertip grasp of the mug (planned by dexopt, stored below) turned 8.7 deg in the hand
+during the lift and hold when every held joint followed the object at `FLOOR` of its force (its fingers curled
+on and rolled it); with the fingers' joints held it turns about 2 deg.
+"""
+
+from __future__ import annotations
+
+import time
+
+import mujoco
+import numpy as np
+import pytest
+
+from manigrasp.control import FingerHold
+from manigrasp.control.hold import FLOOR
+from manigrasp.geometry import pose_distance, relative_pose
+from manigrasp.protocol.result import Phase
+
+# Three hinged links, each turned by its position servo against its own stop (the closing direction: negative).
+LINKS = """
+<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+""" + "".join(f"""
+    <geom type="box" size="0.01 0.01 0.05" pos="{x + 0.06} 0.1 0"/>
+    <body name="link{i}" pos="{x} 0 0">
+      <joint name="hinge{i}" type="hinge" axis="0 0 1" damping="0.01"/>
+      <geom type="capsule" fromto="0 0 0 0 0.1 0" size="0.01"/>
+    </body>""" for i, x in enumerate((0.0, 1.0, 2.0))) + """
+  </worldbody>
+  <actuator>
+""" + "".join(f"""
+    <position name="servo{i}" joint="hinge{i}" kp="0.5" kv="0.05" ctrlrange="-1 3" forcerange="-0.6 0.6"/>"""
+              for i in range(3)) + """
+  </actuator>
+</mujoco>
+"""
+CLOSING = np.array([-1.0, -1.0, -1.0])
+
+
+def _pressed() -> tuple[mujoco.MjModel, mujoco.MjData]:
+    model = mujoco.MjModel.from_xml_string(LINKS)
+    data = mujoco.MjData(model)
+    data.ctrl[:] = -1.0
+    mujoco.mj_step(model, data, nstep=2000)
+    assert data.ncon >= 3
+    return model, data
+
+
+def test_servos_of_one_finger_are_held_without_a_floor_a_lone_servo_keeps_it() -> None:
+    """Links 0 and 1 are two joints of finger 0, link 2 is finger 1 alone: pushed 0.05 rad further closed (the
+    object moved away), the lone servo still pushes FLOOR f, the shared ones push nothing; pushed open 0.01 rad,
+    each resists with its held stiffness, 20 x 0.5 x 0.01 = 0.1 N m more."""
+    model, data = _pressed()
+    force0 = data.actuator_force.copy()
+    assert np.all((force0 < -0.1) & (force0 > -0.6))  # each presses its stop below its limit
+    FingerHold(model, np.arange(3), gain=20.0, fingers=np.array([0, 0, 1])).engage(data, CLOSING)
+    np.testing.assert_allclose(model.actuator_forcerange[:, 1], [0.0, 0.0, FLOOR * force0[2]], rtol=1e-3)
+    mujoco.mj_forward(model, data)
+    q0 = data.qpos.copy()
+    data.qpos[:] = q0 - 0.05
+    mujoco.mj_forward(model, data)
+    np.testing.assert_allclose(data.actuator_force, [0.0, 0.0, FLOOR * force0[2]], atol=1e-3)
+    data.qpos[:] = q0 + 0.01
+    mujoco.mj_forward(model, data)
+    np.testing.assert_allclose(data.actuator_force - force0, -0.1, atol=1e-3)
+
+
+def test_without_fingers_every_held_servo_keeps_the_floor() -> None:
+    model, data = _pressed()
+    force0 = data.actuator_force.copy()
+    FingerHold(model, np.arange(3), gain=20.0).engage(data, CLOSING)
+    np.testing.assert_allclose(model.actuator_forcerange[:, 1], FLOOR * force0, rtol=1e-3)
+
+
+def test_a_finger_with_one_closing_servo_keeps_the_floor_even_if_others_of_it_do_not_close() -> None:
+    model, data = _pressed()
+    force0 = data.actuator_force.copy()
+    FingerHold(model, np.arange(3), gain=20.0, fingers=np.array([0, 0, 1])).engage(data, np.array([-1.0, 0.0, -1.0]))
+    assert model.actuator_forcerange[0, 1] == pytest.approx(FLOOR * force0[0], rel=1e-3)
+
+
+def test_fingers_must_match_the_actuators() -> None:
+    from manigrasp.errors import ConfigError
+
+    model, _ = _pressed()
+    with pytest.raises(ConfigError, match="fingers"):
+        FingerHold(model, np.arange(3), fingers=np.array([0, 1]))
+
+
+def test_actuator_fingers_of_tendon_hands() -> None:
+    """Each finger tendon of the five-finger hands moves one finger (thumb first); the thumb's rotation turns
+    the thumb's base, outside its finger body."""
+    from manigrasp.sim import build_scene
+
+    scene = build_scene("inspire_right")
+    np.testing.assert_array_equal(scene.actuator_fingers, [-1, 0, 1, 2, 3, 4])
+
+
+# ------------------------------------------------------------------------------------------ closed loop (Allegro)
+# dexopt's grasp 1 of 025_mug for allegro_right (configs: dexterous objects, seed 0, 5 grasps, `standard` at 10 N;
+# stored by `manigrasp bench` at fd0aae5): TCP pose in the world and the hand path (pre-shape, squeeze).
+MUG_POSE = np.array([[0.7748585962792984, -0.5477598440067459, 0.3155206951465797, -0.010766697618311174],
+                     [-0.3066383302039924, -0.7621793021725871, -0.5701365150465418, 0.03118445302444883],
+                     [0.5527812317922731, 0.3450244406319843, -0.758545348113614, 0.07338808675880482],
+                     [0.0, 0.0, 0.0, 1.0]])
+MUG_JOINTS = np.array([
+    [-0.4236496072364861, 0.4702916522534879, 0.7189727739408587, 0.44445479213300143, -0.2901019697123088, -0.196,
+     -0.174, 0.3999091956730058, -0.3633338489590428, 0.2991973430218138, 0.5038875173294259, 0.8820541479154507,
+     1.223728757233764, 0.8357373760580775, -0.189, -0.162],
+    [-0.4236496072364861, 2.205498483651973, 1.6249965504469288, 0.6764591106613932, -0.2901019697123088, 2.31,
+     1.9713722974381627, 1.4522996435518118, -0.3633338489590428, 1.9869788939326736, 1.298780630796148,
+     0.9862057747245528, 1.223728757233764, 0.8357373760580775, 2.344, 1.0680960247080167]])
+
+
+class _TurnInHand:
+    """Observer: the object's rotation in the hand from the start of the lift to the first perturbation [deg]."""
+
+    sample_period_s = float("inf")
+
+    def __init__(self) -> None:
+        self.start = None
+        self.turn = np.nan
+
+    def on_start(self, scene, grasp, object_pose) -> None:  # noqa: D102
+        pass
+
+    def on_phase(self, scene, phase, detail: str = "") -> None:  # noqa: D102
+        in_hand = relative_pose(scene.tcp_pose(), scene.object_pose())
+        if phase == Phase.LIFT:
+            self.start = in_hand
+        elif phase == Phase.PERTURB and self.start is not None and np.isnan(self.turn):
+            self.turn = pose_distance(self.start, in_hand)[1]
+
+    def on_sample(self, scene) -> None:  # noqa: D102
+        pass
+
+    def on_end(self, scene, result) -> None:  # noqa: D102
+        pass
+
+
+def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift() -> None:
+    pytest.importorskip("cmeel", reason="the Allegro hand needs the 'allegro' extra (example-robot-data)")
+    from manigrasp.objects import catalog
+    from manigrasp.planners.base import GraspCandidate
+    from manigrasp.protocol import PROTOCOLS, settle_object
+    from manigrasp.sim import build_scene
+
+    asset = catalog.build(catalog.ObjectSource(name="025_mug", recipe="025_mug", mass=0.118)).asset
+    scene = build_scene("allegro_right", asset)
+    np.testing.assert_array_equal(scene.actuator_fingers, [1] * 4 + [2] * 4 + [3] * 4 + [0] * 4)
+    object_pose = settle_object(scene)
+    watch = _TurnInHand()
+    result = PROTOCOLS.load("standard", grip_force=10.0).run(
+        scene, GraspCandidate(pose=MUG_POSE, score=1.0, preshape=0.0, joints=MUG_JOINTS), np.random.default_rng(0),
+        deadline=time.monotonic() + 300, object_pose=object_pose, observer=watch, seed=0)
+    assert np.isfinite(watch.turn), result.detail  # the grasp was lifted and held
+    assert watch.turn < 5.0  # 8.7 deg with a floor on every held joint
