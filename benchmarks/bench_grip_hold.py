@@ -17,6 +17,23 @@ inspire_left crept 2.4 mm at 40: its thumb flexes in a plane tilted 6.5 deg from
     .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right fourier_right allegro_right \
         inspire_left fourier_left allegro_left
     .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right --gains 0 40 --adaptive
+
+`--run RUN_DIR` instead replays the stored trials of a `manigrasp bench` run (`--only` filters their ids) and
+splits the object's turn in the hand from the start of the lift to the first perturbation into what the fingers
+carried and what slipped: the rotation of the contact points on the fingers (each contact's point on its finger
+link at the start of the lift, seen in the hand frame; their best-fit rotation), the largest slip of a contact
+(its point on the object against its point on the finger) [mm], and the largest motion of a hand joint [rad].
+`--floor-every-joint` replays with the force floor on every held servo (each actuator taken as its own finger,
+the hold before it was per finger). Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x
+allegro_right, inspire_right x dexopt x 5 grasps, `standard` with grip_force 10, seed 0, planned at fd0aae5):
+allegro_right, floor on every joint: 12/20, the 5 `dropped_perturb` turned 8.7 deg (median), 4.8 deg of it
+carried by the fingers, largest slip 4.5 mm, largest joint motion 0.116 rad (the 12 successes: 1.3 deg, 0.8 deg,
+1.6 mm, 0.022 rad); held per finger: 15/20, the 2 drops 2.1 deg, 0.5 deg, 2.6 mm, 0.028 rad (successes 1.5 deg,
+0.6 deg, 1.6 mm, 0.008 rad); the 3 banana grasps slip in the lift either way (turn 15-18 deg, largest slip up to
+22 mm: squeezed out). inspire_right 17/20 either way (one closing actuator per finger). The same planner at
+seed 1 on mustard bottle, tennis ball, sugar box, potted meat can, mug and tomato soup can: 10/30 -> 16/30.
+
+    .venv/bin/python benchmarks/bench_grip_hold.py --run RUN --only allegro_right [--floor-every-joint]
 """
 
 from __future__ import annotations
@@ -25,16 +42,132 @@ import argparse
 import dataclasses
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 import trimesh
 
 from manigrasp import hands
+from manigrasp.geometry import relative_pose
 from manigrasp.hands.placement import side_power_grasp
 from manigrasp.objects import build_object
 from manigrasp.planners.base import GraspCandidate
 from manigrasp.protocol import PROTOCOLS, settle_object
-from manigrasp.sim import build_scene
+from manigrasp.protocol.result import Phase
+from manigrasp.sim import build_scene, read_hand_contacts
+
+
+def _pose(data, body: int) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3], out[:3, 3] = data.xmat[body].reshape(3, 3), data.xpos[body]
+    return out
+
+
+def _angle_deg(rot: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip((np.trace(rot) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+def _fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """The rotation that best maps the points `before` (n, 3) onto `after` about their centroids (Kabsch)."""
+    u, _, vt = np.linalg.svd((before - before.mean(0)).T @ (after - after.mean(0)))
+    return vt.T @ np.diag([1.0, 1.0, np.sign(np.linalg.det(vt.T @ u.T))]) @ u.T
+
+
+class TurnSplit:
+    """Observer: at the start of the lift, each hand-object contact's point on the object and on its hand body;
+    at the first perturbation (or the end), the object's turn in the hand, the turn of the contact points on the
+    fingers, the largest slip and the largest hand joint motion since."""
+
+    sample_period_s = float("inf")
+
+    def __init__(self) -> None:
+        self.start: dict | None = None
+        self.split: dict | None = None
+
+    def on_start(self, scene, grasp, object_pose) -> None:  # noqa: D102
+        pass
+
+    def on_sample(self, scene) -> None:  # noqa: D102
+        pass
+
+    def on_phase(self, scene, phase, detail: str = "") -> None:  # noqa: D102
+        if phase == Phase.LIFT and self.start is None:
+            self._begin(scene)
+        elif phase == Phase.PERTURB and self.split is None and self.start is not None:
+            self.split = self._measure(scene)
+
+    def on_end(self, scene, result) -> None:  # noqa: D102
+        if self.split is None and self.start is not None:
+            self.split = self._measure(scene)
+
+    def _joints(self, scene) -> np.ndarray:
+        m = scene.model
+        return scene.data.qpos[m.jnt_qposadr[m.actuator_trnid[scene.hand_actuators, 0]]].copy()
+
+    def _begin(self, scene) -> None:
+        d = scene.data
+        c = read_hand_contacts(scene, "object")
+        keep = c.normal_force > 0.05
+        obj, points, bodies = _pose(d, scene.object_body), c.position[keep], c.hand_body[keep]
+        self.start = dict(
+            in_hand=relative_pose(scene.tcp_pose(), obj), bodies=bodies,
+            on_object=[(np.linalg.inv(obj) @ np.r_[p, 1.0])[:3] for p in points],
+            on_finger=[(np.linalg.inv(_pose(d, b)) @ np.r_[p, 1.0])[:3] for p, b in zip(points, bodies, strict=True)],
+            joints=self._joints(scene) if scene.hand_actuators.size else np.zeros(0))
+
+    def _measure(self, scene) -> dict:
+        d, s = scene.data, self.start
+        hand_inv = np.linalg.inv(scene.tcp_pose())
+        in_hand = hand_inv @ _pose(d, scene.object_body)
+        out = dict(turn=_angle_deg(s["in_hand"][:3, :3].T @ in_hand[:3, :3]), carried=0.0, slip=0.0, joint=0.0)
+        if len(s["bodies"]):
+            was = np.array([(s["in_hand"] @ np.r_[p, 1.0])[:3] for p in s["on_object"]])
+            on_object = np.array([(in_hand @ np.r_[p, 1.0])[:3] for p in s["on_object"]])
+            on_finger = np.array([(hand_inv @ _pose(d, b) @ np.r_[p, 1.0])[:3]
+                                  for p, b in zip(s["on_finger"], s["bodies"], strict=True)])
+            out["carried"] = _angle_deg(_fit_rotation(was, on_finger)) if len(was) >= 2 else 0.0
+            out["slip"] = 1000.0 * float(np.linalg.norm(on_object - on_finger, axis=1).max())
+        if len(s["joints"]):
+            out["joint"] = float(np.abs(self._joints(scene) - s["joints"]).max())
+        return out
+
+
+def replay_run(run_dir: Path, only: str, floor_every_joint: bool) -> None:
+    """`--run`: the turn of each stored trial's object in the hand, split (see the module docstring)."""
+    from manigrasp.bench.replay import find_trial, stored_grasp, stored_trials
+    from manigrasp.bench.worker import scene_for
+    from manigrasp.protocol import phases
+
+    rows = []
+    print(f"{'trial':64s} {'status':16s} {'turn':>5s} {'carried':>7s} {'slip mm':>7s} {'joint rad':>9s}")
+    for trial_id in sorted(t for t in stored_trials(run_dir) if only in t):
+        trial = find_trial(run_dir, trial_id)
+        scene = scene_for(trial.group)
+        if trial.group.hand not in _FINGERS:
+            _FINGERS[trial.group.hand] = scene.actuator_fingers.copy()
+        fingers = np.full_like(_FINGERS[trial.group.hand], -1) if floor_every_joint else _FINGERS[trial.group.hand]
+        if not np.array_equal(scene.actuator_fingers, fingers):
+            scene.actuator_fingers = fingers
+            phases._HOLDS.pop(scene, None)  # the scene's hold is made again from the fingers given now
+        object_pose = settle_object(scene)
+        protocol = PROTOCOLS.load(trial.group.protocol.name, **dict(trial.group.protocol.params))
+        seed = trial.group.trial_seed(trial.index)
+        watch = TurnSplit()
+        result = protocol.run(scene, stored_grasp(trial.result), np.random.default_rng(seed),
+                              deadline=time.monotonic() + 600, object_pose=object_pose, observer=watch, seed=seed)
+        split = watch.split or dict(turn=np.nan, carried=np.nan, slip=np.nan, joint=np.nan)
+        rows.append((result.status.value, split))
+        print(f"{trial_id:64s} {result.status.value:16s} {split['turn']:5.1f} {split['carried']:7.1f} "
+              f"{split['slip']:7.1f} {split['joint']:9.3f}", flush=True)
+    for status in sorted({r[0] for r in rows}):
+        got = [r[1] for r in rows if r[0] == status]
+        med = {k: float(np.nanmedian([g[k] for g in got])) for k in ("turn", "carried", "slip", "joint")}
+        print(f"{status:16s} {len(got):3d} of {len(rows)}  median turn {med['turn']:.1f} deg, carried by the "
+              f"fingers {med['carried']:.1f} deg, largest slip {med['slip']:.1f} mm, largest joint motion "
+              f"{med['joint']:.3f} rad")
+
+
+_FINGERS: dict[str, np.ndarray] = {}  # each hand's own `Scene.actuator_fingers`
 
 
 def main() -> None:
@@ -42,7 +175,14 @@ def main() -> None:
     parser.add_argument("--hands", nargs="+", default=["inspire_right", "fourier_right", "allegro_right"])
     parser.add_argument("--gains", nargs="+", type=float, default=[0.0, 20.0, 40.0])
     parser.add_argument("--adaptive", action="store_true", help="also the five-finger hands with adaptive fingers")
+    parser.add_argument("--run", type=Path, help="replay this bench run's stored trials instead (turn split)")
+    parser.add_argument("--only", default="", help="with --run: trials whose id contains this")
+    parser.add_argument("--floor-every-joint", action="store_true", help="with --run: the force floor on every "
+                        "held servo (each actuator its own finger)")
     args = parser.parse_args()
+    if args.run is not None:
+        replay_run(args.run, args.only, args.floor_every_joint)
+        return
     with tempfile.TemporaryDirectory() as cache:
         can = build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,
                            cache_root=cache).asset

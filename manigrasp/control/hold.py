@@ -34,10 +34,11 @@ object moves away from keeps pushing on every joint in a ratio that no longer ma
 curls on along the object and rolls it. Measured on the Allegro's dexopt grasps (tomato soup can, potted meat can,
 mug, banana x 5, `standard` at 10 N; replayed with an observer, from the start of the lift to the first
 perturbation): with the floor on every joint, 12/20 succeeded; the 5 that dropped in the perturbations had
-turned 8.7 deg in the hand (median; successes 1.2 deg), 4.8 deg of it carried by the fingers' own motion (the
-rotation of their contact points in the hand; the rest slip, largest 4.0 mm), their fingers curled on by up to
-0.12 rad (median of the largest joint motion; successes 0.02 rad). Held per finger: 15/20; the mug's grasps that
-dropped turn 2.2-2.3 deg instead of 8.7-9.2 deg. Not the cause there: the thumb at its 0.7 N m limit (1.4 N m in
+turned 8.7 deg in the hand (median; successes 1.3 deg), 4.8 deg of it carried by the fingers' own motion (the
+rotation of their contact points in the hand; the rest slip, largest 4.5 mm), their fingers curled on by up to
+0.12 rad (median of the largest joint motion; successes 0.02 rad; `benchmarks/bench_grip_hold.py --run`). Held
+per finger: 15/20, largest joint motion 0.008 rad in the successes, 0.028 in the 2 drops; two mug grasps that
+dropped turn 2.2 and 2.3 deg instead of 8.7 and 9.2 deg. Not the cause there: the thumb at its 0.7 N m limit (1.4 N m in
 a replay: 12/20), the grip level (7 or 8 N: 13, 12/20), a slower lift (0.03 m/s: 11/20), the hold gain (10 or 200
 with the floor: 12, 11/20; 10, 20, 80 held per finger: 16, 16, 15/20); without the hold 6/20, with the full
 force as the floor 4/20 (fingers that follow at full force roll the object further). The five-finger hands'
