@@ -5,10 +5,14 @@ Each group of the config (default `quick`) is run twice, once with `scene.pads=r
 ...), so a machine whose load drifts (a shared one) slows both modes alike. Printed per group: the
 seconds per trial of each mode (the trial only: approach, close, lift, perturbations and simulated
 metrics, as the worker runs it) and their successes; then, over the whole config, trials per second
-of each mode with and without planning, and the ratio compliant / rigid. In this process: no worker
+of each mode with and without planning, and the ratio compliant / rigid. Planning is each mode's own
+`worker.plan_group` (its scene's build, the settling, the planner); the object's asset, which both modes
+share, is built before either clock starts (the first mode paid it alone before). In this process: no worker
 pool, no time budgets. Deterministic results for a seed; the timings are what this machine gave. The last
 line also gives the ratio of this thread's CPU time per simulated trial (`time.thread_time`): on a machine
-shared with other jobs, wall time swells with their load and CPU time much less.
+shared with other jobs, wall time swells with their load and CPU time much less. Then the same CPU time split
+per mode: inside `mj_step` per simulated step (MuJoCo's physics; each call timed, without --profile no timer
+callback slows it) and outside it per trial (control, checks, simulated-contact metrics in Python).
 
     .venv/bin/python benchmarks/bench_pad_speed.py                       # quick: 200 trials per mode
     .venv/bin/python benchmarks/bench_pad_speed.py --objects 004_sugar_box --grasps 5
@@ -98,6 +102,40 @@ class StepProfile:
                   f"outside (control, checks, simulated metrics) {(trial_s[m] - self.wall[m]) / trials[m]:.3f}")
 
 
+class StepClock:
+    """This thread's CPU time inside `mujoco.mj_step` and the steps it made, per mode (`active`; None, as while
+    planning: not counted).
+
+    `mujoco.mj_step` is wrapped for the process (the trials call it with `nstep` chunks: one reading of the
+    clock per call, well under a microsecond per step). Under `--profile` it times `StepProfile`'s wrapper,
+    timer callbacks included: the per-step figures of a --profile run are slower than a plain run's.
+    """
+
+    def __init__(self) -> None:
+        self.cpu = dict.fromkeys(MODES, 0.0)  # [s] inside mj_step
+        self.steps = dict.fromkeys(MODES, 0)
+        self.active: str | None = None
+        self._step = mujoco.mj_step
+        mujoco.mj_step = self.step
+
+    def step(self, model: mujoco.MjModel, data: mujoco.MjData, nstep: int = 1) -> None:
+        if self.active is None:
+            self._step(model, data, nstep=nstep)
+            return
+        start = time.thread_time()
+        self._step(model, data, nstep=nstep)
+        self.cpu[self.active] += time.thread_time() - start
+        self.steps[self.active] += nstep
+
+    def report(self, cpu_s: dict[str, float], trials: dict[str, int]) -> None:
+        us = {m: self.cpu[m] / max(1, self.steps[m]) * 1e6 for m in MODES}
+        outside = {m: (cpu_s[m] - self.cpu[m]) / trials[m] for m in MODES}
+        print(f"CPU per simulated step inside mj_step: rigid {us['rigid']:.1f} us, compliant {us['compliant']:.1f} us "
+              f"({us['compliant'] / us['rigid']:.2f}x; {self.steps['rigid'] / trials['rigid']:.0f} vs "
+              f"{self.steps['compliant'] / trials['compliant']:.0f} steps per trial); outside mj_step per trial: "
+              f"rigid {outside['rigid']:.3f} s, compliant {outside['compliant']:.3f} s")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--config", default="quick", help="shipped config name or YAML path (default quick)")
@@ -107,6 +145,7 @@ def main() -> None:
     parser.add_argument("--profile", action="store_true", help="also print where a step's time goes (slower)")
     args = parser.parse_args()
     profile = StepProfile() if args.profile else None
+    clock = StepClock()
     path = Path(args.config) if args.config.endswith(".yaml") else configs_dir() / f"{args.config}.yaml"
     overrides = ([f"objects=[{', '.join(args.objects)}]"] if args.objects else []) + (
         [f"planners=[{', '.join(args.planners)}]"] if args.planners else []) + (
@@ -123,18 +162,21 @@ def main() -> None:
     for group in groups(config, path.parent):
         pair = {m: dataclasses.replace(group, scene=dataclasses.replace(group.scene, pads=m)) for m in MODES}
         plans, seconds, ok = {}, {m: 0.0 for m in MODES}, {m: 0 for m in MODES}
+        worker._asset(group)  # the object's asset serves both modes: built (or loaded) before either's clock
         for mode, g in pair.items():
             start = time.perf_counter()
             plans[mode] = worker.plan_group(g)
             plan_s[mode] += time.perf_counter() - start
         for index in range(group.n_grasps):
             for mode, g in pair.items():
+                clock.active = mode
                 if profile is not None:
                     profile.active = mode
                 start, cpu = time.perf_counter(), time.thread_time()
                 _, result = worker.run_trial(g, index, plans[mode])
                 seconds[mode] += time.perf_counter() - start
                 cpu_s[mode] += time.thread_time() - cpu
+                clock.active = None
                 if profile is not None:
                     profile.end_trial()
                 ok[mode] += result.status is Status.SUCCESS
@@ -154,6 +196,7 @@ def main() -> None:
     print(f"compliant / rigid CPU time of this thread per simulated trial: {cpu_s['compliant'] / cpu_s['rigid']:.2f}x "
           f"({cpu_s['rigid'] / trials['rigid']:.3f} vs {cpu_s['compliant'] / trials['compliant']:.3f} s; on a shared "
           "machine the steadier figure)")
+    clock.report(cpu_s, trials)
     if profile is not None:
         profile.report(trial_s, trials)
 
