@@ -8,7 +8,8 @@ axis (fingers swapped) are the same grasp (`symmetric=True`).
 `Suppressor` / `suppress` keep poses greedily in rank order (the usual
 NMS). `conflicts` lists every duplicate pair of a set of poses and `pack`
 picks a large set with no duplicate pair in it (a maximum independent set
-heuristic), for when rank order keeps too few.
+heuristic), for when rank order keeps too few; `pack_prefix` packs only the
+best-ranked poses, as few of them as still give a set of the size asked for.
 """
 
 from __future__ import annotations
@@ -119,6 +120,39 @@ def pack(conflict: np.ndarray, count: int) -> np.ndarray:
         degree -= np.bincount(_gather(neighbours, start, gone), minlength=count)
     _improve(kept, neighbours, start)
     return np.flatnonzero(kept)
+
+
+def pack_prefix(conflict: np.ndarray, count: int, n: int) -> np.ndarray:
+    """Indices (sorted) of at least `n` (where possible) of `count` poses given best first, no two in conflict,
+    packed (`pack`) from the shortest prefix of the ranking that still gives `n`.
+
+    Greedy NMS in rank order spends the best region of pose space on a few
+    poses that suppress many equally good ones, and fills up from far down the
+    ranking; packing all the poses fills up from poses chosen for their few
+    conflicts, whatever their rank. Packing only the best r poses, with r the
+    smallest (bisection) for which `pack` finds `n` distinct ones, maximises
+    (for this heuristic) the worst rank, hence the worst score, of the `n`
+    grasps. If even all `count` poses do not give `n`: the packing of all.
+
+    Args:
+        conflict: (e, 2) index pairs (in rank order) that are duplicates of each other (`conflicts`).
+    """
+    def packed(r: int) -> np.ndarray:
+        inside = conflict[(conflict[:, 0] < r) & (conflict[:, 1] < r)]
+        return pack(inside, r)
+
+    best = packed(count)
+    if len(best) <= n:
+        return best
+    lo, hi = min(n, count), count  # packed(hi) has >= n poses; the first r with n may be lo itself
+    while lo < hi:
+        mid = (lo + hi) // 2
+        found = packed(mid)
+        if len(found) >= n:
+            hi, best = mid, found
+        else:
+            lo = mid + 1
+    return best
 
 
 def _improve(kept: np.ndarray, neighbours: np.ndarray, start: np.ndarray, rounds: int = 50) -> None:

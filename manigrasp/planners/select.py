@@ -11,7 +11,7 @@ import numpy as np
 
 from manigrasp.geometry import pregrasp_pose
 from manigrasp.planners.collision import HandProbe
-from manigrasp.planners.nms import Suppressor, conflicts, pack, pairwise_close, representatives
+from manigrasp.planners.nms import Suppressor, conflicts, pack, pack_prefix, pairwise_close, representatives
 
 CHUNK = 256  # poses whose root transforms are computed at once
 
@@ -63,14 +63,17 @@ PACK_LIMIT = 6000  # the most representatives packed (the best ranked): bounds t
 
 
 def pack_free(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, angle: float, symmetric: bool,
-              pregrasp_offset: float, max_checks: int) -> np.ndarray:
+              pregrasp_offset: float, max_checks: int, prefix: bool = False) -> np.ndarray:
     """Indices into `ranked` (k, 4, 4), best first, of at most `n` free poses, no two within the NMS thresholds.
 
     The first `max_checks` poses of the ranking are tested for collision at
     the pose and its pre-grasp pose; the best ranked free pose of each small
     cell of pose space stands for its cell (`nms.representatives`), and the
     representatives are packed into as large a set of mutually distinct poses
-    as `nms.pack` finds, of which the `n` best ranked are returned.
+    as `nms.pack` finds, of which the `n` best ranked are returned. With
+    `prefix`, only the shortest prefix of the representatives (in rank order)
+    that still packs `n` is packed (`nms.pack_prefix`): the `n` poses' worst
+    rank is kept as high as the packing can.
 
     Args:
         distance, angle, symmetric: the NMS thresholds [m], [rad] and the finger-swap symmetry.
@@ -79,4 +82,34 @@ def pack_free(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, ang
     free = np.flatnonzero(~probe.collides(ranked))
     free = free[~probe.collides(pregrasp_pose(ranked[free], pregrasp_offset))]
     free = free[representatives(ranked[free], PACK_CELL, PACK_BINS, symmetric)][:PACK_LIMIT]
-    return free[pack(conflicts(ranked[free], distance, angle, symmetric), len(free))][:n]
+    conflict = conflicts(ranked[free], distance, angle, symmetric)
+    kept = pack_prefix(conflict, len(free), n) if prefix else pack(conflict, len(free))
+    return free[kept][:n]
+
+
+def pack_ranked(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, angle: float, symmetric: bool,
+                pregrasp_offset: float, max_checks: int, first: int = 4 * CHUNK) -> np.ndarray:
+    """Indices into `ranked` (k, 4, 4), best first, of at most `n` free poses, no two within the NMS thresholds,
+    drawn from as short a prefix of the ranking as packing allows (`nms.pack_prefix`).
+
+    Tests the ranking for collision (pose and pre-grasp pose) in blocks from the top (`first` poses, then
+    doubling, at most `max_checks` in all) until the free poses' representatives (`nms.representatives`) pack
+    into `n` distinct poses; then packs the shortest prefix of them that still gives `n`. Unlike
+    `select_free`, a pose near a kept one is not discarded because a better-ranked pose took its place: on a
+    scanned can, greedy NMS in rank order keeps about half as many distinct body grasps as there are.
+    """
+    free = np.zeros(0, int)
+    checked, size = 0, first
+    limit = min(len(ranked), max_checks)
+    reps, conflict = np.zeros(0, int), np.zeros((0, 2), int)
+    while checked < limit:
+        block = np.arange(checked, min(checked + size, limit))
+        ok = block[~probe.collides(ranked[block])]
+        ok = ok[~probe.collides(pregrasp_pose(ranked[ok], pregrasp_offset))]
+        free = np.concatenate([free, ok])
+        checked, size = block[-1] + 1, 2 * size
+        reps = free[representatives(ranked[free], PACK_CELL, PACK_BINS, symmetric)][:PACK_LIMIT]
+        conflict = conflicts(ranked[reps], distance, angle, symmetric)
+        if len(pack(conflict, len(reps))) >= n:
+            break
+    return reps[pack_prefix(conflict, len(reps), n)][:n]
