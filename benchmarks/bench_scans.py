@@ -12,6 +12,8 @@ pad model the trials per second of the whole run (same objects, same machine, on
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --hands parallel_jaw panda --planners antipodal random
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --config quick             # any config: speed side by side
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --modes rigid compliant compliant:mu=0.5
+    .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --modes compliant --seeds 0 1 2 \
+        --objects 003_cracker_box_scan 003_cracker_box   # 60 trials per object, pooled over the seeds
 
 Runs resume (a re-run prints the stored results without simulating again; then trials/s is of the
 trials simulated by this invocation, so time a fresh OUT).
@@ -53,13 +55,20 @@ def mode_overrides(mode: str) -> list[str]:
     return out
 
 
-def _run(config_path: Path, overrides: list[str], out: Path, jobs: int) -> tuple[dict, float, int]:
-    config = load_config(config_path, overrides)
-    start = time.perf_counter()
-    summary = run_benchmark(config, out, jobs=jobs, base=config_path.parent, progress=False)
-    seconds = time.perf_counter() - start
-    report = summarize(load_results(out))
-    return report.groups, seconds, summary.ran
+def _run(config_path: Path, overrides: list[str], out: Path, jobs: int,
+         seeds: list[int] | None = None) -> tuple[dict, float, int]:
+    """One run per seed (None: the config's seed, into `out`; else into out/s<seed>), pooled: the groups' rates
+    over every seed's trials, the seconds and the trials simulated."""
+    runs = [(out, [])] if seeds is None else [(out / f"s{seed}", [f"seed={seed}"]) for seed in seeds]
+    results, seconds, ran = [], 0.0, 0
+    for folder, seed in runs:
+        config = load_config(config_path, [*overrides, *seed])
+        start = time.perf_counter()
+        summary = run_benchmark(config, folder, jobs=jobs, base=config_path.parent, progress=False)
+        seconds += time.perf_counter() - start
+        ran += summary.ran
+        results.extend(load_results(folder))
+    return summarize(results).groups, seconds, ran
 
 
 def main() -> None:
@@ -71,6 +80,8 @@ def main() -> None:
     parser.add_argument("--grasps", type=int, default=20, help="grasps per object")
     parser.add_argument("--objects", nargs="+", default=None, help="objects (default: the config's)")
     parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--seeds", nargs="+", type=int, default=None,
+                        help="root seeds, one run each (OUT/<mode>/s<seed>), pooled per object (default: the config's)")
     parser.add_argument("--modes", nargs="+", default=list(MODES),
                         help="pad modes, first is the reference: rigid, compliant, compliant:E=..,mu=..,pitch=..")
     args = parser.parse_args()
@@ -79,11 +90,11 @@ def main() -> None:
     common = [f"hands=[{', '.join(args.hands)}]", f"planners=[{', '.join(args.planners)}]",
               f"grasps_per_object={args.grasps}"] + ([f"objects=[{', '.join(args.objects)}]"] if args.objects else [])
     print(f"# {path.name}: {' '.join(common)}; {args.jobs} job(s); {os.cpu_count()} cores, "
-          f"{platform.processor() or platform.machine()}")
+          f"{platform.processor() or platform.machine()}" + (f"; seeds {args.seeds}" if args.seeds else ""))
     groups, speed = {}, {}
     for mode in modes:
         folder = args.out / mode.replace(":", "_").replace(",", "_")
-        groups[mode], seconds, ran = _run(path, [*common, *mode_overrides(mode)], folder, args.jobs)
+        groups[mode], seconds, ran = _run(path, [*common, *mode_overrides(mode)], folder, args.jobs, args.seeds)
         speed[mode] = (ran, seconds)
     print("\n## trials per second (whole run: planning + simulation)")
     for mode, (ran, seconds) in speed.items():
