@@ -32,9 +32,9 @@
    pose of a region suppress its equally good neighbours and fills up from far
    down the ranking: on the potted meat can's scan the walk keeps 16-18 of its
    body grasps and 2-4 pinches on its 2 mm lip (score ~0.05, they slip), the
-   packing 20 body grasps; on the cracker box scan (seed 1) the 20th grasp's
-   score goes from 0.106 to 0.116 (its tail is torsion-limited, 70-100 mm
-   from the centre of mass).
+   packing 20 body grasps; on the cracker box scan (seed 1, 12 approaches)
+   the 20th grasp's score goes from 0.106 to 0.116 (its tail is
+   torsion-limited, 70-100 mm from the centre of mass).
 6. If fewer than min(`n`, `dense_below`) poses scoring at least `dense_floor`
    (default 0: any) were kept (thin or narrow objects, whose grasps form one narrow band; or a
    scanned mesh whose walk, its good poses used up by NMS, fills up with
