@@ -22,8 +22,11 @@ measured:
 With --run RUN_DIR --config CONFIG (a `manigrasp bench` run of dexopt and its config): each group is planned
 again exactly as the run planned it (same seed, protocol context, planner parameters; the same code must be
 checked out), every candidate that passed the checks is kept, the run's trials are matched to them by TCP
-position, and the hold margin of each trial's grasp is printed with its outcome; then per hand the successes
-of the trials whose grasp passes the load test (margin >= 1) and of those that do not.
+position, and the hold margin of each trial's grasp is printed with its outcome, with the rotation the grasp's
+stiffness predicts under the loads (`Synthesis.rotation`); then per hand the successes of the trials whose grasp
+passes the load test (margin >= the planner's `min_hold_margin`) and of those that do not. `--set KEY=VALUE ...`
+re-plans with those planner parameters changed (a what-if on the same trials; a grasp the changed checks reject
+is reported as not planned).
 """
 
 from __future__ import annotations
@@ -107,8 +110,10 @@ def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
     return out
 
 
-def hold_vs_outcome(run_dir: str, config: str) -> None:
-    """Hold margin of each dexopt trial's grasp in a stored run against its outcome (module docstring)."""
+def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> None:
+    """Hold margin of each dexopt trial's grasp in a stored run against its outcome (module docstring);
+    `override`: planner parameters replaced in the re-planning (a what-if: the margins the trials' grasps would
+    get; a grasp the changed checks reject is reported as not planned)."""
     import sqlite3
 
     import manigrasp.planners.dexopt_planner as dexopt_planner
@@ -129,7 +134,7 @@ def hold_vs_outcome(run_dir: str, config: str) -> None:
                                           grasping_friction(g.scene, scene.hand))
         pose = settle_object(scene)
         observation, _ = observe_with_info(g.observation, _asset(g), pose, scene, seed=g.seed, camera=g.camera)
-        planner = DexOptPlanner(**dict(g.planner.params))
+        planner = DexOptPlanner(**{**dict(g.planner.params), **(override or {})})
         found = planner.synthesise(observation, scene.hand, 10**6, g.rng(), context.pregrasp_offset, context)
         if not found:
             continue
@@ -144,7 +149,8 @@ def hold_vs_outcome(run_dir: str, config: str) -> None:
                 print(f"{g.hand} {g.object_source.name} {index}: no planned grasp at the trial's pose (other code?)")
                 continue
             hold = found[j].hold
-            print(f"{g.hand:<14} {g.object_source.name:<20} {index:>2} {status:<16} hold {hold:6.2f}", flush=True)
+            print(f"{g.hand:<14} {g.object_source.name:<20} {index:>2} {status:<16} hold {hold:6.2f} rotation "
+                  f"{np.degrees(found[j].rotation):7.2f} deg", flush=True)
             t = tally.setdefault(g.hand, [0, 0, 0, 0])
             t[0 if hold >= planner.min_hold_margin else 2] += status == "success"
             t[1 if hold >= planner.min_hold_margin else 3] += 1
@@ -163,11 +169,13 @@ def main() -> None:
     parser.add_argument("--trials", action="store_true", help="run each grasp through the standard protocol")
     parser.add_argument("--run", help="a stored run of dexopt: its trials' hold margins against their outcomes")
     parser.add_argument("--config", help="the run's config (with --run)")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="with --run: planner parameters changed in the re-planning (floats)")
     args = parser.parse_args()
     if args.run:
         if not args.config:
             parser.error("--run needs --config")
-        hold_vs_outcome(args.run, args.config)
+        hold_vs_outcome(args.run, args.config, {k: float(v) for k, v in (kv.split("=", 1) for kv in args.set)})
         return
     print(f"# dexopt: restarts {args.restarts}, iterations {args.iterations}, {args.grasps} grasps per call, seed "
           f"{args.seed}; {platform.processor() or platform.machine()}, OMP_NUM_THREADS="

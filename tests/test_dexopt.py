@@ -253,3 +253,45 @@ def test_three_contacts_around_a_sphere_share_its_weight_and_the_protocol_loads(
     assert dexopt.hold_margin(x, n, [CAP] * 3, np.zeros(3), np.zeros((1, 3)), MU) == float("inf")
     with pytest.raises(ConfigError, match="caps"):
         dexopt.hold_margin(x, n, [CAP] * 2, np.zeros(3), WEIGHT, MU)
+
+
+def _pinch(height: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Two contacts across a sphere's centre along x (at `height` above it), each on its own Cartesian finger."""
+    r = 0.03
+    x = np.array([[r, 0.0, height], [-r, 0.0, height]])
+    n = np.array([[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    jac = np.zeros((2, 3, 6))
+    jac[0, :, :3], jac[1, :, 3:] = np.eye(3), np.eye(3)
+    return x, n, jac
+
+
+def test_grasp_stiffness_of_a_symmetric_pinch_is_the_series_springs_times_the_lever() -> None:
+    """Each contact is the series of its pad (k_c) and its finger (k_f): 2 k_e in translation, 2 k_e r^2 in
+    rotation across the pinch line, nothing about it but the contacts' torsion."""
+    x, n, jac = _pinch()
+    kc, kf, kt = 1e4, 5e3, 0.1
+    k_e = 1.0 / (1.0 / kc + 1.0 / kf)
+    stiffness = dexopt.grasp_stiffness(x, n, jac, kf * np.eye(6), np.zeros(3), kc)
+    np.testing.assert_allclose(stiffness, np.diag([2 * k_e] * 3 + [0.0, 2 * k_e * 0.03**2, 2 * k_e * 0.03**2]),
+                               atol=1e-9)
+    twisted = dexopt.grasp_stiffness(x, n, jac, kf * np.eye(6), np.zeros(3), kc, torsion_stiffness=kt)
+    assert twisted[3, 3] == pytest.approx(2 * kt)
+    # A finger joint no servo holds lets its contact go: only the other finger holds.
+    free = kf * np.eye(6)
+    free[3:, 3:] = 0.0
+    one = dexopt.grasp_stiffness(x, n, jac, free, np.zeros(3), kc)
+    assert one[0, 0] == pytest.approx(k_e, rel=1e-4)
+
+
+def test_load_rotation_of_a_pinch_above_the_centre_of_mass_is_the_torque_over_the_torsion() -> None:
+    """A side load m g at the centre of mass, h below the pinch line, turns the object about the line by
+    m g h / (2 k_t); the weight (along the arm) does not turn it; without torsion the turn is unbounded."""
+    x, n, jac = _pinch(height=0.02)
+    kt = 0.1
+    stiffness = dexopt.grasp_stiffness(x, n, jac, 5e3 * np.eye(6), np.zeros(3), 1e4, torsion_stiffness=kt)
+    rotation, _ = dexopt.load_rotation(stiffness, np.array([[0.0, 0.0, -5.0], [0.0, 5.0, 0.0], [5.0, 0.0, 0.0]]))
+    assert rotation[0] == pytest.approx(0.0, abs=1e-9)
+    assert rotation[1] == pytest.approx(5.0 * 0.02 / (2 * kt))
+    assert rotation[2] < 0.1 * rotation[1]  # along the line: held by the fingers' lateral stiffness
+    loose = dexopt.grasp_stiffness(x, n, jac, 5e3 * np.eye(6), np.zeros(3), 1e4)
+    assert np.isinf(dexopt.load_rotation(loose, np.array([[0.0, 5.0, 0.0]]))[0][0])

@@ -189,6 +189,7 @@ def test_planner_returns_deterministic_valid_grasps_that_do_not_penetrate(tmp_pa
     # The hold test: grasps that hold the standard protocol's loads at its squeeze come first.
     holds = [s.hold >= planner.min_hold_margin for s in first]
     assert holds == sorted(holds, reverse=True) and all(s.hold >= 0 for s in first)
+    assert all(s.rotation >= 0 for s in first)  # the stiffness estimate's turn under the loads (recorded)
     candidates = planner.plan(observation, hand, 2, np.random.default_rng(5))
     assert candidates and all(c.planner == "dexopt" and 0 < c.score <= 1 for c in candidates)
     for c, s in zip(candidates, first, strict=False):
@@ -242,3 +243,26 @@ def test_the_hold_test_assumes_the_scenes_contact_friction_unless_the_planner_se
     assert unknown == rigid and soft.keys() == rigid.keys()
     assert all(soft[e] >= rigid[e] for e in rigid) and any(soft[e] > rigid[e] > 0 for e in rigid)
     assert margins(DexOptPlanner(restarts=8, iterations=60, friction=0.5), rubber) == rigid
+
+
+def test_held_joint_stiffness_is_the_servos_gains_through_the_joint_to_command_map(inspire: HandKinematics) -> None:
+    """A^T diag(kp') A: each servo that closes with the squeeze HOLD_GAIN times stiffer; for the Inspire hand
+    (one servo per independent joint) the stiffness a joint resists with is its servo's kp' times dctrl/dq^2."""
+    from manigrasp.control.hold import HOLD_GAIN
+    from manigrasp.planners.dexopt_planner import held_joint_stiffness
+
+    q = inspire.low + 0.4 * (inspire.high - inspire.low)
+    _, a = inspire.ctrl(q)
+    closing = np.zeros(len(inspire.actuators))
+    closing[1:] = 1.0  # the thumb's rotation (actuator 0) does not take part in the squeeze
+    stiffness = held_joint_stiffness(inspire, q, closing)
+    gains = inspire.kp * np.where(closing != 0, HOLD_GAIN, 1.0)
+    np.testing.assert_allclose(stiffness, a.T @ np.diag(gains) @ a, atol=1e-12)
+    np.testing.assert_allclose(stiffness, stiffness.T, atol=1e-12)
+    assert np.all(np.linalg.eigvalsh(stiffness) > 0)  # every independent joint is held by a servo
+    # Direct-drive joints: the joint stiffness is the gain (the Inspire's actuators drive one joint each).
+    direct = np.flatnonzero(np.count_nonzero(np.abs(a) > 1e-12, axis=1) == 1)
+    for k in direct:
+        j = int(np.flatnonzero(np.abs(a[k]) > 1e-12)[0])
+        if np.count_nonzero(np.abs(a[:, j]) > 1e-12) == 1:
+            assert stiffness[j, j] == pytest.approx(gains[k] * a[k, j] ** 2)

@@ -26,6 +26,9 @@ gradient to the hand's generalised coordinates with MuJoCo's Jacobians (`mj_jac`
 `hold_margin` is the planner's load test (not a term of the energy): one linear programme over contact forces
 in linearised friction cones (`friction_pyramid`) with per-contact normal-force caps (what the hand's squeeze
 presses each contact with) that must balance the object's weight and the protocol's perturbations.
+`grasp_stiffness` (Cutkosky & Kao, 1989) and `load_rotation` estimate how far a held object turns and moves in
+the hand under those loads (the contacts and the finger servos as springs; no slip, no preload term); the
+planner records it per grasp (`Synthesis.rotation`), it does not select on it.
 
 The planner (restarts, the batched descent, the pads, the MuJoCo checks, the squeeze direction) is
 `manigrasp.planners.dexopt_planner` (registered as ``dexopt``); it evaluates these terms batched over restarts
@@ -319,6 +322,7 @@ def _skew(v: np.ndarray) -> np.ndarray:
     return out
 
 
+FREE_COMPLIANCE = 1e6  # a joint no servo holds: this many times the compliance of the stiffest held direction
 PYRAMID_EDGES = 8  # edges of the linearised friction cone (`hold_margin`); a multiple of 4 keeps the vertical exact
 
 
@@ -398,3 +402,60 @@ def hold_margin(points: np.ndarray, normals: np.ndarray, caps: np.ndarray, cente
         return 0.0
     t = float(result.x[-1])
     return float("inf") if t <= 0 else 1.0 / t
+
+
+def grasp_stiffness(points: np.ndarray, normals: np.ndarray, jacobians: np.ndarray, joint_stiffness: np.ndarray,
+                    center: np.ndarray, contact_stiffness: float, torsion_stiffness: float = 0.0) -> np.ndarray:
+    """(6, 6) stiffness of a held object about `center` [N/m, N, N m/rad] (Cutkosky & Kao, 1989, without the
+    preload's geometric term): K = G (C + J K_q^-1 J^T)^-1 G^T.
+
+    The contacts at `points` (k, 3) [m] do not slip (point contacts with friction): each moves with the object,
+    dx_i = dp + dtheta x (x_i - c), against the series of its own compliance C_i = I / `contact_stiffness`
+    [N/m] (the pad) and the fingers', J K_q^-1 J^T: `jacobians` (k, 3, n) of the contact points over the hand's
+    n joints, `joint_stiffness` (n, n) [N m/rad] (the servos' A^T diag(kp) A; a joint no servo holds has a
+    zero row: it gives way, and so do the contacts it moves). G = [I ...; [x_i - c]x ...] is the grasp matrix.
+    A soft contact adds `torsion_stiffness` [N m/rad] about its normal `normals` (k, 3) (0: a point contact).
+    Directions the contacts cannot hold (e.g. the rotation about the line of a two-point pinch) have K's
+    eigenvalue 0.
+    """
+    x = np.atleast_2d(np.asarray(points, float))
+    k = len(x)
+    jac = np.asarray(jacobians, float).reshape(3 * k, -1)
+    kq = np.asarray(joint_stiffness, float)
+    # Joint compliance: the pseudo-inverse on the held joints; a joint direction no servo holds is free, its
+    # compliance (numerically) infinite: FREE_COMPLIANCE x the stiffest held direction's.
+    w, v = np.linalg.eigh(0.5 * (kq + kq.T))
+    top = max(float(w.max(initial=0.0)), 1e-12)
+    held = w > 1e-9 * top
+    comp_q = (v * np.where(held, 1.0 / np.where(held, w, 1.0), FREE_COMPLIANCE / top)) @ v.T
+    compliance = np.eye(3 * k) / contact_stiffness + jac @ comp_q @ jac.T
+    kc = np.linalg.inv(0.5 * (compliance + compliance.T))
+    grasp = np.zeros((6, 3 * k))
+    for i, r in enumerate(x - np.asarray(center, float)):
+        grasp[:3, 3 * i:3 * i + 3] = np.eye(3)
+        grasp[3:, 3 * i:3 * i + 3] = _skew(r[None])[0]
+    stiffness = grasp @ kc @ grasp.T
+    if torsion_stiffness > 0:
+        n = np.atleast_2d(np.asarray(normals, float))
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        stiffness[3:, 3:] += torsion_stiffness * n.T @ n
+    return 0.5 * (stiffness + stiffness.T)
+
+
+def load_rotation(stiffness: np.ndarray, loads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation [rad] (L,) and translation [m] (L,) of a held object of `stiffness` (6, 6) about its centre of
+    mass (`grasp_stiffness`) under each of `loads` (L, 3) [N] through the centre of mass: the linear
+    displacement K^-1 (F, 0). A load with a component along a direction the grasp cannot hold (eigenvalue
+    below 1e-9 of the largest) moves it without bound (inf)."""
+    w, v = np.linalg.eigh(np.asarray(stiffness, float))
+    top = max(float(np.abs(w).max(initial=0.0)), 1e-12)
+    wrench = np.concatenate([np.atleast_2d(np.asarray(loads, float)), np.zeros((len(np.atleast_2d(loads)), 3))],
+                            axis=1)
+    along = wrench @ v  # (L, 6) the loads in the eigenbasis
+    free = w <= 1e-9 * top
+    unbounded = np.any(free[None] & (np.abs(along) > 1e-9 * np.linalg.norm(wrench, axis=1, keepdims=True)),
+                       axis=1)
+    d = (np.where(free, 0.0, along / np.where(free, 1.0, w))) @ v.T  # (L, 6)
+    rotation = np.where(unbounded, np.inf, np.linalg.norm(d[:, 3:], axis=1))
+    translation = np.where(unbounded, np.inf, np.linalg.norm(d[:, :3], axis=1))
+    return rotation, translation

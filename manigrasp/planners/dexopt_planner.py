@@ -54,6 +54,15 @@
    weight alone and with each of the protocol's perturbations (`hold.loads`; the object's mass from its
    asset). Candidates whose margin reaches `min_hold_margin` come first (lowest energy first among them),
    the rest after them by margin; diversity (non-maximum suppression) is applied to that order.
+   Each candidate also gets the turn [rad] the held object would take under those loads, from the grasp's
+   stiffness (`dexopt.grasp_stiffness` over the pads in contact: `CONTACT_STIFFNESS` in series with the held
+   servos, `held_joint_stiffness`; `dexopt.load_rotation`): recorded (`Synthesis.rotation`), not used to rank.
+   On the dexterous config at fd0aae5 (240 dexopt trials, `bench_dexopt.py --run`) it predicts 0.1-4 deg
+   where the drops turned 4-12 deg in the simulation (slip and rolling, which it does not model), and among
+   the grasps that pass the load test it adds nothing to the margin: Allegro < 1 deg 18/26 succeed, >= 1 deg
+   6/13, but at margin >= 2 the low turns are no better (< 0.3 deg 6/9, 0.3-1 deg 5/7); Inspire and Fourier
+   all under 1 deg. The margin separates: successes at margin [1, 1.3) 10/23, [1.3, 2) 19/37, >= 2 63/78
+   (three hands), hence `min_hold_margin` 2.
 
 Score = 1 / (1 + E) (in (0, 1], higher is better) with E the final energy.
 """
@@ -69,6 +78,7 @@ import numpy as np
 import trimesh
 
 from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
+from manigrasp.control.hold import HOLD_GAIN
 from manigrasp.errors import ConfigError
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.hands.base import Hand
@@ -76,7 +86,7 @@ from manigrasp.objects.pipeline import DEFAULT_DENSITY
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.context import PlanContext, resolve
-from manigrasp.planners.dexopt import EnergyWeights, GridSdf, hold_margin
+from manigrasp.planners.dexopt import EnergyWeights, GridSdf, grasp_stiffness, hold_margin, load_rotation
 from manigrasp.planners.dexopt_hand import HandKinematics
 from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
 from manigrasp.planners.hold import loads
@@ -101,6 +111,9 @@ BACK_OFF_STEPS = 4  # moves of a penetrating hand out of the object and table (`
 BACK_OFF_EXTRA = 2e-4  # [m] each move goes this much past the deepest penetration
 INIT_DRAWS = 4  # initial configurations drawn per restart (those clear of the table are kept)
 FORCE_SHARE_STEPS = 30  # projected-gradient steps of the contact force shares (`force_shares`)
+# Normal and tangential stiffness of a fingertip contact [N/m] in the grasp-stiffness estimate (`grasp_stiffness`;
+# an assumed order of magnitude for the rubber fingertips: the parallel jaw's pad is 3.4e4 N/m).
+CONTACT_STIFFNESS = 1e4
 APPROACH_CHECKS = 6  # poses checked along the approach from the pre-grasp pose to the grasp pose
 
 
@@ -128,6 +141,7 @@ class Synthesis:
     normals: np.ndarray
     penetration: float
     hold: float = float("inf")
+    rotation: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -137,10 +151,16 @@ class DexOptPlanner:
     After each call, `last["rejected"]` counts the restarts each check of step 4-5 turned down.
 
     Attributes:
-        restarts: random initial configurations optimised together (96: a pool from which the load test of
-            step 6 can pick grasps that hold; with it 31, 27, 18/80 on the dexterous config (standard, 10 N) for
-            Inspire, Fourier, Allegro, 1.09 s CPU per Allegro grasp; 48 without it gave 26, 22, 12/80 for Inspire,
-            Fourier, Allegro against 26, 18, 8/80 with 32, where fewer than 10 grasps passed).
+        restarts: random initial configurations optimised together (80 with 300 `iterations`: 1.66 s CPU per
+            Allegro grasp, `bench_dexopt.py --hands allegro_right --grasps 10`; against 96 x 150, 1.09 s, on the
+            dexterous config (standard only, 10 N, compliant pads, same seeds) at cd46f5e: Allegro 30 -> 37/80
+            (sugar box 1 -> 5, mug 6 -> 7, potted meat 5 -> 6, banana 2 -> 3, can 9 -> 10, tennis ball 7 -> 5:
+            fewer than 10 diverse grasps passed, 5 `no_grasp`), Fourier 36 -> 36, Inspire 43 -> 44; at fd0aae5
+            28, 36, 43 -> 32, 36, 44. The longer descent brings more restarts' pads onto the surface (96
+            restarts, 150 -> 300 steps): Allegro mug 54 -> 24 of them rejected for fewer than 3 pads in contact,
+            banana 51 -> 19, and more of them hold (margin >= 1.5 after NMS: mug 6 -> 12, banana 3 -> 8).
+            Earlier: 96 x 150 gave 31, 27, 18/80 (rigid pads) against 26, 22, 12/80 for 48 and 26, 18, 8/80
+            for 32 restarts.)
         iterations: descent steps.
         step_translation: [m], step_rotation: [rad], step_joints: [rad]: initial Adam steps.
         weights: the energy's weights (`dexopt.EnergyWeights`; a mapping of its fields in a config).
@@ -168,15 +188,17 @@ class DexOptPlanner:
             ``scene.pads: compliant``; the hand's 0.5 with rigid pads), or 0.5 (`STANDARD_MU`) when the
             context does not know it (a planner called directly, `manigrasp plan`). `contact_friction`.
         torsion: torsional friction [m] of those contacts (soft fingers).
-        min_hold_margin: grasps whose hold margin (step 6) reaches this come first [-].
+        min_hold_margin: grasps whose hold margin (step 6) reaches this come first [-] (2: at margin >= 2, 63
+            of 78 dexopt trials of the dexterous config succeeded, at [1, 2) 29 of 60, step 6; the order alone,
+            2 instead of 1 at 96 x 150, moved nothing: Allegro, Fourier, Inspire 29, 37, 42/80 against 28, 36, 43).
         density: of an object without a built asset, for its mass [kg/m^3].
     """
 
     name: ClassVar[str] = "dexopt"
     needs: ClassVar[ObservationKind] = "mesh"
 
-    restarts: int = 96
-    iterations: int = 150
+    restarts: int = 80
+    iterations: int = 300
     step_translation: float = 0.003
     step_rotation: float = 0.03
     step_joints: float = 0.05
@@ -198,7 +220,7 @@ class DexOptPlanner:
     pregrasp_offset: float | None = None
     friction: float | None = None
     torsion: float = STANDARD_TORSION_M
-    min_hold_margin: float = 1.0
+    min_hold_margin: float = 2.0
     density: float = DEFAULT_DENSITY
     _hands: dict = field(default_factory=dict, init=False, repr=False, compare=False)
     last: dict = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -468,9 +490,15 @@ class DexOptPlanner:
             caps = squeeze_caps(press[touching], hk.pad_finger[chosen][touching] == 0, grip)
             hold = hold_margin(x[touching], normal[touching], caps, observation.center_of_mass, external,
                                mu, self.torsion)
+            jac = pad_jacobians(x, hk._slot[hk.contacts.bodies[chosen]], jp[0], jr[0], xpos[0])
+            stiffness = grasp_stiffness(x[touching], normal[touching], jac[touching],
+                                        held_joint_stiffness(hk, q[i], joints[1] - joints[0]),
+                                        observation.center_of_mass, CONTACT_STIFFNESS)
+            rotation = float(load_rotation(stiffness, external)[0].max())
             passed.append(Synthesis(pose=tcp, q=q[i].copy(), joints=joints, energy=float(energy[i]),
                                     terms={key: float(v[i]) for key, v in terms.items()},
-                                    contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold))
+                                    contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold,
+                                    rotation=rotation))
         if not passed:
             return []
         # Grasps that hold the loads first (lowest energy first among them), then the rest by hold margin.
@@ -488,9 +516,7 @@ class DexOptPlanner:
         """(2, n_act) pre-shape and squeeze commands (module docstring, step 5) and the normal forces (k,) the
         squeeze presses the pads with (relative), or None if no pre-shape of the first `PRESHAPE_TRIES`
         back-offs is collision-free along the approach."""
-        slot = hk._slot[bodies]
-        # Pad Jacobians over the independent joints (R = 1 layout of `evaluate`): Jp - [x - x_b]x Jr.
-        jac = jp[slot][..., 6:] - np.einsum("kij,kjl->kil", _skew(x - xpos[slot]), jr[slot][..., 6:])
+        jac = pad_jacobians(x, hk._slot[bodies], jp, jr, xpos)
         rows = np.einsum("ki,kij->kj", normal, jac)  # (k, n_q): how fast each pad moves into the object
         # Close the pads' gaps: the least-norm joint motion moving pad i by its distance d_i along its normal
         # (damped least squares), so the line below runs through a configuration with every pad on the surface.
@@ -521,6 +547,22 @@ class DexOptPlanner:
                 return np.stack([pre, squeeze]), pad_forces(rows, a.T @ force)
         return None
 
+
+
+def pad_jacobians(x: np.ndarray, slot: np.ndarray, jp: np.ndarray, jr: np.ndarray, xpos: np.ndarray) -> np.ndarray:
+    """(k, 3, n_q) Jacobians of the points `x` (k, 3) fixed on the bodies in `slot` (k,) over the hand's independent
+    joints (R = 1 layout of `HandKinematics.evaluate`: jp, jr (bodies, 3, 6 + n_q), xpos (bodies, 3)):
+    Jp - [x - x_b]x Jr."""
+    return jp[slot][..., 6:] - np.einsum("kij,kjl->kil", _skew(x - xpos[slot]), jr[slot][..., 6:])
+
+
+def held_joint_stiffness(hk: HandKinematics, q: np.ndarray, closing: np.ndarray) -> np.ndarray:
+    """(n_q, n_q) joint stiffness [N m/rad] of the hand at `q` once the protocol holds the grasp: A^T diag(kp') A
+    with A the joint -> command Jacobian and kp' the servos' gains, `HOLD_GAIN` times stiffer for those that
+    move with the squeeze (`closing` (n_act,) != 0: `manigrasp.control.hold.FingerHold`)."""
+    a = hk.ctrl(q)[1]
+    kp = hk.kp * np.where(np.asarray(closing) != 0, HOLD_GAIN, 1.0)
+    return a.T @ (kp[:, None] * a)
 
 
 def pad_forces(rows: np.ndarray, torque: np.ndarray) -> np.ndarray:
