@@ -48,6 +48,16 @@ its thumb regulates to 9 N, its maximum):
   that still pass are mostly the potted meat can (5 of 10; margins 1.3-1.9): they turn 4-12 deg in the lift,
   which the load test (a rigid object on ideal force sources) does not see.
 
+What the heavy objects lack (dexopt at 80 restarts x 300 steps, standard, 10 N, compliant pads, seed 0; the
+largest load-test margin among all candidates of one planning call, `dexopt_planner.DexOptPlanner.synthesise`):
+power drill 0.41 (Allegro), 0.47 (Fourier), 0.48 (Inspire): no fingertip grasp found carries it at 10 N, and
+no trial held it (0-1/10 per hand); sugar box 1.26, 1.31, 0.42 and mustard bottle 1.13, 1.10, 0.97: a few
+grasps pass at margins where 29 of 60 trials succeed ([1, 2)), and the trials give 1-5/10 per hand (the
+Inspire's 5/10 on both at margins < 1: its palm and finger links touch, which the load test does not count).
+The grasps that pass and still fail with margins >= 3 (Inspire mug 0006: mu sum f_n 31 x m g) lose the
+object in the first 0.2 s of the lift: two fingers of four touch, the thumb presses 24.6 N against 12 N
+(the table balanced the rest) and the object is pushed out.
+
 Tried on these findings, none a gain (005_tomato_soup_can, 004_sugar_box, 056_tennis_ball, 010_potted_meat_can x
 allegro_right, fourier_right x dexopt x 5 grasps, standard, grip_force 10, seed 0; `manigrasp bench CFG --jobs 1`;
 successes of 40, Allegro + Fourier, against 15 = 7 + 8 for dexopt's defaults; +-4 is within noise at 20 per hand):
