@@ -55,7 +55,7 @@ no trial held it (0-1/10 per hand); sugar box 1.26, 1.31, 0.42 and mustard bottl
 grasps pass at margins where 29 of 60 trials succeed ([1, 2)), and the trials give 1-5/10 per hand (the
 Inspire's 5/10 on both at margins < 1: its palm and finger links touch, which the load test does not count).
 The grasps that pass and still fail with margins >= 3 (Inspire mug 0006: mu sum f_n 31 x m g) lose the
-object in the first 0.2 s of the lift: two fingers of four touch, the thumb presses 24.6 N against 12 N
+object in the first 0.2 s of the lift: 3 of 5 fingers touch (thumb, ring, pinky), the thumb presses 24.6 N against 12 N
 (the table balanced the rest) and the object is pushed out.
 
 Tried on these findings, none a gain (005_tomato_soup_can, 004_sugar_box, 056_tennis_ball, 010_potted_meat_can x
