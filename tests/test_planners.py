@@ -308,13 +308,15 @@ def test_a_scans_lip_pinches_do_not_count_as_grasps_for_the_dense_pass():
     # The potted meat can's scan has a 2-9 mm lip whose pinches score ~0.05. Greedy NMS in rank order keeps only
     # 16-18 of the scan's distinct body grasps, so without `dense_floor` the walk's last few are pinches (which slip
     # in the lift) and step 6 does not run; with dense_floor 0.1, step 6 packs the body grasps and no pinch is returned.
+    # The default's repack (the top of the ranking packed into n distinct grasps) returns no pinch either.
     assert planners.load("antipodal").dense_floor == 0.0  # opt-in: the default keeps the walk's behaviour
     asset = catalog.build(catalog.shipped("010_potted_meat_can_scan")).asset
     obs, hand = planners.Observation.from_asset(asset), hands.load("parallel_jaw")
     widths = {}
-    for floor in (0.0, 0.1):
-        plan = planners.plan(planners.load("antipodal", dense_floor=floor), obs, hand, 20, np.random.default_rng(0))
-        widths[floor] = np.array([c.width for c in plan.candidates])
-    assert len(widths[0.0]) == len(widths[0.1]) == 20
-    assert (widths[0.0] < 0.01).sum() >= 2, widths[0.0]
-    assert (widths[0.1] < 0.01).sum() == 0, widths[0.1]
+    for key, params in (("walk", {"repack": False}), ("floor", {"repack": False, "dense_floor": 0.1}), ("default", {})):
+        plan = planners.plan(planners.load("antipodal", **params), obs, hand, 20, np.random.default_rng(0))
+        widths[key] = np.array([c.width for c in plan.candidates])
+    assert len(widths["walk"]) == len(widths["floor"]) == len(widths["default"]) == 20
+    assert (widths["walk"] < 0.01).sum() >= 2, widths["walk"]
+    assert (widths["floor"] < 0.01).sum() == 0, widths["floor"]
+    assert (widths["default"] < 0.01).sum() == 0, widths["default"]
