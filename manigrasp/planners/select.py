@@ -63,17 +63,14 @@ PACK_LIMIT = 6000  # the most representatives packed (the best ranked): bounds t
 
 
 def pack_free(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, angle: float, symmetric: bool,
-              pregrasp_offset: float, max_checks: int, prefix: bool = False) -> np.ndarray:
+              pregrasp_offset: float, max_checks: int) -> np.ndarray:
     """Indices into `ranked` (k, 4, 4), best first, of at most `n` free poses, no two within the NMS thresholds.
 
     The first `max_checks` poses of the ranking are tested for collision at
     the pose and its pre-grasp pose; the best ranked free pose of each small
     cell of pose space stands for its cell (`nms.representatives`), and the
     representatives are packed into as large a set of mutually distinct poses
-    as `nms.pack` finds, of which the `n` best ranked are returned. With
-    `prefix`, only the shortest prefix of the representatives (in rank order)
-    that still packs `n` is packed (`nms.pack_prefix`): the `n` poses' worst
-    rank is kept as high as the packing can.
+    as `nms.pack` finds, of which the `n` best ranked are returned.
 
     Args:
         distance, angle, symmetric: the NMS thresholds [m], [rad] and the finger-swap symmetry.
@@ -82,9 +79,7 @@ def pack_free(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, ang
     free = np.flatnonzero(~probe.collides(ranked))
     free = free[~probe.collides(pregrasp_pose(ranked[free], pregrasp_offset))]
     free = free[representatives(ranked[free], PACK_CELL, PACK_BINS, symmetric)][:PACK_LIMIT]
-    conflict = conflicts(ranked[free], distance, angle, symmetric)
-    kept = pack_prefix(conflict, len(free), n) if prefix else pack(conflict, len(free))
-    return free[kept][:n]
+    return free[pack(conflicts(ranked[free], distance, angle, symmetric), len(free))][:n]
 
 
 def pack_ranked(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, angle: float, symmetric: bool,
