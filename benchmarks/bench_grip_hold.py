@@ -44,6 +44,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import trimesh
 
@@ -101,8 +102,11 @@ class TurnSplit:
             self.split = self._measure(scene)
 
     def _joints(self, scene) -> np.ndarray:
+        """The angles [rad] of the hand's own hinges (not the floating base's), whatever drives them (joint
+        servos or tendons)."""
         m = scene.model
-        return scene.data.qpos[m.jnt_qposadr[m.actuator_trnid[scene.hand_actuators, 0]]].copy()
+        adr = m.jnt_qposadr[np.isin(m.jnt_bodyid, scene.hand_bodies) & (m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)]
+        return scene.data.qpos[adr[~np.isin(adr, scene.base_qpos)]].copy()
 
     def _begin(self, scene) -> None:
         d = scene.data
@@ -113,7 +117,7 @@ class TurnSplit:
             in_hand=relative_pose(scene.tcp_pose(), obj), bodies=bodies,
             on_object=[(np.linalg.inv(obj) @ np.r_[p, 1.0])[:3] for p in points],
             on_finger=[(np.linalg.inv(_pose(d, b)) @ np.r_[p, 1.0])[:3] for p, b in zip(points, bodies, strict=True)],
-            joints=self._joints(scene) if scene.hand_actuators.size else np.zeros(0))
+            joints=self._joints(scene))
 
     def _measure(self, scene) -> dict:
         d, s = scene.data, self.start
