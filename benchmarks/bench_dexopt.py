@@ -44,6 +44,7 @@ from collections import Counter  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
+from manigrasp.config import apply_overrides  # noqa: E402
 from manigrasp.hands.registry import load as load_hand  # noqa: E402
 from manigrasp.objects import catalog  # noqa: E402
 from manigrasp.planners.base import Observation  # noqa: E402
@@ -170,12 +171,13 @@ def main() -> None:
     parser.add_argument("--run", help="a stored run of dexopt: its trials' hold margins against their outcomes")
     parser.add_argument("--config", help="the run's config (with --run)")
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                        help="with --run: planner parameters changed in the re-planning (floats)")
+                        help="with --run: planner parameters changed in the re-planning (values read as YAML, "
+                             "as `manigrasp bench` overrides: restarts=40 min_hold_margin=1.5)")
     args = parser.parse_args()
     if args.run:
         if not args.config:
             parser.error("--run needs --config")
-        hold_vs_outcome(args.run, args.config, {k: float(v) for k, v in (kv.split("=", 1) for kv in args.set)})
+        hold_vs_outcome(args.run, args.config, apply_overrides({}, args.set))
         return
     print(f"# dexopt: restarts {args.restarts}, iterations {args.iterations}, {args.grasps} grasps per call, seed "
           f"{args.seed}; {platform.processor() or platform.machine()}, OMP_NUM_THREADS="
