@@ -130,6 +130,9 @@ class Synthesis:
         penetration: deepest hand-object/table penetration measured in MuJoCo [m] (>= 0).
         hold: hold margin of the contacts at the protocol's squeeze and loads (`dexopt.hold_margin`; >= 1:
             contact forces the hand can press hold them all).
+        rotation: the largest turn [rad] of the held object under those loads that the grasp's stiffness
+            predicts (`dexopt.grasp_stiffness`, `dexopt.load_rotation`; inf: a load along a direction the
+            contacts cannot hold); recorded, not used to rank (module docstring, step 6).
     """
 
     pose: np.ndarray
