@@ -12,9 +12,9 @@ the benchmark's point_cloud observation). The antipodal planner plans
 (and, with one view, ``"point_symmetry"``, the old default, for comparison);
 each candidate runs under the standard protocol on the true physics. A
 planner that returns fewer candidates than asked counts the missing ones as
-failures (planner_error), as the benchmark does.
+failures (no_grasp), one that raises counts every one (planner_error), as the benchmark does.
 
-Prints per object and per method: successes / trials, planner errors; then
+Prints per object and per method: successes / trials, planner errors and trials without a grasp; then
 the planning time of `--timing-n` candidates per number of views (median
 and max over the objects of the process's CPU time, and the wall time; one
 process, BLAS threads limited to one unless OMP_NUM_THREADS says otherwise).
@@ -77,13 +77,19 @@ def run_object(name: str, views: list[int], grasps: int, seed: int, timing_n: in
         try:
             found = planners.plan(planner, obs, scene.hand, grasps, np.random.default_rng(seed)).candidates
         except PlannerError:
-            found = ()
-        out = [protocol.run(scene, c, np.random.default_rng([seed, i]), object_pose=rest).status
-               for i, c in enumerate(found)]
-        statuses[label] = out + [Status.PLANNER_ERROR] * (grasps - len(found))
+            statuses[label] = [Status.PLANNER_ERROR] * grasps
+        else:
+            out = [protocol.run(scene, c, np.random.default_rng([seed, i]), object_pose=rest).status
+                   for i, c in enumerate(found)]
+            statuses[label] = out + [Status.NO_GRASP] * (grasps - len(found))
         if completion == "free_space":
             timing[k] = _timed(planner, obs, scene.hand, timing_n, seed)
     return statuses, timing
+
+
+def _planner_failures(out: list[Status]) -> str:
+    return (f"planner_error {sum(s is Status.PLANNER_ERROR for s in out)}"
+            f"  no_grasp {sum(s is Status.NO_GRASP for s in out)}")
 
 
 def main() -> None:
@@ -101,17 +107,15 @@ def main() -> None:
         statuses, timing = run_object(name, args.views, args.grasps, args.seed, args.timing_n, not args.timing_only)
         for label, out in statuses.items():
             totals[label] += out
-            errors = sum(s is Status.PLANNER_ERROR for s in out)
             print(f"{name:22s} {label:26s} {sum(s is Status.SUCCESS for s in out):3d}/{len(out)}"
-                  f"  planner_error {errors}", flush=True)
+                  f"  {_planner_failures(out)}", flush=True)
         for k, seconds in timing.items():
             times[k].append(seconds)
     if totals:
         print("\noverall")
     for label, out in totals.items():
         wins = sum(s is Status.SUCCESS for s in out)
-        print(f"  {label:26s} {wins:3d}/{len(out)} = {wins / len(out):.2f}"
-              f"  planner_error {sum(s is Status.PLANNER_ERROR for s in out)}")
+        print(f"  {label:26s} {wins:3d}/{len(out)} = {wins / len(out):.2f}  {_planner_failures(out)}")
     print(f"\nplanning time for {args.timing_n} candidates (free_space), over {len(args.objects)} objects:")
     for k, values in sorted(times.items()):
         wall, cpu = np.array(values).T
