@@ -24,8 +24,9 @@
    then walk down the ranking: skip a pose that duplicates a kept one (NMS,
    3 cm / 30 deg, fingers swapped = same grasp), keep it if the open hand's
    collision geometry is clear of object and table at the grasp and at the
-   pre-grasp pose (MuJoCo), until `n` are kept. Then (`repack`, on a mesh or
-   a completed cloud) the ranking's free poses are packed from the top
+   pre-grasp pose (MuJoCo), until `n` are kept. Then (`repack`; on a mesh or
+   a cloud checked against its hull, not under ``completion="free_space"``)
+   the ranking's free poses are packed from the top
    (`select.pack_ranked`: as short a prefix of the ranking as still gives `n`
    mutually distinct poses); that set replaces the walk's if it is larger, or
    as large with a better worst score. Greedy NMS in rank order lets the best
@@ -163,7 +164,8 @@ class AntipodalPlanner:
         dense_below: step 6 runs when step 5 keeps fewer than min(n, dense_below) poses scoring at least
             `dense_floor`: objects with few distinct grasps, where its cost (about 1-2 s) buys most; 0: never.
         repack: after the walk of step 5, pack the ranking's free poses from its top (module docstring, step 5)
-            and keep that set if larger, or as large with a better worst score; False: the walk's set (as before).
+            and keep that set if larger, or as large with more poses scoring at least `dense_floor`, or as large
+            and as many with a better worst score; not under ``completion="free_space"``; False: the walk's set.
         dense_floor: score below which a kept pose does not count as a grasp for step 6 [-] (0, the default:
             every pose counts). 0.1 is above a pinch on a scan's lip or seam (0.03-0.08): on the potted meat
             can's scan it takes the 20 grasps from the packed body grasps (seeds 0-2: 47 -> 60/60), but it
