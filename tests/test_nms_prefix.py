@@ -56,3 +56,11 @@ def test_random_poses_n_distinct_no_further_down_than_greedy_nms(seed):
     kept = pack_prefix(conflicts(poses), len(poses), n)
     assert len(greedy) >= n and len(kept) >= n and _independent(poses, kept)
     assert kept[n - 1] <= greedy[n - 1]  # the n best of the packed set reach no deeper into the ranking
+
+
+def test_when_all_poses_pack_to_exactly_n_a_shorter_prefix_is_still_searched():
+    # Packing all seven gives exactly two; the first two (4.1 cm apart) are already distinct, so the set must not
+    # reach to rank 5 (the bisection ran only when all of them packed to more than n).
+    ranked = _line([3.5, 7.6, 4.0, 3.4, 5.0, 8.0, 7.6])
+    assert len(pack(conflicts(ranked), len(ranked))) == 2
+    assert list(pack_prefix(conflicts(ranked), len(ranked), 2)) == [0, 1]

@@ -142,7 +142,7 @@ def pack_prefix(conflict: np.ndarray, count: int, n: int) -> np.ndarray:
         return pack(inside, r)
 
     best = packed(count)
-    if len(best) <= n:
+    if len(best) < n:
         return best
     lo, hi = min(n, count), count  # packed(hi) has >= n poses; the first r with n may be lo itself
     while lo < hi:
