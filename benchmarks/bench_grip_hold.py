@@ -23,17 +23,20 @@ splits the object's turn in the hand from the start of the lift to the first per
 carried and what slipped: the rotation of the contact points on the fingers (each contact's point on its finger
 link at the start of the lift, seen in the hand frame; their best-fit rotation), the largest slip of a contact
 (its point on the object against its point on the finger) [mm], and the largest motion of a hand joint [rad].
-`--floor-every-joint` replays with the force floor on every held servo (each actuator taken as its own finger,
-the hold before it was per finger). Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x
+`--hold-joints` replays with the protocol's `finger_hold_joints` (a finger with several closing servos held in
+its joint configuration, no force floor; the default pushes on with the floor on every held servo).
+Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x
 allegro_right, inspire_right x dexopt x 5 grasps, `standard` with grip_force 10, seed 0, planned at fd0aae5):
-allegro_right, floor on every joint: 12/20, the 5 `dropped_perturb` turned 8.7 deg (median), 4.8 deg of it
+allegro_right, floor on every joint (the default): 12/20, the 5 `dropped_perturb` turned 8.7 deg (median), 4.8 deg of it
 carried by the fingers, largest slip 4.5 mm, largest joint motion 0.116 rad (the 12 successes: 1.3 deg, 0.8 deg,
 1.6 mm, 0.022 rad); held per finger: 15/20, the 2 drops 2.1 deg, 0.5 deg, 2.6 mm, 0.028 rad (successes 1.5 deg,
 0.6 deg, 1.6 mm, 0.008 rad); the 3 banana grasps slip in the lift either way (turn 15-18 deg, largest slip up to
 22 mm: squeezed out). inspire_right 17/20 either way (one closing actuator per finger). The same planner at
 seed 1 on mustard bottle, tennis ball, sugar box, potted meat can, mug and tomato soup can: 10/30 -> 16/30.
+Held per finger is not the default: the power planner's wraps lose by it (allegro_right, 7 dexterous objects x 10,
+`standard` at 10 N, seed 0: power 19 -> 11/70, the soup can 8 -> 1/10; dexopt 32 -> 37/70).
 
-    .venv/bin/python benchmarks/bench_grip_hold.py --run RUN --only allegro_right [--floor-every-joint]
+    .venv/bin/python benchmarks/bench_grip_hold.py --run RUN --only allegro_right [--hold-joints]
 """
 
 from __future__ import annotations
@@ -136,25 +139,19 @@ class TurnSplit:
         return out
 
 
-def replay_run(run_dir: Path, only: str, floor_every_joint: bool) -> None:
+def replay_run(run_dir: Path, only: str, hold_joints: bool) -> None:
     """`--run`: the turn of each stored trial's object in the hand, split (see the module docstring)."""
     from manigrasp.bench.replay import find_trial, stored_grasp, stored_trials
     from manigrasp.bench.worker import scene_for
-    from manigrasp.protocol import phases
 
     rows = []
     print(f"{'trial':64s} {'status':16s} {'turn':>5s} {'carried':>7s} {'slip mm':>7s} {'joint rad':>9s}")
     for trial_id in sorted(t for t in stored_trials(run_dir) if only in t):
         trial = find_trial(run_dir, trial_id)
         scene = scene_for(trial.group)
-        if trial.group.hand not in _FINGERS:
-            _FINGERS[trial.group.hand] = scene.actuator_fingers.copy()
-        fingers = np.full_like(_FINGERS[trial.group.hand], -1) if floor_every_joint else _FINGERS[trial.group.hand]
-        if not np.array_equal(scene.actuator_fingers, fingers):
-            scene.actuator_fingers = fingers
-            phases._HOLDS.pop(scene, None)  # the scene's hold is made again from the fingers given now
         object_pose = settle_object(scene)
-        protocol = PROTOCOLS.load(trial.group.protocol.name, **dict(trial.group.protocol.params))
+        params = {**dict(trial.group.protocol.params), "finger_hold_joints": hold_joints}
+        protocol = PROTOCOLS.load(trial.group.protocol.name, **params)
         seed = trial.group.trial_seed(trial.index)
         watch = TurnSplit()
         result = protocol.run(scene, stored_grasp(trial.result), np.random.default_rng(seed),
@@ -171,7 +168,6 @@ def replay_run(run_dir: Path, only: str, floor_every_joint: bool) -> None:
               f"{med['joint']:.3f} rad")
 
 
-_FINGERS: dict[str, np.ndarray] = {}  # each hand's own `Scene.actuator_fingers`
 
 
 def main() -> None:
@@ -181,11 +177,11 @@ def main() -> None:
     parser.add_argument("--adaptive", action="store_true", help="also the five-finger hands with adaptive fingers")
     parser.add_argument("--run", type=Path, help="replay this bench run's stored trials instead (turn split)")
     parser.add_argument("--only", default="", help="with --run: trials whose id contains this")
-    parser.add_argument("--floor-every-joint", action="store_true", help="with --run: the force floor on every "
-                        "held servo (each actuator its own finger)")
+    parser.add_argument("--hold-joints", action="store_true", help="with --run: the protocol's finger_hold_joints "
+                        "(a finger with several closing servos held in its joint configuration)")
     args = parser.parse_args()
     if args.run is not None:
-        replay_run(args.run, args.only, args.floor_every_joint)
+        replay_run(args.run, args.only, args.hold_joints)
         return
     with tempfile.TemporaryDirectory() as cache:
         can = build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,

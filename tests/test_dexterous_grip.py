@@ -151,7 +151,7 @@ def test_held_can_creeps_less_than_2_mm_under_lift_and_six_perturbations(name: s
     first = _standard_trial(scene, pose, object_pose)
     assert first.status.value == "success", first.detail
     assert first.max_translation_m < 0.002, f"the can crept {1000 * first.max_translation_m:.1f} mm"
-    hold = _HOLDS[scene]
+    hold = _HOLDS[scene][1]  # (gain, joints), FingerHold
     assert hold.engaged and len(hold.held) > 0  # the grasp was held after closing
     # The next trial on the same scene starts from the closing gains again: it repeats the first exactly.
     again = _standard_trial(scene, pose, settle_object(scene))

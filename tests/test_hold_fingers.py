@@ -3,7 +3,7 @@ a finger that one actuator closes follows the object with the floor; `Scene.actu
 
 Closed loop: an Allegro fingertip grasp of the mug (planned by dexopt, stored below) turned 8.7 deg in the hand
 during the lift and hold when every held joint followed the object at `FLOOR` of its force (its fingers curled
-on and rolled it); with the fingers' joints held it turns about 2 deg.
+on and rolled it); with the fingers' joints held (the protocols' `finger_hold_joints`, opt-in) it turns about 2 deg.
 """
 
 from __future__ import annotations
@@ -154,7 +154,7 @@ def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift() -> N
     np.testing.assert_array_equal(scene.actuator_fingers, [1] * 4 + [2] * 4 + [3] * 4 + [0] * 4)
     object_pose = settle_object(scene)
     watch = _TurnInHand()
-    result = PROTOCOLS.load("standard", grip_force=10.0).run(
+    result = PROTOCOLS.load("standard", grip_force=10.0, finger_hold_joints=True).run(
         scene, GraspCandidate(pose=MUG_POSE, score=1.0, preshape=0.0, joints=MUG_JOINTS), np.random.default_rng(0),
         deadline=time.monotonic() + 300, object_pose=object_pose, observer=watch, seed=0)
     assert np.isfinite(watch.turn), result.detail  # the grasp was lifted and held

@@ -26,10 +26,14 @@ inspire_right 7 vs 10).
   (a hand-placed can then creeps 11 mm in the Inspire hand); at `FLOOR` the squeeze stays on the object and the
   can creeps under 2 mm in every hand (`benchmarks/bench_grip_hold.py`).
 
-The floor is for a finger that closes along one path: a tendon or linkage that one actuator drives (each finger
-of the five-finger hands), which follows the object along the path it closed on. A finger with several servoed
-joints that close (the Allegro's fingers: three, its thumb: two) has its joint configuration held instead (floor
-0: stiff against opening, pushing nothing where the object yields): with a floor on each joint, a finger the
+The floor suits a finger that closes along one path: a tendon or linkage that one actuator drives (each finger
+of the five-finger hands), which follows the object along the path it closed on. Given `fingers` (the protocols'
+`finger_hold_joints`, opt-in), a finger with several servoed joints that close (the Allegro's fingers: three, its
+thumb: two) has its joint configuration held instead (floor 0: stiff against opening, pushing nothing where the
+object yields). It is not the default because it trades planners: it helps fingertip grasps and costs wraps
+(allegro_right, the dexterous config's 7 objects x 10, `standard` at 10 N, seed 0, floor on every joint -> held
+per finger: dexopt 32 -> 37/70, power 19 -> 11/70, the power wraps of the soup can 8 -> 1/10; a floor of 0.2 on
+such fingers: 35 and 14/70). For fingertip grasps: with a floor on each joint, a finger the
 object moves away from keeps pushing on every joint in a ratio that no longer matches the contact it held, so it
 curls on along the object and rolls it. Measured on the Allegro's dexopt grasps (tomato soup can, potted meat can,
 mug, banana x 5, `standard` at 10 N; replayed with an observer, from the start of the lift to the first

@@ -82,6 +82,11 @@ class GraspParams:
         finger_hold_gain: after a dexterous hand closes, hold each finger servo that closes with the
             squeeze this many times stiffer against being pushed open, keeping the force it reached
             (`manigrasp.control.FingerHold`; default `HOLD_GAIN`, 40); 0: off [-].
+        finger_hold_joints: hold a finger with several closing servos (the Allegro's) in its joint
+            configuration (no force floor) instead of letting each of its servos push on with `FLOOR` of its
+            force where the object moves away (the default, as for a finger one actuator closes). Opt-in: it
+            trades planners (allegro_right, 7 dexterous objects x 10, `standard` at 10 N, seed 0: dexopt
+            32 -> 37/70, power 19 -> 11/70; the power wraps of the soup can 8 -> 1/10), see `control.hold`.
         metric_edges: edges of the linearised friction cones in the metrics.
         metric_friction_tol: tolerance of the smallest-friction-for-closure bisection [-].
         simulated_min_friction: also compute the smallest friction for closure of the simulated
@@ -110,6 +115,7 @@ class GraspParams:
     check_period_s: float = 0.02
     regulate_grip_after_close: bool = False
     finger_hold_gain: float = HOLD_GAIN
+    finger_hold_joints: bool = False
     metric_edges: int = 8
     metric_friction_tol: float = 0.01
     simulated_min_friction: bool = False

@@ -24,23 +24,26 @@ from manigrasp.sim import grip_force, read_hand_contacts
 
 CLOSED_SYNERGY = 0.995  # [-] hand synergy (0 open, 1 closed) past which a position-mode close has finished
 
-# One `FingerHold` per scene (its model's gains are edited while a dexterous grasp is held).
+# One `FingerHold` per scene, with the (gain, joints) it was made for (its model's gains are edited while a
+# dexterous grasp is held).
 _HOLDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def finger_hold(run: TrialRun, gain: float) -> FingerHold:
-    """The scene's `FingerHold` of `gain` (made on first use, from the model's own gains)."""
+def finger_hold(run: TrialRun, gain: float, joints: bool = False) -> FingerHold:
+    """The scene's `FingerHold` of `gain` (made on first use, from the model's own gains); with `joints`, a
+    finger with several closing servos is held in its joint configuration (`finger_hold_joints`)."""
     scene = run.scene
-    if scene not in _HOLDS or _HOLDS[scene].gain != gain:
+    if scene not in _HOLDS or _HOLDS[scene][0] != (gain, joints):
         release_hold(run)
-        _HOLDS[scene] = FingerHold(scene.model, scene.hand_actuators, gain, scene.actuator_fingers)
-    return _HOLDS[scene]
+        fingers = scene.actuator_fingers if joints else None
+        _HOLDS[scene] = ((gain, joints), FingerHold(scene.model, scene.hand_actuators, gain, fingers))
+    return _HOLDS[scene][1]
 
 
 def release_hold(run: TrialRun) -> None:
     """Give the hand its closing gains back if a previous close stiffened them (dexterous hands only)."""
     if run.scene in _HOLDS:
-        _HOLDS[run.scene].release()
+        _HOLDS[run.scene][1].release()
 
 
 def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, preshape: float) -> np.ndarray:
@@ -131,7 +134,8 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
                                            f"of {grip.peak_force:.1f} N)")
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
     if hand.kind == "dexterous" and run.grip is None and p.finger_hold_gain > 0:
-        finger_hold(run, p.finger_hold_gain).engage(run.scene.data, np.diff(run.scene.hand_path, axis=0)[0])
+        closing = np.diff(run.scene.hand_path, axis=0)[0]
+        finger_hold(run, p.finger_hold_gain, p.finger_hold_joints).engage(run.scene.data, closing)
     if metrics:
         run.grip_force_n = grip_force(contacts)
         run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,
