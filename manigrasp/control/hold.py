@@ -1,5 +1,5 @@
-"""Hold a closed grasp: each finger servo stiff against being pushed open; a finger closed by one actuator still
-pushes where the object yields, a finger with several closing joints keeps its joint configuration.
+"""Hold a closed grasp: each finger servo stiff against being pushed open, still pushing where the object yields;
+given the fingers (opt-in), a finger with several closing joints keeps its joint configuration instead.
 
 The dexterous hands close with soft position servos (a blocked finger pushes with kp (u - L), kp small) so that
 the grip force can be regulated through the synergy (`GripController`). Left that way after closing, every

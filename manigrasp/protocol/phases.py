@@ -92,8 +92,8 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     the finger command stays where it left it (unless `regulate_grip_after_close`), so
     the finger servos hold the grip with no Python in the loop; with `finger_hold_gain`, a
     dexterous hand's servos that close along its path are then held around the forces they
-    reached (`FingerHold`: stiff against opening; a finger one actuator closes still pushes where the object
-    yields, a finger with several closing joints has its joint configuration held); the
+    reached (`FingerHold`: stiff against opening, and still pushing where the object yields; with
+    `finger_hold_joints`, a finger with several closing joints has its joint configuration held instead); the
     next pre-grasp or close gives the gains back. The object's pose in the
     hand is the reference of all later motion, and (with `metrics`) the grip force and
     simulated-contact metrics are recorded. `detail` goes to the observer's phase call.
