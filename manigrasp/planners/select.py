@@ -76,9 +76,7 @@ def pack_free(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, ang
         distance, angle, symmetric: the NMS thresholds [m], [rad] and the finger-swap symmetry.
     """
     ranked = ranked[:max_checks]
-    free = np.flatnonzero(~probe.collides(ranked))
-    free = free[~probe.collides(pregrasp_pose(ranked[free], pregrasp_offset))]
-    free = free[representatives(ranked[free], PACK_CELL, PACK_BINS, symmetric)][:PACK_LIMIT]
+    free = _representatives(ranked, _clear(probe, ranked, pregrasp_offset), symmetric)
     return free[pack(conflicts(ranked[free], distance, angle, symmetric), len(free))][:n]
 
 
@@ -96,15 +94,24 @@ def pack_ranked(probe: HandProbe, ranked: np.ndarray, n: int, distance: float, a
     free = np.zeros(0, int)
     checked, size = 0, first
     limit = min(len(ranked), max_checks)
-    reps, conflict = np.zeros(0, int), np.zeros((0, 2), int)
+    reps, chosen = np.zeros(0, int), np.zeros(0, int)
     while checked < limit:
         block = np.arange(checked, min(checked + size, limit))
-        ok = block[~probe.collides(ranked[block])]
-        ok = ok[~probe.collides(pregrasp_pose(ranked[ok], pregrasp_offset))]
-        free = np.concatenate([free, ok])
+        free = np.concatenate([free, block[_clear(probe, ranked[block], pregrasp_offset)]])
         checked, size = block[-1] + 1, 2 * size
-        reps = free[representatives(ranked[free], PACK_CELL, PACK_BINS, symmetric)][:PACK_LIMIT]
-        conflict = conflicts(ranked[reps], distance, angle, symmetric)
-        if len(pack(conflict, len(reps))) >= n:
+        reps = _representatives(ranked, free, symmetric)
+        chosen = pack_prefix(conflicts(ranked[reps], distance, angle, symmetric), len(reps), n)
+        if len(chosen) >= n:  # all of them pack into n: `chosen` is the shortest prefix's packing
             break
-    return reps[pack_prefix(conflict, len(reps), n)][:n]
+    return reps[chosen][:n]
+
+
+def _clear(probe: HandProbe, poses: np.ndarray, pregrasp_offset: float) -> np.ndarray:
+    """Indices of `poses` (k, 4, 4) at which the open hand is clear of object and table, and at their pre-grasp."""
+    free = np.flatnonzero(~probe.collides(poses))
+    return free[~probe.collides(pregrasp_pose(poses[free], pregrasp_offset))]
+
+
+def _representatives(ranked: np.ndarray, free: np.ndarray, symmetric: bool) -> np.ndarray:
+    """Of the indices `free` into `ranked`, the best ranked of each small cell of pose space (at most `PACK_LIMIT`)."""
+    return free[representatives(ranked[free], PACK_CELL, PACK_BINS, symmetric)][:PACK_LIMIT]
