@@ -10,6 +10,7 @@ its `base` view. Poses are (4, 4) homogeneous matrices in the world frame [m].
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import mujoco
@@ -124,7 +125,6 @@ class Scene:
         self.base_qpos = model.jnt_qposadr[base_joints].copy()
         self.hand_bodies = np.flatnonzero(model.body_rootid == self.root_body)
         self.finger_of_body = self._finger_map()
-        self.actuator_fingers = self._actuator_fingers()
         self._open_qpos = self._hand_open_qpos()
         self.object_body = mujoco.mj_name2id(model, _BODY, OBJECT_BODY)
         self.object_geoms = self._object_geoms()
@@ -152,9 +152,11 @@ class Scene:
             out[body] = fingers.get(b, -1)
         return out
 
-    def _actuator_fingers(self) -> np.ndarray:
+    @functools.cached_property
+    def actuator_fingers(self) -> np.ndarray:
         """(n_act,) index into `hand.finger_bodies` of the finger each hand actuator moves, -1 if none or several:
-        the finger of its joint (joint transmission) or of every joint its tendon spans (a finger's tendon)."""
+        the finger of its joint (joint transmission) or of every joint its tendon spans (a finger's tendon).
+        Computed on first use (only `finger_hold_joints` asks)."""
         m = self.model
         out = np.full(len(self.hand_actuators), -1)
         for i, a in enumerate(self.hand_actuators):
