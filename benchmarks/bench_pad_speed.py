@@ -13,7 +13,9 @@ what this machine gave. The last line also gives the ratio of this thread's CPU 
 (`time.thread_time`): on a machine shared with other jobs, wall time swells with their load and CPU time much
 less. Then the same CPU time split per mode: inside `mj_step` per simulated step (MuJoCo's physics; each call
 timed, without --profile no timer callback slows it) and outside it per trial (control, checks,
-simulated-contact metrics in Python).
+simulated-contact metrics in Python), and of the outside the simulated-contact metrics alone
+(`protocol.metrics.contact_metrics`: the Ferrari-Canny epsilon's Qhull hull and the smallest friction for
+closure, over the grip's contacts: more contacts with compliant pads, so a larger hull).
 
     .venv/bin/python benchmarks/bench_pad_speed.py                       # quick: 200 trials per mode
     .venv/bin/python benchmarks/bench_pad_speed.py --objects 004_sugar_box --grasps 5
@@ -24,8 +26,8 @@ per mode and printed as microseconds per step: the whole step, collision detecti
 narrowphase, the pairwise geometry tests) and the constraint solver, with the contacts and constraint
 rows per step; then each mode's seconds per trial inside `mj_step` and outside it (control, checks,
 simulated metrics). The timers need a clock callback (`mujoco.set_mjcb_time`), a Python call for each
-timed section, which slows every step by a few microseconds: trials/s of a --profile run are not the
-speed figures; the split between sections is what it is for.
+timed section (32 per step, in either mode), which slows every step, about twice over on a shared machine:
+trials/s of a --profile run are not the speed figures; the split between sections is what it is for.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from manigrasp.bench import worker  # noqa: E402
 from manigrasp.bench.config import load_config  # noqa: E402
 from manigrasp.bench.trials import groups  # noqa: E402
 from manigrasp.paths import configs_dir  # noqa: E402
+from manigrasp.protocol import metrics  # noqa: E402
 from manigrasp.protocol.result import Status  # noqa: E402
 
 MODES = ("rigid", "compliant")
@@ -108,6 +111,26 @@ class StepProfile:
                   f"outside (control, checks, simulated metrics) {(trial_s[m] - self.wall[m]) / trials[m]:.3f}")
 
 
+class MetricsClock:
+    """This thread's CPU time inside `protocol.metrics.contact_metrics` (the simulated-contact metrics), per
+    mode (`active`; None: not counted). The module function is wrapped for the process (its callers in
+    `manigrasp.protocol.metrics` look it up there at each call)."""
+
+    def __init__(self) -> None:
+        self.cpu = dict.fromkeys(MODES, 0.0)  # [s]
+        self.active: str | None = None
+        self._metrics = metrics.contact_metrics
+        metrics.contact_metrics = self.metrics
+
+    def metrics(self, *args, **kwargs):  # noqa: ANN002, ANN003, ANN201
+        start = time.thread_time()
+        try:
+            return self._metrics(*args, **kwargs)
+        finally:
+            if self.active is not None:
+                self.cpu[self.active] += time.thread_time() - start
+
+
 class StepClock:
     """This thread's CPU time inside `mujoco.mj_step` and the steps it made, per mode (`active`; None, as while
     planning: not counted).
@@ -133,13 +156,15 @@ class StepClock:
         self.cpu[self.active] += time.thread_time() - start
         self.steps[self.active] += nstep
 
-    def report(self, cpu_s: dict[str, float], trials: dict[str, int]) -> None:
+    def report(self, cpu_s: dict[str, float], trials: dict[str, int], metrics_s: dict[str, float]) -> None:
         us = {m: self.cpu[m] / max(1, self.steps[m]) * 1e6 for m in MODES}
         outside = {m: (cpu_s[m] - self.cpu[m]) / trials[m] for m in MODES}
+        contact = {m: metrics_s[m] / trials[m] for m in MODES}
         print(f"CPU per simulated step inside mj_step: rigid {us['rigid']:.1f} us, compliant {us['compliant']:.1f} us "
               f"({us['compliant'] / us['rigid']:.2f}x; {self.steps['rigid'] / trials['rigid']:.0f} vs "
               f"{self.steps['compliant'] / trials['compliant']:.0f} steps per trial); outside mj_step per trial: "
-              f"rigid {outside['rigid']:.3f} s, compliant {outside['compliant']:.3f} s")
+              f"rigid {outside['rigid']:.3f} s, compliant {outside['compliant']:.3f} s; of it simulated-contact "
+              f"metrics rigid {contact['rigid']:.3f} s, compliant {contact['compliant']:.3f} s")
 
 
 def main() -> None:
@@ -152,6 +177,7 @@ def main() -> None:
     args = parser.parse_args()
     profile = StepProfile() if args.profile else None
     clock = StepClock()
+    metrics_clock = MetricsClock()
     path = Path(args.config) if args.config.endswith(".yaml") else configs_dir() / f"{args.config}.yaml"
     overrides = ([f"objects=[{', '.join(args.objects)}]"] if args.objects else []) + (
         [f"planners=[{', '.join(args.planners)}]"] if args.planners else []) + (
@@ -179,14 +205,14 @@ def main() -> None:
             plan_s[mode] += time.perf_counter() - start
         for index in range(group.n_grasps):
             for mode, g in pair.items():
-                clock.active = mode
+                clock.active = metrics_clock.active = mode
                 if profile is not None:
                     profile.active = mode
                 start, cpu = time.perf_counter(), time.thread_time()
                 _, result = worker.run_trial(g, index, plans[mode])
                 seconds[mode] += time.perf_counter() - start
                 cpu_s[mode] += time.thread_time() - cpu
-                clock.active = None
+                clock.active = metrics_clock.active = None
                 if profile is not None:
                     profile.end_trial()
                 ok[mode] += result.status is Status.SUCCESS
@@ -206,7 +232,7 @@ def main() -> None:
     print(f"compliant / rigid CPU time of this thread per simulated trial: {cpu_s['compliant'] / cpu_s['rigid']:.2f}x "
           f"({cpu_s['rigid'] / trials['rigid']:.3f} vs {cpu_s['compliant'] / trials['compliant']:.3f} s; on a shared "
           "machine the steadier figure)")
-    clock.report(cpu_s, trials)
+    clock.report(cpu_s, trials, metrics_clock.cpu)
     if profile is not None:
         profile.report(trial_s, trials)
 

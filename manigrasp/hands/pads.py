@@ -123,7 +123,7 @@ before the creep fix above, against this model's 16 and 17; with the fix, 3 of
 2 x 3 cm pad costs 38 us but holds scissors 6, and on the egg-crate keeps 1.49x
 its flat torque; a looser CCD tolerance (1e-4) saved 2 us; condim 3 saves about
 1 us and loses the cell torsion a one-element contact needs. This model costs
-2.05x a rigid trial's CPU time on quick (README).
+2.08x a rigid trial's CPU time on quick (2.09x on a quieter machine; README).
 
 Where this version's time goes (thread CPU per step, `parallel_jaw` closing on a 5 cm mesh cube on the
 table, 500 warm consecutive steps; quick's own from `benchmarks/bench_pad_speed.py`): rigid 15.5 us,
@@ -145,6 +145,25 @@ hand's own geoms (they never touch them) gained nothing measurable, and from the
 but the elements do touch the table (a low sugar-box grasp: 4 element-table contacts per step); fewer
 CCD iterations (10) made the solver iterate twice as often (3.0 vs 1.6 Newton iterations, 81 vs 59 us per
 step).
+
+On quick's own trials (the same groups and grasps replayed with variants of the compliant model in one
+process, trials interleaved, thread CPU inside `mj_step`, 20-30 trials of all ten groups; the spread between
+runs on the shared machine is several microseconds, so only the differences within one run count): this
+model 54-62 us per step, rigid pads 22-23 (`bench_pad_speed.py`). In one run: this model 60.8, the
+elements welded to the finger (no spring joints, contacts kept; they then touch less, 6.0 vs 9.5 contacts
+per step) 38.5, the elements as joints without contacts 31.8. So the 12 spring joints cost about 10 us per
+step (31.8 against the rigid pads' 22) and the element contacts the other 29: the narrowphase of the
+elements against the object's convex parts (an EPA for each touching one, a GJK for each near one; 14 us in
+the cube hold above) and the solver on the larger system. The pairs with the table and the hand are cheap:
+keeping the elements from the table altogether saved 2.6 us per step (55.1 vs 52.5), meeting the
+table through an invisible plane at its top instead of the box (plane-convex needs one support point, no
+GJK; the same contacts and statuses) 1.0 us (54.1 vs 55.1), too little for a
+second table geom that every reader of the table's contacts would have to know; keeping them from the
+hand's own geoms by body excludes nothing (55.0 vs 55.1); element bodies without gravity compensation
+nothing (54.7); MuJoCo's sparse Jacobian was slower (65.0 vs 61.9). Outside `mj_step` a compliant trial
+costs 0.010 s more (0.045 vs 0.035 s per trial on quick); 0.004 of it is the simulated-contact metrics
+over the grip's more contacts (0.019 vs 0.015 s per trial; on the sugar box's antipodal grasps, 3 of them,
+0.066 vs 0.035: the Ferrari-Canny hull of 40-130 primitive wrenches, 28 vs 23 ms per Qhull call).
 """
 
 from __future__ import annotations
