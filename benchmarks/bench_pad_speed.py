@@ -9,9 +9,9 @@ planning, and the ratio compliant / rigid. Planning is each mode's own `worker.p
 the settling, the planner); the object's asset, which both modes share, is built before either clock starts,
 and one untimed plan first takes the process's one-time costs (before, the first mode to plan paid both
 alone). In this process: no worker pool, no time budgets. Deterministic results for a seed; the timings are
-what this machine gave. The last line also gives the ratio of this thread's CPU time per simulated trial
-(`time.thread_time`): on a machine shared with other jobs, wall time swells with their load and CPU time much
-less. Then the same CPU time split per mode: inside `mj_step` per simulated step (MuJoCo's physics; each call
+what this machine gave. Then the ratio of this thread's CPU time per simulated trial (`time.thread_time`),
+and per trial with planning: on a machine shared with other jobs, wall time swells with their load and CPU
+time much less. Then the same CPU time split per mode: inside `mj_step` per simulated step (MuJoCo's physics; each call
 timed, without --profile no timer callback slows it) and outside it per trial (control, checks,
 simulated-contact metrics in Python), and of the outside the simulated-contact metrics alone
 (`protocol.metrics.contact_metrics`: the Ferrari-Canny epsilon's Qhull hull and the smallest friction for
@@ -191,6 +191,7 @@ def main() -> None:
     trial_s = {m: 0.0 for m in MODES}
     trials = {m: 0 for m in MODES}
     cpu_s = {m: 0.0 for m in MODES}
+    plan_cpu = {m: 0.0 for m in MODES}  # [s] this thread's CPU time planning
     todo = list(groups(config, path.parent))
     if todo:  # the process's one-time costs (imports, first calls) on an untimed plan, not on the first mode's
         worker.plan_group(todo[0])
@@ -200,9 +201,10 @@ def main() -> None:
         plans, seconds, ok = {}, {m: 0.0 for m in MODES}, {m: 0 for m in MODES}
         worker._asset(group)  # the object's asset serves both modes: built (or loaded) before either's clock
         for mode, g in pair.items():
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.thread_time()
             plans[mode] = worker.plan_group(g)
             plan_s[mode] += time.perf_counter() - start
+            plan_cpu[mode] += time.thread_time() - cpu
         for index in range(group.n_grasps):
             for mode, g in pair.items():
                 clock.active = metrics_clock.active = mode
@@ -232,6 +234,9 @@ def main() -> None:
     print(f"compliant / rigid CPU time of this thread per simulated trial: {cpu_s['compliant'] / cpu_s['rigid']:.2f}x "
           f"({cpu_s['rigid'] / trials['rigid']:.3f} vs {cpu_s['compliant'] / trials['compliant']:.3f} s; on a shared "
           "machine the steadier figure)")
+    print(f"compliant / rigid CPU time of this thread per trial with planning: "
+          f"{(cpu_s['compliant'] + plan_cpu['compliant']) / (cpu_s['rigid'] + plan_cpu['rigid']):.2f}x "
+          f"({plan_cpu['rigid']:.1f} vs {plan_cpu['compliant']:.1f} s planning)")
     clock.report(cpu_s, trials, metrics_clock.cpu)
     if profile is not None:
         profile.report(trial_s, trials)
