@@ -160,7 +160,9 @@ table through an invisible plane at its top instead of the box (plane-convex nee
 GJK; the same contacts and statuses) 1.0 us (54.1 vs 55.1), too little for a
 second table geom that every reader of the table's contacts would have to know; keeping them from the
 hand's own geoms by body excludes nothing (55.0 vs 55.1); element bodies without gravity compensation
-nothing (54.7); MuJoCo's sparse Jacobian was slower (65.0 vs 61.9). Outside `mj_step` a compliant trial
+nothing (54.7); MuJoCo's sparse Jacobian was slower (65.0 vs 61.9); capsules as elements (in the
+face, along its first axis, radius h / 3, spanning the cell: a shallow capsule contact needs no EPA) were
+slower too (61.9 vs 55.1, with 12.2 contacts per step against 9.5). Outside `mj_step` a compliant trial
 costs 0.010 s more (0.045 vs 0.035 s per trial on quick); 0.004 of it is the simulated-contact metrics
 over the grip's more contacts (0.019 vs 0.015 s per trial; on the sugar box's antipodal grasps, 3 of them,
 0.066 vs 0.035: the Ferrari-Canny hull of 40-130 primitive wrenches, 28 vs 23 ms per Qhull call).
