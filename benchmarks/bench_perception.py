@@ -20,6 +20,15 @@ and so is planning on the fused cloud of several cameras (`camera:` key), e.g.
     manigrasp bench perception --out runs/perc_v2 observation=point_cloud camera.views=2
 
 (benchmarks/bench_partial_view.py: 1, 2, 3 views and the completion path side by side, with planning times).
+
+The perception config re-measured after antipodal's n_approaches 12 -> 24 (e68dffb), which also applies to
+clouds: `manigrasp bench perception --out D --jobs 1` on clean worktrees of 39a4bef (12) and 8ac99d2 (24),
+parallel_jaw x antipodal, of 100 (5 objects x 20): ground_truth 88 -> 87, estimated_pose@1view 88 -> 89,
+point_cloud@1view 78 -> 78, @2views 86 -> 88, @3views 83 -> 86 (`manigrasp compare`: no significant change in
+any of the 25 groups; the hammer 5-9/20 in every row, the rest 12-20/20). Planning CPU time on the clouds
+(free_space; `bench_partial_view.py --timing-only --timing-n 20`, median over the objects) 0.40 -> 0.29 s with
+one view, 0.36 -> 0.34 s with two, 0.45 -> 0.42 s with three: not more; on the mesh (ground_truth) the
+planning call's wall time in the run went 5.6 -> 11.2 s (median per object, a loaded 2-core machine).
 """
 
 from __future__ import annotations
