@@ -3,6 +3,9 @@ and through the lift, what holds the object.
 
 Usage:
     .venv/bin/python benchmarks/diagnose_dexterous.py RUN_DIR [TRIAL_ID ...] [--status slipped_lift] [--max 4]
+    .venv/bin/python benchmarks/diagnose_dexterous.py RUN_DIR --versus-plan [--only /standard/ fourier_right]
+        [--save ROWS.pkl]                       # dexopt's plan against the replay (below)
+    .venv/bin/python benchmarks/diagnose_dexterous.py RUN_DIR --versus-summary ROWS.pkl ...
 
 Each trial is replayed exactly as `manigrasp replay` does (same scene, settled object, stored grasp, seed) with
 an observer that only reads the scene. Printed per snapshot (end of close = start of lift; then every 0.1 s of
@@ -70,6 +73,60 @@ successes of 40, Allegro + Fourier, against 15 = 7 + 8 for dexopt's defaults; +-
 - `min_force_share: 1.0` (equal pushes): 11 = 0 + 11, the Fourier hand's best (was 8/20), the Allegro's worst.
   Not confirmed for the Fourier hand on other objects (mustard, mug, banana, can, potted meat x 5, seed 1): 5/25
   against 7/25 at the default 0.3.
+
+The plan against the simulation (`--versus-plan`): each dexopt trial's group is planned again in the process
+that replays it, every candidate kept, with what dexopt's load test (`dexopt_planner`, step 6) was given: the
+pads in contact, their fingers and links, their normal-force caps, the loads, mu. A trial whose executed pose no
+re-planned candidate matches (1e-6 m) is skipped with a message: re-planning a group in a fresh process did not
+reproduce the run's grasps in two cases (tomato soup can x fourier_right of the run below: nearest re-planned TCP
+10 mm off; mustard bottle x fourier_right of a 3-object run made at 8ac99d2), while the 193 trials below, replayed
+group by group in the order of their ids (two processes: the Allegro; the Fourier then the Inspire hand), all
+matched: what state the planning depends on is not found. Per trial (`compare`): the planned
+fingers and caps; at the end of the close (E), at the first perturbation (P) and at the last sample (F) the
+fingers touching and each finger's normal force [N], the force on links other than the planned pads, the
+friction used (force-weighted |f_t| / (mu f_n)), the load test on the simulated contacts with the simulated
+normal forces as caps, the object's motion in the hand (mm, deg, |rotation axis . thumb-to-fingers line|); the
+distance of each finger's simulated contacts from its planned pad, and how far the close pushed the object.
+
+Measured: the dexterous config's dexopt trials under `standard` (10 N, compliant pads; the run at 672a15f in
+/tmp/L/dex, the same grasps as at 8ac99d2: a 30-trial subset re-run at 8ac99d2 gave identical statuses), replayed
+at 8ac99d2 (the Allegro with the default floor hold, 32/62 replayed; the five-finger statuses as stored), 193
+trials that reached the lift (`--versus-summary`):
+- The grip loop presses the planned squeeze in total: at E the thumb presses 1.00-1.08 x its cap (median per
+  hand, successes at margin >= 1.3; 0.95-1.64 in the failures), the other side 12-13 N for caps totalling 10 N
+  (9 N on the Allegro, its maximum).
+- Not with the planned fingers on the five-finger hands: the loop stops at the grip force with whichever fingers
+  reached the object first (the Allegro's 9 N maximum runs its squeeze line to the end). Every planned finger
+  touches at E in 1 of 25 (Fourier) and 3 of 24 (Inspire) grasps of margin >= 2, 23 of 29 on the Allegro;
+  planned non-thumb pads within 5 mm of the surface that do not touch at E: Fourier 73/175, Inspire 84/254,
+  Allegro 7/181. The load test also counts pads up to `contact_tolerance` (20 mm) off the surface: on the
+  Fourier hand 69 of its 244 planned non-thumb pads are 5-20 mm off.
+- Where the close misses the plan, grasps fail whatever their margin (`close_defects`; margin >= 2: 59/78
+  succeed): object pushed over 5 mm on the table by the close 19/30 (40/48 otherwise); a finger's contacts more
+  than 15 mm from its planned pad 20/33 (39/45); friction used at E above 0.55 (before any load: the squeeze's
+  own tangential forces) 9/20 (50/58); none of the four defects (with the thumb pressing off its pad) 18/20, and
+  at margin >= 1.3 32/35. The Fourier thumb presses mostly off its planned distal pad (with its proximal link) in
+  7 of the hand's 14 failures at margin >= 1.3 and 8 of its 29 successes (tomato can 0000: the thumb stops at
+  pitch 0.19 rad of the planned 0.54, its proximal link on the can 31 mm from the planned pad).
+- The load test with any one non-thumb finger left out (`fewer_fingers_margin`) separates the outcomes better
+  than the plain margin: >= 2: 43/48 succeed, [1.3, 2): 20/25, [1, 1.3): 8/15, < 1: 40/105 (plain margin 59/78,
+  24/37, 9/17, 19/61); at plain margin >= 2, 54/63 with it >= 1 and 5/15 below.
+- How they fail: the five-finger `slipped_lift` grasps fall apart in the first 0.1 s of the lift (sum f_n 23 N at
+  E, 0-2 N by the perturbation): the object drops straight out (Fourier: 21 mm, |z| / |shift| 0.99) turning
+  14 deg about the thumb-to-fingers line (|axis . line| 0.91). The Allegro keeps its fingers on the object but
+  loses 4 N of its 21 N squeeze in the lift (successes and failures alike); its drops turn 20 deg about the
+  thumb-to-fingers line in the perturbations (0.95), and its failures at margin >= 2 are mostly the banana,
+  pushed and rolled by the close (contacts 27-119 mm from the planned pads).
+Tried on these findings, no gain (4 objects: mustard, potted meat, banana, sugar box x 3 hands x 10, standard
+10 N, each variant in-process at 8ac99d2 against the same in-process baseline, 48/120: Allegro 12, Fourier 19,
+Inspire 17 (the run's own planning of these groups differs, see above: there 44/120, Allegro replayed at 8ac99d2
+12, Fourier 12, Inspire 20)):
+- candidates ranked by `fewer_fingers_margin` instead of the margin (min_hold_margin 2 on it): 49/120 (15, 17,
+  17): robust candidates are few for these objects (potted meat x Fourier: 0 of 50 candidates at margin >= 2,
+  4 with a finger left out >= 1.3; banana x Fourier: 29 at margin >= 2, 5 with a finger left out);
+- a hold that lets a closing finger which presses nothing when the hold engages close in with 0.4 x the mean
+  force of the pushing fingers (so a finger short of the object catches up): Fourier's 14 failures at margin
+  >= 1.3 gave 1 success, its 8 successes stayed.
 """
 
 from __future__ import annotations
@@ -77,6 +134,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -242,6 +300,360 @@ def summary(run_dir: Path, ids: list[str], friction: float | None = None, mass_s
     return 0
 
 
+# ---------------------------------------------------------------------------------------------------------------
+# The plan against the simulation (`--versus-plan`): what dexopt's load test assumed, what the replay presses.
+
+SAMPLE_S = 0.02  # [s] between the tracker's samples in the lift and hold
+TOUCH_N = 0.1  # [N] a finger or link with at least this normal force touches
+
+
+@dataclass
+class PlannedGrasp:
+    """What dexopt's load test (`dexopt.hold_margin`, step 6) assumed of one candidate: the pads in contact at
+    `points` (k, 3) [m] with inward `normals`, on `bodies` (k,) (names in the hand's own model) of `fingers`
+    (k,), their normal-force `caps` (k,) [N], the `loads` (L, 3) [N] at `center`, friction `mu`, `torsion` [m]
+    and the resulting `margin`."""
+
+    pose: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray
+    caps: np.ndarray
+    fingers: np.ndarray
+    bodies: list[str]
+    center: np.ndarray
+    loads: np.ndarray
+    mu: float
+    torsion: float
+    margin: float
+
+
+def planned_grasps(group) -> list[PlannedGrasp]:
+    """Plan `group` again as its run did (same seed and context; the same code must be checked out), keep every
+    candidate that passed the checks (no diversity cut) and what its load test was given."""
+    import manigrasp.planners.dexopt_planner as dp
+    from manigrasp.bench.observe import observe_with_info
+    from manigrasp.bench.worker import _asset, scene_for
+    from manigrasp.planners.context import PlanContext, grasping_friction
+    from manigrasp.protocol import PROTOCOLS, settle_object
+
+    scene = scene_for(group)
+    context = PlanContext.from_params(PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params)).params,
+                                      grasping_friction(group.scene, scene.hand))
+    observation, _ = observe_with_info(group.observation, _asset(group), settle_object(scene), scene,
+                                       seed=group.seed, camera=group.camera)
+    planner = dp.DexOptPlanner(**dict(group.planner.params))
+    hk = planner.kinematics(scene.hand)
+    body_of_slot = np.full(len(hk.bodies), -1)
+    body_of_slot[hk._slot[hk.bodies]] = hk.bodies
+    seen: dict = {}
+    calls: list[dict] = []
+    saved = dp.pad_jacobians, dp.hold_margin, dp.suppress
+
+    def jacobians(x, slot, *args):
+        seen["x"], seen["slot"] = np.array(x), np.array(slot)
+        return saved[0](x, slot, *args)
+
+    def margin(points, normals, caps, center, loads, mu, torsion=0.0):
+        value = saved[1](points, normals, caps, center, loads, mu, torsion)
+        rows = [int(np.argmin(np.linalg.norm(seen["x"] - p, axis=1))) for p in points]
+        calls.append(dict(points=np.array(points), normals=np.array(normals), caps=np.array(caps),
+                          bodies=body_of_slot[seen["slot"][rows]], center=np.array(center), loads=np.array(loads),
+                          mu=float(mu), torsion=float(torsion), margin=value))
+        return value
+
+    dp.pad_jacobians, dp.hold_margin = jacobians, margin
+    dp.suppress = lambda poses, distance, angle: np.arange(len(poses))
+    try:
+        found = planner.synthesise(observation, scene.hand, 10**6, group.rng(), context.pregrasp_offset, context)
+    finally:
+        dp.pad_jacobians, dp.hold_margin, dp.suppress = saved
+    out = []
+    for s in found:
+        c = next(c for c in calls if c["points"].shape == s.contacts.shape and np.array_equal(c["points"], s.contacts))
+        names = [mujoco.mj_id2name(hk.model, mujoco.mjtObj.mjOBJ_BODY, int(b)) for b in c["bodies"]]
+        out.append(PlannedGrasp(pose=s.pose, points=c["points"], normals=c["normals"], caps=c["caps"],
+                                fingers=hk.body_finger[c["bodies"]], bodies=names, center=c["center"],
+                                loads=c["loads"], mu=c["mu"], torsion=c["torsion"], margin=c["margin"]))
+    return out
+
+
+class Tracker:
+    """Observer keeping, at the end of the close and every `SAMPLE_S` of the lift, hold and perturbations, the
+    hand-object contacts, the actuator forces and the object's pose in the hand (read only)."""
+
+    sample_period_s = SAMPLE_S
+
+    def __init__(self) -> None:
+        self.phase, self.detail = None, ""
+        self.samples: list[dict] = []
+        self.rest = np.eye(4)
+        self.before_close: dict = {}
+
+    def on_start(self, scene, grasp, object_pose) -> None:  # noqa: D102
+        self.rest = np.array(object_pose, float)
+
+    def on_phase(self, scene, phase, detail: str = "") -> None:  # noqa: D102
+        self.phase, self.detail = phase, detail
+        if phase == Phase.CLOSE:
+            self.before_close = dict(tcp=scene.tcp_pose(), obj=scene.object_pose())
+        if phase in (Phase.LIFT, Phase.PERTURB):
+            self.take(scene, f"{phase.value}{detail}")
+
+    def on_sample(self, scene) -> None:  # noqa: D102
+        if self.phase in (Phase.LIFT, Phase.HOLD, Phase.PERTURB):
+            self.take(scene, f"{self.phase.value}{self.detail}")
+
+    def on_end(self, scene, result) -> None:  # noqa: D102
+        if self.samples:
+            self.take(scene, "end")
+
+    def take(self, scene, label: str) -> None:
+        """Keep the state now."""
+        m, d = scene.model, scene.data
+        c = read_hand_contacts(scene, "object")
+        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(b)) or "" for b in c.hand_body]
+        acts = scene.hand_actuators
+        self.samples.append(dict(
+            label=label, t=float(scene.time), tcp=scene.tcp_pose(), obj=scene.object_pose(),
+            com=d.xipos[scene.object_body].copy(),
+            fn=np.clip(c.normal_force, 0.0, None), ft=c.tangential_force.copy(), mu=c.friction.copy(),
+            cone=c.cone_ratio.copy(), finger=c.finger.copy(), body=names, pos=c.position.copy(), normal=c.normal.copy(),
+            torque=c.torque.copy(), act_force=d.actuator_force[acts].copy(), table=float(np.clip(
+                read_hand_contacts(scene, "table").normal_force, 0.0, None).sum())))
+
+
+def _in_hand(sample: dict) -> np.ndarray:
+    return relative_pose(sample["tcp"], sample["obj"])
+
+
+def _motion(ref: dict, now: dict) -> tuple[np.ndarray, np.ndarray, float]:
+    """The object's motion in the hand from `ref` to `now`, in world axes (the hand's orientation at `now`):
+    translation of its centre (3,) [m], unit rotation axis (3,) and angle [deg]."""
+    a, b = _in_hand(ref), _in_hand(now)
+    rot_hand = now["tcp"][:3, :3]
+    shift = rot_hand @ (b[:3, 3] - a[:3, 3])
+    turn = b[:3, :3] @ a[:3, :3].T  # in hand axes
+    angle = float(np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1, 1))))
+    axis = np.array([turn[2, 1] - turn[1, 2], turn[0, 2] - turn[2, 0], turn[1, 0] - turn[0, 1]])
+    axis = rot_hand @ axis / max(np.linalg.norm(axis), 1e-12)
+    return shift, axis, angle
+
+
+def _per_finger(sample: dict, n_fingers: int) -> tuple[np.ndarray, float]:
+    """(n_fingers,) summed normal force [N] per finger, and the palm's."""
+    f = np.array([sample["fn"][sample["finger"] == i].sum() for i in range(n_fingers)])
+    return f, float(sample["fn"][sample["finger"] < 0].sum())
+
+
+def _sim_margin(sample: dict, loads: np.ndarray, mu: float, torsion: float) -> float:
+    """`dexopt.hold_margin` of the simulated contacts about the object's centre of mass now, each body's contacts
+    lumped into one at their force-weighted centre and mean normal, capped at the normal force the simulation
+    presses there (the forces of the moment: could they hold the planner's loads if they stayed?)."""
+    from manigrasp.planners.dexopt import hold_margin
+
+    fn = sample["fn"]
+    points, normals, caps = [], [], []
+    for body in sorted(set(sample["body"])):
+        sel = np.array([b == body for b in sample["body"]]) & (fn > 0)
+        if fn[sel].sum() < TOUCH_N:
+            continue
+        w = fn[sel] / fn[sel].sum()
+        points.append(w @ sample["pos"][sel])
+        normal = w @ sample["normal"][sel]
+        normals.append(normal / np.linalg.norm(normal))
+        caps.append(fn[sel].sum())
+    if not caps:
+        return 0.0
+    return hold_margin(np.array(points), np.array(normals), np.array(caps), sample["com"], loads, mu, torsion)
+
+
+def versus_plan(run_dir: Path, ids: list[str], out=sys.stdout, only: tuple[str, ...] = ()) -> list[dict]:
+    """Replay dexopt trials and set each against what its plan assumed (module docstring); returns one row each.
+    No `ids`: every stored dexopt trial whose id contains each of `only` (e.g. "/standard/", "fourier_right")."""
+    from manigrasp.bench.worker import scene_for
+    from manigrasp.protocol import PROTOCOLS, settle_object
+
+    trials = stored_trials(run_dir)
+    ids = ids or sorted(t for t, s in trials.items() if s.group.planner.name == "dexopt" and
+                        all(part in t for part in only) and s.result.status.value != "no_grasp")
+    plans: dict = {}
+    rows = []
+    for trial_id in ids:
+        trial = trials[trial_id]
+        group = trial.group
+        key = group.key(0).trial_id.rsplit("/", 1)[0]
+        if key not in plans:
+            plans[key] = planned_grasps(group)
+        grasp = stored_grasp(trial.result)
+        if not np.all(np.isfinite(grasp.pose)) or not plans[key]:
+            continue
+        gap = [np.linalg.norm(p.pose[:3, 3] - grasp.pose[:3, 3]) for p in plans[key]]
+        plan = plans[key][int(np.argmin(gap))]
+        if min(gap) > 1e-6:
+            print(f"{trial_id}: no planned grasp at the trial's pose (other code?)", file=out)
+            continue
+        scene = scene_for(group)
+        object_pose = settle_object(scene)
+        tracker = Tracker()
+        protocol = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params))
+        seed = group.trial_seed(trial.index)
+        result = protocol.run(scene, grasp, np.random.default_rng(seed), deadline=time.monotonic() + 600,
+                              object_pose=object_pose, observer=tracker, seed=seed)
+        row = compare(trial_id, plan, tracker.samples, result, len(scene.hand.finger_bodies), scene)
+        if tracker.samples and tracker.before_close:
+            # the hand at the close against its planned pose, and the object pushed by the close [mm]
+            row["tcp_error_mm"] = 1e3 * float(np.linalg.norm(tracker.before_close["tcp"][:3, 3] - plan.pose[:3, 3]))
+            row["pushed_close_mm"] = 1e3 * float(np.linalg.norm(tracker.samples[0]["obj"][:3, 3]
+                                                                - tracker.before_close["obj"][:3, 3]))
+            row["pushed_total_mm"] = 1e3 * float(np.linalg.norm(tracker.samples[0]["obj"][:3, 3] - tracker.rest[:3, 3]))
+        rows.append(row)
+        print(format_row(row), file=out, flush=True)
+    return rows
+
+
+def compare(trial_id: str, plan: PlannedGrasp, samples: list[dict], result, n_fingers: int, scene) -> dict:
+    """One trial's figures: the plan's assumptions against the simulation at the end of the close (E), at the
+    first perturbation (P) or the end of the lift, and at the last sample before the failure (F)."""
+    row = dict(trial=trial_id, status=result.status.value, detail=result.detail[:60], margin=plan.margin,
+               planned=sorted({int(f) for f in plan.fingers}))
+    cap_finger = np.array([plan.caps[plan.fingers == i].sum() for i in range(n_fingers)])
+    row["cap_thumb"], row["cap_rest"] = float(cap_finger[0]), float(cap_finger[1:].sum())
+    if not samples:
+        return row
+    end_close = samples[0]
+    later = [s for s in samples[1:] if s["label"].startswith("perturb")]
+    at_p = later[0] if later else samples[-1]
+    last = samples[-1]
+    row["plan"], row["samples"] = plan, (end_close, at_p, last)
+    for tag, s in (("E", end_close), ("P", at_p), ("F", last)):
+        f, palm = _per_finger(s, n_fingers)
+        row[f"{tag}_fingers"] = [i for i in range(n_fingers) if f[i] >= TOUCH_N]
+        row[f"{tag}_thumb"], row[f"{tag}_rest"], row[f"{tag}_palm"] = float(f[0]), float(f[1:].sum()), palm
+        row[f"{tag}_finger"] = f
+        pad = np.array([any(b.endswith(name) for name in plan.bodies) for b in s["body"]], bool)
+        row[f"{tag}_off_pad"] = float(s["fn"][~pad].sum())
+        total = max(float(s["fn"].sum()), 1e-9)
+        row[f"{tag}_total"] = float(s["fn"].sum())
+        row[f"{tag}_use"] = float((s["ft"] / np.maximum(s["mu"] * s["fn"], 1e-9) * s["fn"]).sum() / total)
+        row[f"{tag}_on_cone"] = float(s["fn"][s["cone"] >= 0.95].sum() / total)
+        row[f"{tag}_margin"] = _sim_margin(s, plan.loads, plan.mu, plan.torsion)
+        row[f"{tag}_table"] = s["table"]
+        shift, axis, angle = _motion(end_close, s)
+        row[f"{tag}_shift"], row[f"{tag}_axis"], row[f"{tag}_angle"] = shift, axis, angle
+    # the grasp's axis: from the thumb's planned pad to the others' mean (rolling about it: the weight's torque
+    # about the pinch line, which only torsion and the pads' patches hold)
+    thumb = plan.points[plan.fingers == 0]
+    rest = plan.points[plan.fingers > 0]
+    if len(thumb) and len(rest):
+        line = rest.mean(axis=0) - thumb.mean(axis=0)
+        line /= np.linalg.norm(line)
+        row["grasp_axis"] = line
+        for tag in ("P", "F"):
+            row[f"{tag}_roll"] = float(abs(row[f"{tag}_axis"] @ line))
+            row[f"{tag}_slide_along"] = float(row[f"{tag}_shift"] @ line)
+        # the weight's lever about the pinch line: distance of the centre of mass from it [m]
+        r = plan.center - thumb.mean(axis=0)
+        row["com_off_line"] = float(np.linalg.norm(r - (r @ line) * line))
+    # where the sim's contacts sit against the plan: per planned finger, the distance [mm] from its planned pad to
+    # the force-weighted centre of the finger's contacts at the end of the close (object frame: both at rest)
+    gaps = []
+    for p, f in zip(plan.points, plan.fingers, strict=True):
+        sel = (end_close["finger"] == f) & (end_close["fn"] > 0)
+        if end_close["fn"][sel].sum() >= TOUCH_N:
+            w = end_close["fn"][sel] / end_close["fn"][sel].sum()
+            gaps.append(1e3 * float(np.linalg.norm(w @ end_close["pos"][sel] - p)))
+        else:
+            gaps.append(np.nan)
+    row["pad_gap_mm"] = gaps
+    return row
+
+
+def fewer_fingers_margin(plan: PlannedGrasp) -> float:
+    """The plan's load test with each non-thumb finger left out in turn (its pads dropped, the other non-thumb
+    pads' caps scaled up so that their side still totals the grip, as `squeeze_caps` would): the smallest margin,
+    0 if the thumb would face no finger. A grasp whose test passes only with every planned finger pressing its
+    share scores low."""
+    from manigrasp.planners.dexopt import hold_margin
+
+    worst = plan.margin
+    rest = plan.fingers > 0
+    for finger in np.unique(plan.fingers[rest]):
+        keep = plan.fingers != finger
+        if not np.any(keep & rest):
+            return 0.0
+        caps = plan.caps.copy()
+        caps[keep & rest] *= plan.caps[rest].sum() / max(caps[keep & rest].sum(), 1e-12)
+        worst = min(worst, hold_margin(plan.points[keep], plan.normals[keep], caps[keep], plan.center, plan.loads,
+                                       plan.mu, plan.torsion))
+    return float(worst)
+
+
+def close_defects(r: dict) -> list[str]:
+    """How the close missed the plan in trial row `r` (`compare`): the object pushed more than `PUSHED_MM` on
+    the table, a contact more than `GAP_MM` from its planned pad, the thumb pressing mostly off its planned
+    pad, the friction already used at the end of the close (force-weighted |f_t| / (mu f_n)) above `USED`."""
+    end = r["samples"][0]
+    thumb = end["finger"] == 0
+    pad = np.array([any(b.endswith(name) for name in r["plan"].bodies) for b in end["body"]], bool)
+    out = []
+    if r["pushed_close_mm"] > PUSHED_MM:
+        out.append("pushed")
+    if np.nanmax(np.append(r["pad_gap_mm"], 0.0)) > GAP_MM:
+        out.append("off-plan")
+    if end["fn"][thumb & pad].sum() < 0.5 * end["fn"][thumb].sum():
+        out.append("thumb-off-pad")
+    if r["E_use"] > USED:
+        out.append("friction-used")
+    return out
+
+
+PUSHED_MM, GAP_MM, USED = 5.0, 15.0, 0.55  # thresholds of `close_defects`
+
+
+def versus_summary(rows: list[dict], out=sys.stdout) -> None:
+    """Success rates of replayed trials (`versus_plan` rows) by the plan's margin, by `fewer_fingers_margin`, and
+    by the close's defects (`close_defects`), per hand and in all."""
+    rows = [r for r in rows if "E_total" in r]
+    hands = sorted({r["trial"].split("/")[1] for r in rows})
+
+    def rate(name, keep):
+        sel = [r for r in rows if keep(r)]
+        per = "  ".join(f"{h}: {sum(r['status'] == 'success' for r in sel if h in r['trial'])}/"
+                        f"{sum(h in r['trial'] for r in sel)}" for h in hands)
+        print(f"{name:<52s} {sum(r['status'] == 'success' for r in sel):>3d}/{len(sel):<3d}  {per}", file=out)
+
+    for r in rows:
+        r.setdefault("fewer", fewer_fingers_margin(r["plan"]))
+        r.setdefault("defects", close_defects(r))
+    bins = ((2.0, np.inf), (1.3, 2.0), (1.0, 1.3), (0.0, 1.0))
+    for key, label in (("margin", "load-test margin"), ("fewer", "margin with a finger left out")):
+        for lo, hi in bins:
+            rate(f"{label} in [{lo}, {hi})", lambda r, lo=lo, hi=hi, key=key: lo <= r[key] < hi)
+    for lo in (2.0, 1.3):
+        for defect in ("pushed", "off-plan", "thumb-off-pad", "friction-used"):
+            rate(f"margin >= {lo}, {defect}", lambda r, lo=lo, d=defect: r["margin"] >= lo and d in r["defects"])
+        rate(f"margin >= {lo}, none of these", lambda r, lo=lo: r["margin"] >= lo and not r["defects"])
+
+
+def format_row(r: dict) -> str:
+    """One line of `versus_plan`'s output."""
+    if "E_total" not in r:
+        return f"{r['trial']} | {r['status']} | margin {r['margin']:.2f} | (no lift)"
+    fmt = lambda v: " ".join(f"{x:4.1f}" for x in v)  # noqa: E731
+    mm = lambda v: f"{1e3 * np.linalg.norm(v):.1f} mm (z {1e3 * v[2]:+.1f})"  # noqa: E731
+    return (f"{r['trial']} | {r['status']:<15} | margin {r['margin']:5.2f} | planned {r['planned']} caps T "
+            f"{r['cap_thumb']:.1f} R {r['cap_rest']:.1f} | E: fingers {r['E_fingers']} fn [{fmt(r['E_finger'])}] "
+            f"palm {r['E_palm']:.1f} off-pad {r['E_off_pad']:.1f} table {r['E_table']:.1f} use {r['E_use']:.2f} "
+            f"sim-margin {r['E_margin']:.2f} pad-gap {fmt(r['pad_gap_mm'])} mm | P: fingers {r['P_fingers']} fn "
+            f"[{fmt(r['P_finger'])}] off-pad {r['P_off_pad']:.1f} use {r['P_use']:.2f} sim-margin "
+            f"{r['P_margin']:.2f} moved {mm(r['P_shift'])} {r['P_angle']:.1f} deg roll {r.get('P_roll', np.nan):.2f}"
+            f" | F: fingers {r['F_fingers']} fn [{fmt(r['F_finger'])}] moved {mm(r['F_shift'])} "
+            f"{r['F_angle']:.1f} deg roll {r.get('F_roll', np.nan):.2f} | com-line "
+            f"{1e3 * r.get('com_off_line', np.nan):.0f} mm | tcp-error {r.get('tcp_error_mm', np.nan):.1f} mm, "
+            f"object pushed by the close {r.get('pushed_close_mm', np.nan):.1f} mm "
+            f"(since rest {r.get('pushed_total_mm', np.nan):.1f})")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -252,8 +664,27 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--friction", type=float, help="what-if: hand-object sliding friction (default: the run's)")
     ap.add_argument("--mass-scale", type=float, default=1.0, help="what-if: the object's mass x this")
     ap.add_argument("--summary", action="store_true", help="one line per trial (every stored trial if no ids)")
+    ap.add_argument("--versus-plan", action="store_true",
+                    help="dexopt trials (every stored one if no ids): its load test's assumptions against the replay")
+    ap.add_argument("--only", nargs="*", default=[], help="with --versus-plan and no ids: trial ids containing these")
+    ap.add_argument("--save", type=Path, help="with --versus-plan: pickle the rows here (for --versus-summary)")
+    ap.add_argument("--versus-summary", nargs="*", type=Path, metavar="ROWS",
+                    help="success rates by margin and by the close's defects of saved --versus-plan rows")
     args = ap.parse_intermixed_args(argv)
     ids = args.trials
+    if args.versus_summary:
+        import pickle
+
+        versus_summary([r for path in args.versus_summary for r in pickle.loads(path.read_bytes())])
+        return 0
+    if args.versus_plan:
+        rows = versus_plan(args.run_dir, ids, only=tuple(args.only))
+        if args.save:
+            import pickle
+
+            args.save.write_bytes(pickle.dumps(rows))
+        versus_summary(rows)
+        return 0
     if args.summary:
         return summary(args.run_dir, ids, args.friction, args.mass_scale)
     if not ids:
