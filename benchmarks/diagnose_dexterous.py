@@ -77,11 +77,9 @@ successes of 40, Allegro + Fourier, against 15 = 7 + 8 for dexopt's defaults; +-
 The plan against the simulation (`--versus-plan`): each dexopt trial's group is planned again in the process
 that replays it, every candidate kept, with what dexopt's load test (`dexopt_planner`, step 6) was given: the
 pads in contact, their fingers and links, their normal-force caps, the loads, mu. A trial whose executed pose no
-re-planned candidate matches (1e-6 m) is skipped with a message: re-planning a group in a fresh process did not
-reproduce the run's grasps in two cases (tomato soup can x fourier_right of the run below: nearest re-planned TCP
-10 mm off; mustard bottle x fourier_right of a 3-object run made at 8ac99d2), while the 193 trials below, replayed
-group by group in the order of their ids (two processes: the Allegro; the Fourier then the Inspire hand), all
-matched: what state the planning depends on is not found. Per trial (`compare`): the planned
+re-planned candidate matches (1e-6 m) is skipped with a message (the planner's code must be the run's: with
+uncommitted changes to dexopt in the working tree the re-planned grasps moved by 10 mm; the committed code
+re-plans them exactly, all 193 below matched). Per trial (`compare`): the planned
 fingers and caps; at the end of the close (E), at the first perturbation (P) and at the last sample (F) the
 fingers touching and each finger's normal force [N], the force on links other than the planned pads, the
 friction used (force-weighted |f_t| / (mu f_n)), the load test on the simulated contacts with the simulated
@@ -118,12 +116,12 @@ trials that reached the lift (`--versus-summary`):
   thumb-to-fingers line in the perturbations (0.95), and its failures at margin >= 2 are mostly the banana,
   pushed and rolled by the close (contacts 27-119 mm from the planned pads).
 Tried on these findings, no gain (4 objects: mustard, potted meat, banana, sugar box x 3 hands x 10, standard
-10 N, each variant in-process at 8ac99d2 against the same in-process baseline, 48/120: Allegro 12, Fourier 19,
-Inspire 17 (the run's own planning of these groups differs, see above: there 44/120, Allegro replayed at 8ac99d2
-12, Fourier 12, Inspire 20)):
-- candidates ranked by `fewer_fingers_margin` instead of the margin (min_hold_margin 2 on it): 49/120 (15, 17,
-  17): robust candidates are few for these objects (potted meat x Fourier: 0 of 50 candidates at margin >= 2,
-  4 with a finger left out >= 1.3; banana x Fourier: 29 at margin >= 2, 5 with a finger left out);
+10 N, seed 0, dexopt only):
+- candidates ranked by `fewer_fingers_margin` instead of the margin (min_hold_margin 2 on it; in-process runs of
+  the working tree at 15:03, which held another helper's uncommitted dexopt changes, against the same code
+  unchanged): 49/120 (Allegro 15, Fourier 17, Inspire 17) against 48/120 (12, 19, 17): robust candidates are few
+  for these objects (at 8ac99d2, potted meat x Fourier: none of 24 candidates at margin >= 2, 4 with a finger
+  left out >= 1.3; banana x Fourier: 12 of 16 at margin >= 2, 2 with a finger left out >= 2);
 - a hold that lets a closing finger which presses nothing when the hold engages close in with 0.4 x the mean
   force of the pushing fingers (so a finger short of the object catches up): Fourier's 14 failures at margin
   >= 1.3 gave 1 success, its 8 successes stayed.
