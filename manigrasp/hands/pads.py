@@ -37,6 +37,22 @@ Parameters (`PadModel`) and their source:
 - damping: critical for each element (b_i = 2 sqrt(k_i m_i)).
 - travel: 80 % of h, then the element bottoms out on the rigid backing (a joint
   limit), as rubber does.
+- backing: a rigid geom of the finger closer behind the pad face than the travel
+  makes the pad rigid: the object meets it once the elements have sunk that far,
+  and from then on it carries the grip as the rigid pad did. The Panda's finger
+  hulls (`finger1_collision`, `finger2_collision`) lay 0.38 mm (fingertip half of
+  the pad) to 1.25 mm (palm end) behind its 8 mm pads (6.4 mm travel): closed at
+  the standard 35 N on a flat box the elements carried 0.38 of the normal force,
+  and 0.37 on the cracker box recipe's grasps, 0.09-0.32 on its scan's, which
+  the hulls touched at a few bumps (`benchmarks/diagnose_footprint.py --loads`).
+  So `clear_backing` moves every colliding geom rigidly attached to the pad's body
+  that lies within the travel behind the face (rays cast along -normal from an
+  11 x 11 grid over the face, a mesh by its convex hull, on a compiled copy)
+  back along the pad normal to the travel. Geoms moved: the Panda's two finger
+  hulls by 6.02 mm; `robotiq_2f85`'s fingertip blocks by 1.28 mm (0.33 mm behind
+  its 2 mm pad; they stop colliding anyway, `Hand.pad_backing`); none of
+  `parallel_jaw` (its finger links lie 6 mm behind, past the 4.8 mm travel).
+  Rigid pads keep the hand as modelled.
 - friction mu = 1.0 (`PAD_FRICTION`, `SceneConfig.pad_friction`): the pad's own
   rubber, not the hand's 0.5 (which the rigid pads keep, to reproduce older
   runs). Gripper pads are silicone or polyurethane rubber: the Robotiq 2F-85's
@@ -288,14 +304,21 @@ def element_stiffness(model: PadModel, area: np.ndarray, thickness: float) -> np
     return model.modulus * np.asarray(area, float) / thickness
 
 
-def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], model: PadModel) -> None:
-    """Replace each rigid box pad of `spec` by a grid of spring-loaded contact elements (in place).
+def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]],
+                   model: PadModel) -> dict[str, float]:
+    """Replace each rigid box pad of `spec` by a grid of spring-loaded contact elements (in place), after moving
+    the finger's rigid geoms that lie within the elements' travel behind a pad face back to that travel
+    (`clear_backing`; module docstring: backing).
 
     Args:
         spec: a hand's spec (not compiled).
         pads: (geom name, direction (3,) in the geom's body frame from the pad toward the object).
         model: pad parameters (`model.friction` is the elements' sliding friction).
+
+    Returns:
+        The geoms moved back: name -> distance [m] (`clear_backing`).
     """
+    moved = clear_backing(spec, pads, model.travel_fraction)
     for name, toward in pads:
         geom = spec.geom(name)
         if geom is None:
@@ -312,6 +335,7 @@ def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], 
             _add_element(body, f"{ELEMENT_PREFIX}{name}_{i:02d}", point - thin * pad.normal, pad,
                          np.array([radius, radius, thin]), float(k), pad.thickness * model.travel_fraction, model,
                          torsion)
+    return moved
 
 
 def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeometry, size: np.ndarray,
@@ -339,6 +363,113 @@ def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeome
                    friction=[model.friction, torsion, 0.0], priority=1, rgba=[0.15, 0.15, 0.15, 1.0],
                    contype=ELEMENT_CONTYPE, conaffinity=ELEMENT_CONAFFINITY, density=0.0, margin=0.0,
                    solref=[0.004, 1.0], solimp=list(ELEMENT_SOLIMP))
+
+
+def clear_backing(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], travel_fraction: float,
+                  samples: int = 11) -> dict[str, float]:
+    """Move back the rigid geoms behind each pad face that the pad's elements would meet before their travel.
+
+    For each pad (`make_compliant`'s `pads`), rays are cast along -normal from a `samples` x `samples` grid over the
+    pad face (rims included) at every other colliding geom rigidly attached to the pad's body (the pad's body and
+    the bodies welded to it, no joint between them), on a copy of `spec` compiled at its reference configuration
+    (`backing_depths`). A geom whose surface comes closer behind the face than the travel (travel_fraction x pad
+    thickness) is moved back along the pad normal (in place, `spec`) by the difference, so that it lies the travel
+    behind the face; one lying farther, or outside the face's outline, is left as it is.
+
+    Returns:
+        The geoms moved: name -> distance moved [m] (the largest over the pads, when several ask).
+    """
+    depths = backing_depths(spec, pads, samples)
+    compiled = spec.copy().compile()
+    data = mujoco.MjData(compiled)
+    mujoco.mj_kinematics(compiled, data)
+    moves: dict[str, np.ndarray] = {}
+    for (name, toward), near in zip(pads, depths, strict=True):
+        pad = pad_geometry(spec.geom(name), np.asarray(toward, float))
+        travel = travel_fraction * pad.thickness
+        pad_body = compiled.geom_bodyid[compiled.geom(name).id]
+        normal = data.xmat[pad_body].reshape(3, 3) @ pad.normal  # world
+        for other, depth in near.items():
+            if depth >= travel:
+                continue
+            body = compiled.geom_bodyid[compiled.geom(other).id]
+            shift = (travel - depth) * (data.xmat[body].reshape(3, 3).T @ -normal)  # in the geom's body frame
+            if other not in moves or np.linalg.norm(shift) > np.linalg.norm(moves[other]):
+                moves[other] = shift
+    for other, shift in moves.items():
+        geom = spec.geom(other)
+        geom.pos = np.asarray(geom.pos, float) + shift
+    return {other: float(np.linalg.norm(shift)) for other, shift in moves.items()}
+
+
+def backing_depths(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]],
+                   samples: int = 11) -> list[dict[str, float]]:
+    """For each pad, how far behind its face [m] each other colliding geom rigidly attached to the pad's body lies:
+    the shortest of the rays cast along -normal from a `samples` x `samples` grid over the face (rims included),
+    started one pad thickness in front of it (negative: the geom reaches in front of the face). Geoms no ray meets
+    are left out. Measured on a copy of `spec` compiled at its reference configuration; a mesh geom by its convex
+    hull (what MuJoCo's collision uses), a primitive by `mujoco.mju_rayGeom`."""
+    model = spec.copy().compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    out = []
+    for name, toward in pads:
+        pad = pad_geometry(spec.geom(name), np.asarray(toward, float))
+        g = model.geom(name).id
+        body = model.geom_bodyid[g]
+        rot, origin = data.xmat[body].reshape(3, 3), data.xpos[body]
+        grid = [np.linspace(-h, h, samples) for h in pad.half]
+        aa, bb = np.meshgrid(*grid, indexing="ij")
+        face = pad.center + aa.reshape(-1, 1) * pad.axes[0] + bb.reshape(-1, 1) * pad.axes[1]
+        starts = origin + (face + pad.thickness * pad.normal) @ rot.T  # world
+        direction = -rot @ pad.normal
+        near = {}
+        for other in _welded_geoms(model, body):
+            if other == g or (model.geom_contype[other] == 0 and model.geom_conaffinity[other] == 0):
+                continue
+            hits = [_ray(model, data, other, start, direction) for start in starts]
+            hits = [h for h in hits if h >= 0]
+            if hits:
+                near[model.geom(other).name] = min(hits) - pad.thickness
+        out.append(near)
+    return out
+
+
+def _welded_geoms(model: mujoco.MjModel, body: int) -> list[int]:
+    """Geoms of `body` and of the bodies welded to it (joined to it through bodies without joints)."""
+    root = body
+    while model.body_jntnum[root] == 0 and model.body_parentid[root] != 0:
+        root = model.body_parentid[root]
+    welded = {root}
+    for b in range(root + 1, model.nbody):  # MuJoCo numbers children after their parents
+        if model.body_parentid[b] in welded and model.body_jntnum[b] == 0:
+            welded.add(b)
+    return [g for g in range(model.ngeom) if model.geom_bodyid[g] in welded]
+
+
+def _ray(model: mujoco.MjModel, data: mujoco.MjData, geom: int, start: np.ndarray, direction: np.ndarray) -> float:
+    """Distance along unit `direction` from `start` (world) to where the ray enters `geom` (-1: it misses); a mesh
+    geom by its convex hull."""
+    pos, mat = data.geom_xpos[geom], data.geom_xmat[geom]
+    if model.geom_type[geom] != mujoco.mjtGeom.mjGEOM_MESH:
+        return mujoco.mju_rayGeom(pos, mat, model.geom_size[geom], start, direction, int(model.geom_type[geom]))
+    from scipy.spatial import ConvexHull
+
+    mesh = model.geom_dataid[geom]
+    first = model.mesh_vertadr[mesh]
+    vertices = pos + model.mesh_vert[first:first + model.mesh_vertnum[mesh]] @ mat.reshape(3, 3).T
+    planes = ConvexHull(vertices).equations  # a . x + b <= 0 inside
+    along, at = planes[:, :3] @ direction, planes[:, :3] @ start + planes[:, 3]
+    enter, leave = 0.0, np.inf
+    for a, b in zip(along, at, strict=True):
+        if abs(a) < 1e-15:
+            if b > 0:
+                return -1.0
+        elif a < 0:
+            enter = max(enter, -b / a)
+        else:
+            leave = min(leave, -b / a)
+    return enter if enter <= leave else -1.0
 
 
 def pad_directions(spec: mujoco.MjSpec, pad_geoms: Sequence[str], tcp_site: str) -> list[tuple[str, np.ndarray]]:
