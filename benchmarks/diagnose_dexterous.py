@@ -94,8 +94,10 @@ trials that reached the lift (`--versus-summary`):
   hand, successes at margin >= 1.3; 0.95-1.64 in the failures), the other side 12-13 N for caps totalling 10 N
   (9 N on the Allegro, its maximum).
 - Not with the planned fingers on the five-finger hands: the loop stops at the grip force with whichever fingers
-  reached the object first (the Allegro's 9 N maximum runs its squeeze line to the end). Every planned finger
-  touches at E in 1 of 25 (Fourier) and 3 of 24 (Inspire) grasps of margin >= 2, 23 of 29 on the Allegro;
+  reached the object first (Fourier, tomato can 0000: thumb, index, ring and pinky at 0.35-0.62 of their planned
+  joint angles; sugar box 0000: the hand's synergy 0.05 at the end of the close). Every planned finger touches
+  at E in 1 of 25 (Fourier) and 3 of 24 (Inspire) grasps of margin >= 2, 23 of 29 on the Allegro (its 10 N
+  target capped at its 9 N maximum);
   planned non-thumb pads within 5 mm of the surface that do not touch at E: Fourier 73/175, Inspire 84/254,
   Allegro 7/181. The load test also counts pads up to `contact_tolerance` (20 mm) off the surface: on the
   Fourier hand 69 of its 244 planned non-thumb pads are 5-20 mm off.
@@ -117,11 +119,15 @@ trials that reached the lift (`--versus-summary`):
   pushed and rolled by the close (contacts 27-119 mm from the planned pads).
 Tried on these findings, no gain (4 objects: mustard, potted meat, banana, sugar box x 3 hands x 10, standard
 10 N, seed 0, dexopt only):
-- candidates ranked by `fewer_fingers_margin` instead of the margin (min_hold_margin 2 on it; in-process runs of
-  the working tree at 15:03, which held another helper's uncommitted dexopt changes, against the same code
-  unchanged): 49/120 (Allegro 15, Fourier 17, Inspire 17) against 48/120 (12, 19, 17): robust candidates are few
-  for these objects (at 8ac99d2, potted meat x Fourier: none of 24 candidates at margin >= 2, 4 with a finger
-  left out >= 1.3; banana x Fourier: 12 of 16 at margin >= 2, 2 with a finger left out >= 2);
+- candidates ranked by `fewer_fingers_margin` instead of the margin (min_hold_margin 2 on it): 47/120 (Allegro
+  14, Fourier 13, Inspire 20) against 44/120 (12, 12, 20) for 8ac99d2 (the same as the dexterous run's trials of
+  these groups), both in-process on the committed code: robust candidates are few for these objects (potted
+  meat x Fourier: none of 24 candidates at margin >= 2, 4 with a finger left out >= 1.3; banana x Fourier: 12
+  of 16 at margin >= 2, 2 with a finger left out >= 2);
+- every squeezing actuator given at least half of its force limit when the most loaded one saturates (the
+  squeeze row of `dexopt_planner.hand_path`; a finger given a small share stops short of the object when the
+  grip loop stops): 45/120 (Allegro 14, Fourier 11, Inspire 20) against 44/120 (12, 12, 20) for 8ac99d2 (the
+  same as the dexterous run's trials of these groups), both in-process on the committed code;
 - a hold that lets a closing finger which presses nothing when the hold engages close in with 0.4 x the mean
   force of the pushing fingers (so a finger short of the object catches up): Fourier's 14 failures at margin
   >= 1.3 gave 1 success, its 8 successes stayed.
