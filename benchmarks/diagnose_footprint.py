@@ -44,13 +44,23 @@ and the fingers' rigid collision hulls (`finger1_collision`, `finger2_collision`
 pads carry 0.14-0.32 of it on the successes and 0.09-0.30 on the failures (9/20; median fewest elements touching
 on a pad 3 and 2). The Panda's finger hull lies 0.4 mm (fingertip half of the pad) to 1.25 mm (palm end) behind
 the pad face, so its 8 mm pad meets the rigid hull after 4-13 N, and the hull touches a scan's bumps at a few
-points. With the hulls set back 5 mm (a scratch experiment, not in the code) the pads carry 0.98-1.00 with all 4
+points. With the hulls set back 5 mm (a scratch experiment) the pads carry 0.98-1.00 with all 4
 elements on both meshes, and scan and recipe agree (seeds 0-2, of 60: 17 vs 20, against 22 vs 48 as shipped).
 The recipe's grasps that the hulls held then turn in the 1.6 cm pads: standard, panda x antipodal, seed 0, of 400,
 259 -> 240 (cracker box 16 -> 6, power drill 19 -> 14, sugar box 20 -> 17; no group significantly different).
+`hands.pads.clear_backing` (86911a7) now moves the hulls back to the pads' 6.4 mm travel (6.02 mm) for every
+compliant Panda: the pads carry 1.00 [1.00, 1.00] of the grip on the successes and failures of both meshes (seed 0;
+recipe 6/20, scan 7/20; 4 elements on each pad), and scan vs recipe, seeds 0-2, of 60, is 17 vs 20 (6, 8, 6 and
+7, 6, 4 per seed; every failure `dropped_perturb`):
+
+    .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --hands panda --modes compliant --seeds 0 1 2 \
+        --objects 003_cracker_box_scan 003_cracker_box
+    .venv/bin/python benchmarks/diagnose_footprint.py /tmp/bs/compliant/s0 --loads
 Other hands, same objects and seed: `parallel_jaw`'s pads carry 1.00 on both meshes (6 elements each; 20/20 and
 20/20), `robotiq_2f85`'s 0.78 on the recipe and 0.84 on the scan (medians; 20/20 and 20/20; the rest is its inner
-knuckles pressing on the box in deep grasps, the pads keeping their 6 x 7.5 N).
+knuckles pressing on the box in deep grasps, the pads keeping their 6 x 7.5 N). `clear_backing` moves no
+`parallel_jaw` geom, and only `robotiq_2f85`'s fingertip blocks, which do not collide with compliant pads: their
+80 trials of this run (seed 0) are the same before and after in every stored column but the timings.
 """
 
 from __future__ import annotations
