@@ -86,10 +86,11 @@ friction used (force-weighted |f_t| / (mu f_n)), the load test on the simulated 
 normal forces as caps, the object's motion in the hand (mm, deg, |rotation axis . thumb-to-fingers line|); the
 distance of each finger's simulated contacts from its planned pad, and how far the close pushed the object.
 
-Measured: the dexterous config's dexopt trials under `standard` (10 N, compliant pads; the run at 672a15f in
-/tmp/L/dex, the same grasps as at 8ac99d2: a 30-trial subset re-run at 8ac99d2 gave identical statuses), replayed
-at 8ac99d2 (the Allegro with the default floor hold, 32/62 replayed; the five-finger statuses as stored), 193
-trials that reached the lift (`--versus-summary`):
+Measured: the dexterous config's dexopt trials under `standard` (10 N, compliant pads; `manigrasp bench
+dexterous --out RUN` at 672a15f, the same grasps as at 8ac99d2: a 30-trial subset re-run at 8ac99d2 gave identical
+statuses), replayed at 8ac99d2 (`RUN --versus-plan --only /standard/ --save ROWS`; the Allegro with the default
+floor hold, 32/62 replayed; the five-finger statuses as stored), 193 trials that reached the lift
+(`--versus-summary ROWS`):
 - The grip loop presses the planned squeeze in total: at E the thumb presses 1.00-1.08 x its cap (median per
   hand, successes at margin >= 1.3; 0.95-1.64 in the failures), the other side 12-13 N for caps totalling 10 N
   (9 N on the Allegro, its maximum).
@@ -105,14 +106,15 @@ trials that reached the lift (`--versus-summary`):
   succeed): object pushed over 5 mm on the table by the close 19/30 (40/48 otherwise); a finger's contacts more
   than 15 mm from its planned pad 20/33 (39/45); friction used at E above 0.55 (before any load: the squeeze's
   own tangential forces) 9/20 (50/58); none of the four defects (with the thumb pressing off its pad) 18/20, and
-  at margin >= 1.3 32/35. The Fourier thumb presses mostly off its planned distal pad (with its proximal link) in
+  at margin >= 1.3 32/35. The defects are common in successes too (41 of the 59 at margin >= 2 have one, 17 of
+  the 19 failures). The Fourier thumb presses mostly off its planned distal pad (with its proximal link) in
   7 of the hand's 14 failures at margin >= 1.3 and 8 of its 29 successes (tomato can 0000: the thumb stops at
   pitch 0.19 rad of the planned 0.54, its proximal link on the can 31 mm from the planned pad).
 - The load test with any one non-thumb finger left out (`fewer_fingers_margin`) separates the outcomes better
   than the plain margin: >= 2: 43/48 succeed, [1.3, 2): 20/25, [1, 1.3): 8/15, < 1: 40/105 (plain margin 59/78,
   24/37, 9/17, 19/61); at plain margin >= 2, 54/63 with it >= 1 and 5/15 below.
 - How they fail: the five-finger `slipped_lift` grasps fall apart in the first 0.1 s of the lift (sum f_n 23 N at
-  E, 0-2 N by the perturbation): the object drops straight out (Fourier: 21 mm, |z| / |shift| 0.99) turning
+  E, 0-2 N at the failure): the object drops straight out (Fourier: 21 mm, |z| / |shift| 0.99) turning
   14 deg about the thumb-to-fingers line (|axis . line| 0.91). The Allegro keeps its fingers on the object but
   loses 4 N of its 21 N squeeze in the lift (successes and failures alike); its drops turn 20 deg about the
   thumb-to-fingers line in the perturbations (0.95), and its failures at margin >= 2 are mostly the banana,
