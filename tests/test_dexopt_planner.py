@@ -266,3 +266,56 @@ def test_held_joint_stiffness_is_the_servos_gains_through_the_joint_to_command_m
         j = int(np.flatnonzero(np.abs(a[k]) > 1e-12)[0])
         if np.count_nonzero(np.abs(a[:, j]) > 1e-12) == 1:
             assert stiffness[j, j] == pytest.approx(gains[k] * a[k, j] ** 2)
+
+
+def test_edge_points_put_a_boxs_corners_and_edges_between_its_face_samples() -> None:
+    """A 4 x 2 x 1 cm box: its 8 corners and points along its 12 edges (4 cm edges at 5 mm: 9 points each), none
+    on the faces' diagonals (flat: no edge there)."""
+    from manigrasp.planners.dexopt_hand import _edge_points
+
+    half = np.array([0.02, 0.01, 0.005])
+    pts = _edge_points(trimesh.creation.box(extents=2 * half), 0.005)
+    on_edge = np.sum(np.isclose(np.abs(pts), half, atol=1e-9), axis=1) >= 2  # two coordinates at the box's extent
+    assert on_edge.all()
+    corners = np.all(np.isclose(np.abs(pts), half, atol=1e-9), axis=1)
+    assert corners.sum() == 8
+    # Per edge direction: 4 parallel edges with ceil(length / 5 mm) + 1 points, corners shared by three edges.
+    counts = [4 * (int(np.ceil(2 * h / 0.005)) + 1) for h in half]
+    assert len(pts) == sum(counts) - 2 * 8
+
+
+def test_a_mesh_geoms_samples_lie_on_its_convex_hull_as_mujoco_collides_it(inspire: HandKinematics) -> None:
+    """The Inspire's meshes are concave (its palm's hull holds 2.5 x its volume): the samples the optimiser checks
+    for penetration lie on the hulls (within rounding), not inside them in the meshes' hollows."""
+    m = inspire.model
+    geoms = [g for g in np.unique(inspire.sample_geom) if int(m.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_MESH)]
+    assert any(abs(inspire._geom_mesh(g).volume) < 0.5 * inspire._geom_mesh(g).convex_hull.volume for g in geoms)
+    for g in geoms:
+        hull = inspire._geom_mesh(g).convex_hull
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, m.geom_quat[g])
+        local = (inspire.samples.local[inspire.sample_geom == g] - m.geom_pos[g]) @ rot.reshape(3, 3)
+        # signed distance to the hull's face planes: 0 on the hull, negative inside
+        depth = np.max(local @ hull.face_normals.T - np.sum(hull.face_normals * hull.triangles[:, 0], axis=1),
+                       axis=1)
+        assert np.abs(depth).max() < 1e-6
+
+
+def test_world_near_returns_every_point_in_the_box_or_below_the_height(inspire: HandKinematics) -> None:
+    """Closed loop against `world`: every sample inside an object's box or below the table height is among the
+    culled points, at the same position."""
+    rng = np.random.default_rng(3)
+    r = 6
+    pos = rng.normal(scale=0.05, size=(r, 3)) + [0.0, 0.0, 0.1]
+    quat = rng.normal(size=(r, 4))
+    quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+    q = inspire.low + rng.uniform(size=(r, inspire.n_q)) * (inspire.high - inspire.low)
+    xpos, xmat, *_ = inspire.evaluate(pos, quat, q)
+    world = inspire.world(inspire.samples, xpos, xmat)
+    lo, hi, below = np.array([-0.03, -0.03, 0.05]), np.array([0.03, 0.03, 0.12]), 0.02
+    rows, cols, pts = inspire.world_near(inspire.samples, xpos, xmat, lo, hi, below)
+    np.testing.assert_allclose(pts, world[rows, cols], atol=1e-12)
+    wanted = np.all((world >= lo) & (world <= hi), axis=2) | (world[..., 2] < below)
+    got = np.zeros(wanted.shape, bool)
+    got[rows, cols] = True
+    assert wanted.sum() > 0 and np.all(got[wanted]) and got.sum() < got.size  # all of them, and fewer than all

@@ -8,7 +8,8 @@
   joints); dependent joints follow their polynomial, and the chain rule goes through its derivative;
 - the map from joints to actuator commands (a joint servo commands its joint, a fixed-tendon servo its tendon's
   length sum_k coef_k q_k) and its Jacobian, and the inverse for a linear map (least squares);
-- surface samples on every hand collision geom (fixed in the geom's body, uniform by area, fixed seed);
+- surface samples on every hand collision geom (fixed in the geom's body, uniform by area, fixed seed; a mesh
+  geom's convex hull, the shape MuJoCo collides; plus points along the sharp edges and at the corners);
 - pad contact candidates: on every collision body of each finger (`Hand.finger_bodies`) that moves when the
   hand closes, the surface samples farthest along the direction it moves (open -> closed command), the part of
   the link that a squeeze presses on the object (the optimiser uses, per finger, the candidate nearest the
@@ -35,6 +36,7 @@ from manigrasp.errors import PlannerError
 from manigrasp.hands.base import Hand
 
 SAMPLE_SPACING = 0.005  # [m] mean spacing of the surface samples on the hand's collision geoms
+SHARP_EDGE = 0.5  # [rad] a geom's edges where its faces meet at more than this get samples of their own
 PAD_FRACTION = 0.4  # the part of a finger link's surface samples farthest along its closing motion are its pads
 PALM_BAND = 0.003  # [m] palm samples within this of its front (along the TCP approach) are its pads
 PAD_LINKS = 1  # pads on this many links of each finger, from the tip
@@ -186,6 +188,30 @@ class HandKinematics:
             out[:, idx] = xpos[:, k, None] + points.local[idx] @ xmat[:, k].transpose(0, 2, 1)
         return out
 
+    def world_near(self, points: Points, xpos: np.ndarray, xmat: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                   below: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The world positions of those of `points` that may lie in the box [`lo`, `hi`] (3,) [m] or below the
+        height `below` [m], for placed bodies (R of them, from `evaluate`): restart indices (N,), point indices
+        (N,) and positions (N, 3). A body is skipped in a restart when the sphere about its origin holding all
+        its points misses both regions (conservative: every point in a region is returned, with others)."""
+        slot = self._slot[points.bodies]
+        reach = np.zeros(len(self.bodies))
+        np.maximum.at(reach, slot, np.linalg.norm(points.local, axis=1))
+        gap = np.maximum(np.maximum(lo - xpos, xpos - hi), 0.0)  # (R, nb, 3) body origin to the box
+        near = (np.linalg.norm(gap, axis=2) <= reach) | (xpos[..., 2] - reach < below)  # (R, nb)
+        rows, cols, out = [], [], []
+        for k in np.flatnonzero(near.any(axis=0)):
+            idx = np.flatnonzero(slot == k)
+            if len(idx) == 0:
+                continue
+            r = np.flatnonzero(near[:, k])
+            rows.append(np.repeat(r, len(idx)))
+            cols.append(np.tile(idx, len(r)))
+            out.append((xpos[r, k, None] + points.local[idx] @ xmat[r, k].transpose(0, 2, 1)).reshape(-1, 3))
+        if not out:
+            return np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3))
+        return np.concatenate(rows), np.concatenate(cols), np.concatenate(out)
+
     def backprop(self, points: Points, world: np.ndarray, grad: np.ndarray, xpos: np.ndarray, jp: np.ndarray,
                  jr: np.ndarray) -> np.ndarray:
         """(R, 6 + n_q) gradient over the reduced coordinates of a function with gradient `grad` (R, n, 3) at
@@ -241,19 +267,27 @@ class HandKinematics:
     def _sample_geoms(self, spacing: float) -> None:
         m = self.model
         hand_bodies = [b for b in range(m.nbody) if b > 0]
-        rng = np.random.default_rng(SAMPLE_SEED)
-        bodies, local, geoms = [], [], []
+        rng, rng_hull = np.random.default_rng(SAMPLE_SEED), np.random.default_rng(SAMPLE_SEED + 1)
+        bodies, local, geoms, shape, shape_geoms = [], [], [], [], []
         for g in range(m.ngeom):
             if m.geom_bodyid[g] not in hand_bodies or (m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0):
                 continue
             mesh = self._geom_mesh(g)
             if mesh is None:
                 continue
-            count = max(8, int(np.ceil(mesh.area / spacing**2)))
-            pts, _ = trimesh.sample.sample_surface(mesh, count, seed=rng)
             rot = np.zeros(9)
             mujoco.mju_quat2Mat(rot, m.geom_quat[g])
-            pts = np.asarray(pts) @ rot.reshape(3, 3).T + m.geom_pos[g]
+            rot = rot.reshape(3, 3)
+            count = max(8, int(np.ceil(mesh.area / spacing**2)))
+            pts = np.asarray(trimesh.sample.sample_surface(mesh, count, seed=rng)[0])
+            shape.append(pts @ rot.T + m.geom_pos[g])  # the geom's own surface: its finger spheres
+            shape_geoms.append(np.full(len(pts), g))
+            if int(m.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_MESH):
+                # MuJoCo collides a mesh geom as its convex hull: sample the hull, not the (often concave) mesh.
+                mesh = mesh.convex_hull
+                count = max(8, int(np.ceil(mesh.area / spacing**2)))
+                pts = np.asarray(trimesh.sample.sample_surface(mesh, count, seed=rng_hull)[0])
+            pts = np.concatenate([pts, _edge_points(mesh, spacing)]) @ rot.T + m.geom_pos[g]
             bodies.append(np.full(len(pts), int(m.geom_bodyid[g])))
             local.append(pts)
             geoms.append(np.full(len(pts), g))
@@ -261,6 +295,7 @@ class HandKinematics:
             raise PlannerError(f"hand {self.hand.name!r} has no collision geometry to optimise")
         self.samples = Points(np.concatenate(bodies), np.concatenate(local))
         self.sample_geom = np.concatenate(geoms)
+        self._shape_local, self._shape_geom = np.concatenate(shape), np.concatenate(shape_geoms)
         # Pads and spheres lie on these bodies too: they are the bodies whose Jacobians `evaluate` computes.
         self.bodies = np.unique(self.samples.bodies)
         self._slot = np.full(m.nbody, -1, int)
@@ -330,14 +365,15 @@ class HandKinematics:
         return depth
 
     def _spheres(self) -> tuple[Points, np.ndarray]:
-        """Spheres along each finger collision geom: centres on its longest axis, radius its second half-extent."""
+        """Spheres along each finger collision geom (its own surface's samples, not its hull's): centres on its longest
+        axis, radius its second half-extent."""
         m = self.model
         bodies, local, radius = [], [], []
-        for g in np.unique(self.sample_geom):
+        for g in np.unique(self._shape_geom):
             b = int(m.geom_bodyid[g])
             if self.body_finger[b] < 0:
                 continue
-            pts = self.samples.local[self.sample_geom == g]
+            pts = self._shape_local[self._shape_geom == g]
             centre = pts.mean(axis=0)
             _, sv, vt = np.linalg.svd(pts - centre, full_matrices=False)
             coords = (pts - centre) @ vt.T
@@ -350,3 +386,15 @@ class HandKinematics:
                 local.append(centre + t * vt[0])
                 radius.append(r)
         return Points(np.array(bodies, int), np.array(local).reshape(-1, 3)), np.array(radius)
+
+
+def _edge_points(mesh: trimesh.Trimesh, spacing: float) -> np.ndarray:
+    """(n, 3) points along the sharp edges of `mesh` (faces meeting at more than `SHARP_EDGE` [rad]), at most
+    `spacing` [m] apart and including both ends (the corners): an edge or corner between area samples would
+    otherwise press into the object unseen (a box's edge between two faces' samples)."""
+    sharp = mesh.face_adjacency_edges[mesh.face_adjacency_angles > SHARP_EDGE]
+    out = [np.zeros((0, 3))]
+    for a, b in mesh.vertices[sharp]:
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / spacing)))
+        out.append(a + np.linspace(0.0, 1.0, n + 1)[:, None] * (b - a))
+    return np.unique(np.round(np.concatenate(out), 9), axis=0)
