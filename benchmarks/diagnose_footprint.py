@@ -47,15 +47,20 @@ the pad face, so its 8 mm pad meets the rigid hull after 4-13 N, and the hull to
 points. With the hulls set back 5 mm (a scratch experiment) the pads carry 0.98-1.00 with all 4
 elements on both meshes, and scan and recipe agree (seeds 0-2, of 60: 17 vs 20, against 22 vs 48 as shipped).
 The recipe's grasps that the hulls held then turn in the 1.6 cm pads: standard, panda x antipodal, seed 0, of 400,
-259 -> 240 (cracker box 16 -> 6, power drill 19 -> 14, sugar box 20 -> 17; no group significantly different).
+259 -> 240 (cracker box 16 -> 6, power drill 19 -> 14, sugar box 20 -> 17; `manigrasp compare` flags the cracker
+box as a significant regression, p 0.015 Holm-adjusted, the pooled rate not, p 0.083).
 `hands.pads.clear_backing` (86911a7) now moves the hulls back to the pads' 6.4 mm travel (6.02 mm) for every
 compliant Panda: the pads carry 1.00 [1.00, 1.00] of the grip on the successes and failures of both meshes (seed 0;
 recipe 6/20, scan 7/20; 4 elements on each pad), and scan vs recipe, seeds 0-2, of 60, is 17 vs 20 (6, 8, 6 and
-7, 6, 4 per seed; every failure `dropped_perturb`):
+7, 6, 4 per seed; every failure `dropped_perturb`). Standard, panda x antipodal, seed 0: 240/400 as with the 5 mm
+experiment (the same per object but gelatin box 10 and phone box 8 against 9 and 9; against the shipped 259:
+cracker box 6 vs 16, all 14 failures `dropped_perturb`, the one significant regression of `manigrasp compare`):
 
     .venv/bin/python benchmarks/bench_scans.py --out /tmp/bs --hands panda --modes compliant --seeds 0 1 2 \
         --objects 003_cracker_box_scan 003_cracker_box
     .venv/bin/python benchmarks/diagnose_footprint.py /tmp/bs/compliant/s0 --loads
+    .venv/bin/manigrasp bench standard "hands=[panda]" "planners=[antipodal]" --out /tmp/std_panda
+
 Other hands, same objects and seed: `parallel_jaw`'s pads carry 1.00 on both meshes (6 elements each; 20/20 and
 20/20), `robotiq_2f85`'s 0.78 on the recipe and 0.84 on the scan (medians; 20/20 and 20/20; the rest is its inner
 knuckles pressing on the box in deep grasps, the pads keeping their 6 x 7.5 N). `clear_backing` moves no
