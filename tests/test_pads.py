@@ -297,8 +297,8 @@ def _pad_share_closed_on_a_box(hand: str, mode: str) -> float:
 @pytest.mark.parametrize("hand", ["panda", "parallel_jaw"])
 def test_the_compliant_pads_carry_the_grip_on_a_flat_face(hand: str) -> None:
     """A rigid geom of the finger closer behind the pad face than the elements' travel bottoms the pad out on
-    it: the Panda's finger hulls, 0.4 mm behind its 8 mm pads, carried 0.62 of the grip on a flat box (the pads 0.38) before
-    `pads.clear_backing` moved them back to the travel."""
+    it: the Panda's finger hulls, 0.4 mm behind its 8 mm pads, carried 0.62 of the grip on a flat box (the pads
+    0.38) before `pads.clear_backing` moved them back to the travel."""
     assert _pad_share_closed_on_a_box(hand, "compliant") >= 0.95
 
 
