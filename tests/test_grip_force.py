@@ -60,15 +60,32 @@ def test_held_grip_force_is_the_target_at_every_width(name: str, pads: str) -> N
     hand = hands.load(name)
     params = GraspParams()  # the standard protocol: half the hand's maximum
     target = params.grip_force_fraction * hand.max_grip_force
-    held = {}
+    held, stopped = {}, {}
     for width in WIDTHS:
         if width < 0.95 * hand.max_width:
             run, status = _close(hand, width, pads, params)
             assert status is None, f"{1000 * width:g} mm: {status}"
             held[width] = current_grip_force(run.scene)
+            stopped[width] = _at_closed_stop(run.scene)
     assert min(held) == WIDTHS[0] and max(held) >= 0.07
     ratio = {f"{1000 * w:g} mm": round(f / target, 3) for w, f in held.items()}
-    assert all(abs(r - 1) < 0.05 for r in ratio.values()), f"held / target {target:.1f} N: {ratio}"
+    # Only a jaw already at its closed stop may hold less: the Panda's 8 mm compliant pads need 3.2 mm of
+    # compression each for 35 N, more than a 4 mm object leaves them before the fingers reach their stop
+    # (`pads.clear_backing`); never more than the target, and never short anywhere else.
+    for (label, r), width in zip(ratio.items(), held, strict=True):
+        short_at_stop = stopped[width] and 0.8 < r <= 1.05
+        assert abs(r - 1) < 0.05 or short_at_stop, f"held / target {target:.1f} N: {ratio}, at stop: {stopped}"
+    assert pads == "compliant" or not any(stopped.values()), f"rigid pads reached the stop: {stopped}"
+
+
+def _at_closed_stop(scene) -> bool:
+    """Whether a finger joint of the hand is within 0.2 mm (or 0.2 mrad) of a limit of its range."""
+    m, d = scene.model, scene.data
+    fingers = np.flatnonzero(scene.finger_of_body[m.jnt_bodyid] >= 0)
+    limited = [j for j in fingers if m.jnt_limited[j] and m.jnt_type[j] in (2, 3)]  # slide, hinge
+    q = np.array([d.qpos[m.jnt_qposadr[j]] for j in limited])
+    lo, hi = m.jnt_range[limited].T
+    return bool(np.any(np.minimum(q - lo, hi - q) < 2e-4))
 
 
 @pytest.mark.parametrize("target", [5.0, 60.0])

@@ -18,7 +18,7 @@ from manigrasp.control import GripController, ImpedanceController, default_gains
 from manigrasp.errors import UnknownNameError
 from manigrasp.hands.placement import side_power_grasp, top_grasp
 from manigrasp.objects import build_object
-from manigrasp.sim import Scene, build_scene, grip_force, read_hand_contacts
+from manigrasp.sim import Scene, SceneConfig, build_scene, grip_force, read_hand_contacts
 
 BOX_SIZE = 0.05  # [m] cube
 CAN_RADIUS, CAN_HEIGHT = 0.033, 0.12  # [m]
@@ -110,8 +110,14 @@ def test_open_hand_encloses_its_max_width_and_closes(name: str, objects: dict) -
     ctrl = _hold(scene, far)
     fingers = [scene.model.body(f"hand/{f}").id for f in scene.hand.finger_bodies]
     tcp = scene.tcp_pose()
-    if scene.hand.kind == "parallel":  # the open jaws span max_width along the closing axis
-        gap = sum(_ray(scene, tcp[:3, 3], sign * tcp[:3, 1]) for sign in (-1.0, 1.0))
+    if scene.hand.kind == "parallel":  # the open jaws span max_width along the closing axis, pad face to pad face
+        # measured on the rigid pads' boxes: a compliant pad's box does not collide and a ray from the centre passes
+        # between its elements, to the finger behind it (`pads.clear_backing` moves the Panda's hull back 6 mm)
+        rigid = build_scene(scene.hand, None, SceneConfig(pads="rigid"))
+        rigid.reset(mount=far, synergy=0.0)
+        mujoco.mj_forward(rigid.model, rigid.data)
+        start, across = rigid.tcp_pose()[:3, 3], rigid.tcp_pose()[:3, 1]
+        gap = sum(_ray(rigid, start, sign * across) for sign in (-1.0, 1.0))
         assert abs(gap - scene.hand.max_width) <= 0.05 * scene.hand.max_width, f"open jaw gap {gap:.4f} m"
     com0 = scene.data.subtree_com[fingers].copy()
     scene.set_synergy(1.0)
@@ -135,7 +141,7 @@ def _finger_distance(scene: Scene) -> float:
 
 
 def _ray(scene: Scene, start: np.ndarray, direction: np.ndarray) -> float:
-    """Distance [m] from `start` to the first colliding geom along `direction` (inf if none)."""
+    """Distance [m] from `start` to the first geom along `direction`, of any group (inf if none)."""
     geom = np.array([-1], dtype=np.int32)
     groups = np.ones(6, dtype=np.uint8)
     dist = mujoco.mj_ray(scene.model, scene.data, start, direction, groups, 1, -1, geom)
