@@ -72,7 +72,7 @@ def test_held_grip_force_is_the_target_at_every_width(name: str, pads: str) -> N
     # Only a jaw already at its closed stop may hold less: the Panda's 8 mm compliant pads need 3.2 mm of
     # compression each for 35 N, more than a 4 mm object leaves them before the fingers reach their stop
     # (`pads.clear_backing`); never more than the target, and never short anywhere else.
-    for (label, r), width in zip(ratio.items(), held, strict=True):
+    for r, width in zip(ratio.values(), held, strict=True):
         short_at_stop = stopped[width] and 0.8 < r <= 1.05
         assert abs(r - 1) < 0.05 or short_at_stop, f"held / target {target:.1f} N: {ratio}, at stop: {stopped}"
     assert pads == "compliant" or not any(stopped.values()), f"rigid pads reached the stop: {stopped}"
