@@ -33,8 +33,8 @@
    `OPEN_TRIES`, over the dexterous config's 21 groups x 80 restarts at 8ac99d2: rejected for penetration
    534 -> 309, for the pre-shape 565 -> 288, passing 459 -> 951; distinct grasps at hold margin >= 2 after
    NMS 96 -> 167 (Allegro 31 -> 53, Fourier 30 -> 75, Inspire 35 -> 39). Success, standard 10 N, same seeds:
-   Allegro 32 -> 37/70 (tennis ball 5 -> 9, no `no_grasp` left), Fourier 36 -> 31, Inspire 43 -> 43: a larger
-   pool at margin >= 2 did not raise the Fourier's (banana 3 -> 0 and mug 8 -> 4 with all ten at margin >= 2).)
+   Allegro 32 -> 40/70 (tennis ball 5 -> 10, no `no_grasp` left), Fourier 36 -> 37, Inspire 43 -> 44; 37, 31,
+   43 before the `OPEN_TRIES` pre-shapes were ranked after the others (step 6).)
 5. Hand path (`GraspCandidate.joints`, actuator commands): first the pads' remaining gaps are closed (the
    least-norm joint motion moving each pad its distance along its normal, damped least squares): the contact
    command. The squeeze is the actuator forces f that best produce the joint torques sum_i J_i^T n_i pushing
@@ -61,7 +61,9 @@
    linearised friction cones (`friction`) with soft-contact torsion (`torsion`), balance the object's
    weight alone and with each of the protocol's perturbations (`hold.loads`; the object's mass from its
    asset). Candidates whose margin reaches `min_hold_margin` come first (lowest energy first among them),
-   the rest after them by margin; diversity (non-maximum suppression) is applied to that order.
+   the rest after them by margin; within each of the two, pre-shapes along the squeeze line before those of
+   the `OPEN_TRIES` (in trials on the dexterous config the latter succeeded 16/45, the former 95/165; at
+   margin >= 2, 14/29 and 52/73); diversity (non-maximum suppression) is applied to that order.
    Each candidate also gets the turn [rad] the held object would take under those loads, from the grasp's
    stiffness (`dexopt.grasp_stiffness` over the pads in contact: `CONTACT_STIFFNESS` in series with the held
    servos, `held_joint_stiffness`; `dexopt.load_rotation`): recorded (`Synthesis.rotation`), not used to rank.
@@ -144,6 +146,7 @@ class Synthesis:
         rotation: the largest turn [rad] of the held object under those loads that the grasp's stiffness
             predicts (`dexopt.grasp_stiffness`, `dexopt.load_rotation`; inf: a load along a direction the
             contacts cannot hold); recorded, not used to rank (module docstring, step 6).
+        opened: the pre-shape is one of the `OPEN_TRIES` toward the open hand (ranked after the others).
     """
 
     pose: np.ndarray
@@ -156,6 +159,7 @@ class Synthesis:
     penetration: float
     hold: float = float("inf")
     rotation: float = 0.0
+    opened: bool = False
 
 
 @dataclass(frozen=True)
@@ -503,7 +507,7 @@ class DexOptPlanner:
             if path is None:
                 rejected["preshape"] = rejected.get("preshape", 0) + 1
                 continue
-            joints, press = path
+            joints, press, opened = path
             caps = squeeze_caps(press[touching], hk.pad_finger[chosen][touching] == 0, grip)
             hold = hold_margin(x[touching], normal[touching], caps, observation.center_of_mass, external,
                                mu, self.torsion)
@@ -515,12 +519,14 @@ class DexOptPlanner:
             passed.append(Synthesis(pose=tcp, q=q[i].copy(), joints=joints, energy=float(energy[i]),
                                     terms={key: float(v[i]) for key, v in terms.items()},
                                     contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold,
-                                    rotation=rotation))
+                                    rotation=rotation, opened=opened))
         if not passed:
             return []
-        # Grasps that hold the loads first (lowest energy first among them), then the rest by hold margin.
+        # Grasps that hold the loads first (lowest energy first among them), then the rest by hold margin; in
+        # each, those whose pre-shape closes along the squeeze line before those opened toward the open hand.
         holds = np.array([s.hold >= self.min_hold_margin for s in passed])
-        order = sorted(range(len(passed)), key=lambda j: (not holds[j], 0.0 if holds[j] else -passed[j].hold))
+        order = sorted(range(len(passed)), key=lambda j: (not holds[j], passed[j].opened,
+                                                          0.0 if holds[j] else -passed[j].hold))
         passed = [passed[j] for j in order]
         self.last["holding"] = int(holds.sum())
         keep = suppress(np.stack([s.pose for s in passed]), self.nms_distance, self.nms_angle)
@@ -529,10 +535,11 @@ class DexOptPlanner:
     def hand_path(self, hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray, x: np.ndarray,
                   bodies: np.ndarray, normal: np.ndarray, dist: np.ndarray, jp: np.ndarray, jr: np.ndarray,
                   xpos: np.ndarray, addresses: dict[str, int], names: list[str],
-                  offset: float = PREGRASP_OFFSET) -> tuple[np.ndarray, np.ndarray] | None:
-        """(2, n_act) pre-shape and squeeze commands (module docstring, step 5) and the normal forces (k,) the
-        squeeze presses the pads with (relative), or None if no pre-shape of the `PRESHAPE_TRIES` back-offs and
-        the `OPEN_TRIES` toward the open hand is collision-free along the approach."""
+                  offset: float = PREGRASP_OFFSET) -> tuple[np.ndarray, np.ndarray, bool] | None:
+        """(2, n_act) pre-shape and squeeze commands (module docstring, step 5), the normal forces (k,) the
+        squeeze presses the pads with (relative) and whether the pre-shape is one of the `OPEN_TRIES`; or None if
+        no pre-shape of the `PRESHAPE_TRIES` back-offs and the `OPEN_TRIES` toward the open hand is collision-free
+        along the approach."""
         jac = pad_jacobians(x, hk._slot[bodies], jp, jr, xpos)
         rows = np.einsum("ki,kij->kj", normal, jac)  # (k, n_q): how fast each pad moves into the object
         # Close the pads' gaps: the least-norm joint motion moving pad i by its distance d_i along its normal
@@ -555,15 +562,15 @@ class DexOptPlanner:
         beta = self.preshape_backoff / max(motion, 1e-9)
         backed = [np.clip(ctrl_c - 2**attempt * beta * direction, hk.ctrl_low, hk.ctrl_high)
                   for attempt in range(PRESHAPE_TRIES)]
-        opened = [(1.0 - s) * backed[-1] + s * np.asarray(hk.hand.open_ctrl, float) for s in OPEN_TRIES]
-        for pre in backed + opened:
+        toward_open = [(1.0 - s) * backed[-1] + s * np.asarray(hk.hand.open_ctrl, float) for s in OPEN_TRIES]
+        for attempt, pre in enumerate(backed + toward_open):
             pre_q = hk.q_from_ctrl(pre)
             qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0, 0, 0]), pre_q)
             hand_q = {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]])
                       for nm, j in zip(names, hk.joints, strict=True)}
             if all(_probe_contacts(probe, pose, hand_q)[0] <= self.max_penetration
                    for pose in _approach_poses(tcp, offset)):
-                return np.stack([pre, squeeze]), pad_forces(rows, a.T @ force)
+                return np.stack([pre, squeeze]), pad_forces(rows, a.T @ force), attempt >= PRESHAPE_TRIES
         return None
 
 
