@@ -302,33 +302,111 @@ def test_the_compliant_pads_carry_the_grip_on_a_flat_face(hand: str) -> None:
     assert _pad_share_closed_on_a_box(hand, "compliant") >= 0.95
 
 
+def _behind(model: mujoco.MjModel, geom: int, pad: str, normal: np.ndarray, face: np.ndarray) -> tuple[float, float]:
+    """(front, back) [m] of compiled `geom` (a mesh's hull or a box) behind the face of `pad` (outward `normal`, face
+    centre `face`, both in the pad's body frame): its nearest and farthest points along -normal."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    body = model.geom_bodyid[geom]
+    if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_MESH:
+        points = data.xpos[body] + pads.geom_vertices(model, geom) @ data.xmat[body].reshape(3, 3).T
+    else:
+        corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * 3, indexing="ij")).reshape(3, -1).T * model.geom_size[geom]
+        points = data.geom_xpos[geom] + corners @ data.geom_xmat[geom].reshape(3, 3).T
+    pad_body = model.geom_bodyid[model.geom(pad).id]
+    rot = data.xmat[pad_body].reshape(3, 3)
+    depth = (data.xpos[pad_body] + rot @ face) @ (rot @ normal) - points @ (rot @ normal)
+    return float(depth.min()), float(depth.max())
+
+
 @pytest.mark.parametrize("hand", ["parallel_jaw", "panda", "robotiq_2f85"])
 def test_no_rigid_geom_lies_within_the_pads_travel(hand: str) -> None:
-    """`clear_backing` moves back exactly the finger geoms that lie closer behind a pad face than the travel,
-    by the difference, along the pad normal; the rigid mode's model is the hand's own."""
+    """`clear_backing` cuts exactly the finger geoms that lie closer behind a pad face than the travel, by the
+    difference: their front then lies at the travel, their back where it was (the Panda's hulls are meshes, the
+    Robotiq's fingertip blocks boxes); the rigid mode's model is the hand's own."""
     spec, travel_fraction = load(hand).build_spec(), SceneConfig().pad_model().travel_fraction
     directions = pads.pad_directions(spec, load(hand).pad_geoms, load(hand).tcp_site)
-    travels = [travel_fraction * pads.pad_geometry(spec.geom(n), t).thickness for n, t in directions]
+    faces = [pads.pad_geometry(spec.geom(n), t) for n, t in directions]
+    travels = [travel_fraction * face.thickness for face in faces]
     before = pads.backing_depths(spec, directions)
     assert any(before)  # every hand has a rigid geom behind its pads
     expected = {}
     for near, travel in zip(before, travels, strict=True):
-        for name, depth in near.items():
+        for geom, depth in near.items():
             if depth < travel:
-                expected[name] = max(expected.get(name, 0.0), travel - depth)
+                expected[geom] = max(expected.get(geom, 0.0), travel - depth)
+    own = spec.copy().compile()
     moved = pads.clear_backing(spec, directions, travel_fraction)
     assert moved.keys() == expected.keys()
-    for name, distance in moved.items():
-        assert distance == pytest.approx(expected[name], abs=1e-9)
+    for geom, distance in moved.items():
+        assert distance == pytest.approx(expected[geom], abs=1e-9)
     for near, travel in zip(pads.backing_depths(spec, directions), travels, strict=True):
         assert all(depth >= travel - 1e-9 for depth in near.values())
-    own = load(hand).build_spec().compile()
+    cut = spec.compile()
+    for (name, _), face, travel, near in zip(directions, faces, travels, before, strict=True):
+        for geom, depth in near.items():
+            if depth < travel:
+                front, back = _behind(own, geom, name, face.normal, face.center)
+                assert _behind(cut, geom, name, face.normal, face.center) == pytest.approx((travel, back), abs=1e-7)
+                assert front < travel
     for mode, model in (("rigid", build_scene(hand, config=SceneConfig(pads="rigid")).model),
                         ("compliant", build_scene(hand, config=SceneConfig(pads="compliant")).model)):
         for g in range(own.ngeom):
-            there = model.geom(f"hand/{own.geom(g).name}").id
-            shift = np.linalg.norm(model.geom_pos[there] - own.geom_pos[g])
-            if mode == "rigid" or own.geom(g).name not in moved:
-                assert shift == 0.0, (mode, own.geom(g).name)
-            else:
-                assert shift == pytest.approx(moved[own.geom(g).name], abs=1e-9)
+            there, reference = model.geom(f"hand/{own.geom(g).name}").id, own if mode == "rigid" else cut
+            assert np.array_equal(model.geom_pos[there], reference.geom_pos[g]), (mode, own.geom(g).name)
+            assert np.array_equal(model.geom_size[there], reference.geom_size[g]), (mode, own.geom(g).name)
+            if reference.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+                assert np.allclose(pads.geom_vertices(model, there), pads.geom_vertices(reference, g), atol=1e-9)
+
+
+def _finger_spec() -> mujoco.MjSpec:
+    """A finger on a slide joint, turned at a slant: a 2 x 3 cm box pad 8 mm thick facing its -z (face at
+    z = -4 mm, 6.4 mm travel: to z = 2.4 mm), behind it a 2 cm cube mesh on a welded, turned link (front at
+    z = -3 mm, back at 17 mm), an unnamed box (front at -3.5 mm, back at 6.5 mm), an unnamed sphere (front at
+    -2 mm) and, out of the cut, a non-colliding box and a box on a body with its own joint (both front at -3 mm)."""
+    spec = mujoco.MjSpec()
+    cube = np.array(np.meshgrid(*[[-0.01, 0.01]] * 3, indexing="ij")).reshape(3, -1).T
+    spec.add_mesh(name="cube", uservert=cube.ravel().tolist())
+    axis, angle = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0), 0.7
+    finger = spec.worldbody.add_body(name="finger", pos=[0.1, 0.2, 0.3],
+                                     quat=[np.cos(angle / 2), *(np.sin(angle / 2) * axis)])
+    finger.add_joint(name="slide", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1.0, 0.0, 0.0])
+    box = mujoco.mjtGeom.mjGEOM_BOX
+    finger.add_geom(name="pad", type=box, size=[0.01, 0.015, 0.004])
+    link = finger.add_body(name="link", pos=[0.0, 0.0, 0.006], quat=[np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0])
+    link.add_geom(name="hull", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="cube", pos=[0.0, 0.001, 0.0])
+    finger.add_geom(type=box, size=[0.005, 0.005, 0.005], pos=[0.0, 0.0, 0.0015])
+    finger.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.003, 0, 0], pos=[0.0, 0.0, 0.001])
+    finger.add_geom(name="ghost", type=box, size=[0.005, 0.005, 0.005], pos=[0.0, 0.0, 0.002], contype=0,
+                    conaffinity=0)
+    moving = finger.add_body(name="moving")
+    moving.add_joint(name="moving", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, 1.0])
+    moving.add_geom(name="other", type=box, size=[0.005, 0.005, 0.005], pos=[0.0, 0.0, 0.002])
+    return spec
+
+
+def test_clear_backing_cuts_the_front_and_keeps_the_back() -> None:
+    """On `_finger_spec` (travel 6.4 mm): the cube mesh 1 mm behind the face is cut to the travel, 5.4 mm, its back
+    17 + 4 = 21 mm behind the face as before (a translation would have moved it to 26.4); the unnamed box too (front
+    0.5 -> 6.4 mm, back 10.5 mm kept); the unnamed sphere, 2 mm behind, moves back whole by 4.4 mm; the
+    non-colliding box and the jointed one stay."""
+    spec, toward = _finger_spec(), np.array([0.0, 0.0, -1.0])
+    own = spec.copy().compile()
+    face = pads.pad_geometry(spec.geom("pad"), toward)
+    assert face.thickness == pytest.approx(0.008) and np.allclose(face.center, [0.0, 0.0, -0.004])
+    hull = own.geom("hull").id
+    unnamed_box, sphere = (g for g in range(own.ngeom) if own.geom(g).name == "")
+    assert own.geom_type[unnamed_box] == mujoco.mjtGeom.mjGEOM_BOX
+    assert _behind(own, hull, "pad", face.normal, face.center) == pytest.approx((0.001, 0.021), abs=1e-9)
+    moved = pads.clear_backing(spec, [("pad", toward)], 0.8)
+    assert moved == pytest.approx({hull: 0.0054, unnamed_box: 0.0059, sphere: 0.0044}, abs=1e-9)
+    cut = spec.compile()
+    assert _behind(cut, hull, "pad", face.normal, face.center) == pytest.approx((0.0064, 0.021), abs=1e-9)
+    assert _behind(cut, unnamed_box, "pad", face.normal, face.center) == pytest.approx((0.0064, 0.0105), abs=1e-9)
+    assert cut.geom_type[hull] == mujoco.mjtGeom.mjGEOM_MESH and cut.geom_type[unnamed_box] == mujoco.mjtGeom.mjGEOM_BOX
+    assert np.allclose(cut.geom_pos[sphere], own.geom_pos[sphere] + [0.0, 0.0, 0.0044], atol=1e-12)
+    assert cut.geom_size[sphere][0] == own.geom_size[sphere][0]
+    for name in ("ghost", "other"):
+        g = own.geom(name).id
+        assert np.array_equal(cut.geom_pos[g], own.geom_pos[g]) and np.array_equal(cut.geom_size[g], own.geom_size[g])
+    assert [set(near) for near in pads.backing_depths(spec, [("pad", toward)])] == [{hull, unnamed_box, sphere}]

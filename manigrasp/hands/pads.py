@@ -45,13 +45,21 @@ Parameters (`PadModel`) and their source:
   the standard 35 N on a flat box the elements carried 0.38 of the normal force,
   and 0.37 on the cracker box recipe's grasps, 0.09-0.32 on its scan's, which
   the hulls touched at a few bumps (`benchmarks/diagnose_footprint.py --loads`).
-  So `clear_backing` moves every colliding geom rigidly attached to the pad's body
-  that lies within the travel behind the face (rays cast along -normal from an
-  11 x 11 grid over the face, a mesh by its convex hull, on a compiled copy)
-  back along the pad normal to the travel. Geoms moved: the Panda's two finger
-  hulls by 6.02 mm; `robotiq_2f85`'s fingertip blocks by 1.28 mm (0.33 mm behind
-  its 2 mm pad; they stop colliding anyway, `Hand.pad_backing`); none of
-  `parallel_jaw` (its finger links lie 6 mm behind, past the 4.8 mm travel).
+  So `clear_backing` cuts off what of every colliding geom rigidly attached to the
+  pad's body lies in front of the plane parallel to the face at the travel behind it
+  (found by rays cast along -normal from an 11 x 11 grid over the face, a mesh by its
+  convex hull, on a compiled copy): a mesh's hull is clipped by that plane into a new
+  mesh, a box with an axis along the normal shrinks from its front, and either keeps
+  its back, so the finger's outer face stays where the real finger's is; other
+  primitives are moved back whole along the normal. Cut: the Panda's two finger hulls
+  by up to 6.02 mm (the whole plane: their inner faces lie 6.4 mm behind the pad faces, also
+  outside the pads' outline); `robotiq_2f85`'s fingertip blocks by 1.28 mm (0.33 mm
+  behind its 2 mm pad; they stop colliding anyway, `Hand.pad_backing`); nothing of
+  `parallel_jaw` (its finger links lie 6 mm behind, past the 4.8 mm travel). The
+  first version (86911a7) moved the hulls back whole, their outer faces 6 mm past the
+  real finger's, and the planners' collision probe then reported collisions where
+  the real finger fits (Panda standard antipodal: mug 7, scissors 4 of 20 planned
+  grasps newly colliding).
   Rigid pads keep the hand as modelled.
 - friction mu = 1.0 (`PAD_FRICTION`, `SceneConfig.pad_friction`): the pad's own
   rubber, not the hand's 0.5 (which the rigid pads keep, to reproduce older
@@ -305,10 +313,10 @@ def element_stiffness(model: PadModel, area: np.ndarray, thickness: float) -> np
 
 
 def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]],
-                   model: PadModel) -> dict[str, float]:
-    """Replace each rigid box pad of `spec` by a grid of spring-loaded contact elements (in place), after moving
-    the finger's rigid geoms that lie within the elements' travel behind a pad face back to that travel
-    (`clear_backing`; module docstring: backing).
+                   model: PadModel) -> dict[int, float]:
+    """Replace each rigid box pad of `spec` by a grid of spring-loaded contact elements (in place), after cutting
+    off what of the finger's rigid geoms lies within the elements' travel behind a pad face (`clear_backing`;
+    module docstring: backing).
 
     Args:
         spec: a hand's spec (not compiled).
@@ -316,7 +324,7 @@ def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]],
         model: pad parameters (`model.friction` is the elements' sliding friction).
 
     Returns:
-        The geoms moved back: name -> distance [m] (`clear_backing`).
+        The geoms cut: id (in `spec` compiled before the elements were added) -> cut [m] (`clear_backing`).
     """
     moved = clear_backing(spec, pads, model.travel_fraction)
     for name, toward in pads:
@@ -366,52 +374,132 @@ def _add_element(body: mujoco.MjsBody, name: str, pos: np.ndarray, pad: PadGeome
 
 
 def clear_backing(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], travel_fraction: float,
-                  samples: int = 11) -> dict[str, float]:
-    """Move back the rigid geoms behind each pad face that the pad's elements would meet before their travel.
+                  samples: int = 11) -> dict[int, float]:
+    """Cut off the rigid geoms behind each pad face where the pad's elements would meet them before their travel.
 
     For each pad (`make_compliant`'s `pads`), rays are cast along -normal from a `samples` x `samples` grid over the
-    pad face (rims included) at every other colliding geom rigidly attached to the pad's body (the pad's body and
-    the bodies welded to it, no joint between them), on a copy of `spec` compiled at its reference configuration
-    (`backing_depths`). A geom whose surface comes closer behind the face than the travel (travel_fraction x pad
-    thickness) is moved back along the pad normal (in place, `spec`) by the difference, so that it lies the travel
-    behind the face; one lying farther, or outside the face's outline, is left as it is.
+    pad face (rims included) at every other colliding geom rigidly attached to the pad's body (the bodies welded to
+    it, `model.body_weldid`), on a copy of `spec` compiled at its reference configuration (`backing_depths`). A geom
+    whose surface comes closer behind the face than the travel (travel_fraction x pad thickness) is changed in place
+    (`spec`) to lie behind the plane parallel to the face at the travel behind it (the whole plane, also outside
+    the face's outline), its back, where it can, as it was:
+
+    - a mesh: its compiled convex hull (body frame) is cut by that plane and the part behind it becomes a new mesh
+      of the spec, which the geom now uses, at the body origin (pos 0, identity quat); type, contact and friction
+      attributes are the geom's own;
+    - a box with an axis along the pad normal: its half size along that axis shrinks by half the cut and its
+      centre moves back by half the cut, so its front face lies on the plane;
+    - any other primitive, a box at a slant, a geom placed through a frame, or one the cut would leave nothing of:
+      moved back along the pad normal by the cut (its back moves too).
+
+    One lying farther, or outside the face's outline, is left as it is. Geoms are keyed by their id in the compiled
+    spec (the order of `spec.geoms`), so unnamed geoms count too.
 
     Returns:
-        The geoms moved: name -> distance moved [m] (the largest over the pads, when several ask).
+        The geoms changed: id -> cut [m], travel minus the geom's depth behind the face (the largest over the pads,
+        when several ask).
     """
     depths = backing_depths(spec, pads, samples)
     compiled = spec.copy().compile()
     data = mujoco.MjData(compiled)
     mujoco.mj_kinematics(compiled, data)
-    moves: dict[str, np.ndarray] = {}
+    geoms = list(spec.geoms)
+    if len(geoms) != compiled.ngeom:
+        raise HandError(f"spec has {len(geoms)} geoms, its compiled copy {compiled.ngeom}")
+    cuts: dict[int, list[tuple[np.ndarray, np.ndarray, float]]] = {}  # id -> (point, normal, cut), its body frame
     for (name, toward), near in zip(pads, depths, strict=True):
         pad = pad_geometry(spec.geom(name), np.asarray(toward, float))
         travel = travel_fraction * pad.thickness
         pad_body = compiled.geom_bodyid[compiled.geom(name).id]
-        normal = data.xmat[pad_body].reshape(3, 3) @ pad.normal  # world
+        rot, origin = data.xmat[pad_body].reshape(3, 3), data.xpos[pad_body]
         for other, depth in near.items():
             if depth >= travel:
                 continue
-            body = compiled.geom_bodyid[compiled.geom(other).id]
-            shift = (travel - depth) * (data.xmat[body].reshape(3, 3).T @ -normal)  # in the geom's body frame
-            if other not in moves or np.linalg.norm(shift) > np.linalg.norm(moves[other]):
-                moves[other] = shift
-    for other, shift in moves.items():
-        geom = spec.geom(other)
-        geom.pos = np.asarray(geom.pos, float) + shift
-    return {other: float(np.linalg.norm(shift)) for other, shift in moves.items()}
+            body = compiled.geom_bodyid[other]
+            back = data.xmat[body].reshape(3, 3).T  # world -> the geom's body frame
+            point = back @ (origin + rot @ (pad.center - travel * pad.normal) - data.xpos[body])
+            cuts.setdefault(other, []).append((point, back @ rot @ pad.normal, travel - depth))
+    for other, planes in cuts.items():
+        _cut(spec, geoms[other], compiled, other, planes)
+    return {other: float(max(cut for _, _, cut in planes)) for other, planes in cuts.items()}
+
+
+def _cut(spec: mujoco.MjSpec, geom: mujoco.MjsGeom, model: mujoco.MjModel, g: int,
+         planes: Sequence[tuple[np.ndarray, np.ndarray, float]]) -> None:
+    """Keep only the part of geom `g` (`geom` in `spec`, id `g` in its compiled `model`) behind each plane (point,
+    outward unit normal, cut; in the body frame); `clear_backing`."""
+    if geom.frame is None and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+        vertices = geom_vertices(model, g)
+        for point, normal, _ in planes:
+            vertices = clip_hull(vertices, point, normal)
+        if len(vertices) >= 4 and np.linalg.matrix_rank(vertices[1:] - vertices[0], tol=1e-9) == 3:
+            mesh = f"{geom.meshname}_behind_pad_{g}"
+            spec.add_mesh(name=mesh, uservert=vertices.ravel().tolist())
+            geom.meshname = mesh
+            geom.pos, geom.quat = [0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]
+            return
+    if geom.frame is None and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+        centre, size = model.geom_pos[g].copy(), model.geom_size[g].copy()
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, model.geom_quat[g])
+        rot = rot.reshape(3, 3)
+        for point, normal, _ in planes:
+            along = rot.T @ normal
+            k = int(np.argmax(np.abs(along)))
+            if abs(along[k]) < 1 - 1e-9:
+                break
+            cut = float((centre - point) @ normal) + size[k]  # the box's front past the plane
+            if cut <= 0:
+                continue
+            if cut >= 2 * size[k]:
+                break
+            size[k] -= cut / 2
+            centre -= cut / 2 * normal
+        else:
+            geom.pos, geom.quat, geom.size = centre, model.geom_quat[g].copy(), size
+            return
+    point, normal, cut = max(planes, key=lambda plane: plane[2])
+    geom.pos = np.asarray(geom.pos, float) - cut * normal
+
+
+def clip_hull(vertices: np.ndarray, point: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Vertices (m, 3) of the part of the convex hull of `vertices` (n, 3) behind the plane through `point` (3,)
+    with unit `normal` (3,), (x - point) . normal <= 0: the hull's vertices behind it and the points where its
+    edges cross it (none: the hull lies in front)."""
+    import trimesh
+
+    hull = trimesh.Trimesh(vertices=np.asarray(vertices, float)).convex_hull
+    v = np.asarray(hull.vertices, float)
+    side = (v - point) @ normal
+    a, b = np.asarray(hull.edges_unique).T
+    crossing = side[a] * side[b] < 0
+    a, b = a[crossing], b[crossing]
+    t = (side[a] / (side[a] - side[b]))[:, None]
+    return np.vstack([v[side <= 0], v[a] + t * (v[b] - v[a])])
+
+
+def geom_vertices(model: mujoco.MjModel, geom: int) -> np.ndarray:
+    """(n, 3) vertices [m] of compiled mesh geom `geom` in its body's frame (their convex hull is what MuJoCo's
+    collision uses)."""
+    mesh = model.geom_dataid[geom]
+    first = model.mesh_vertadr[mesh]
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, model.geom_quat[geom])
+    return model.geom_pos[geom] + model.mesh_vert[first:first + model.mesh_vertnum[mesh]] @ rot.reshape(3, 3).T
 
 
 def backing_depths(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]],
-                   samples: int = 11) -> list[dict[str, float]]:
-    """For each pad, how far behind its face [m] each other colliding geom rigidly attached to the pad's body lies:
-    the shortest of the rays cast along -normal from a `samples` x `samples` grid over the face (rims included),
-    started one pad thickness in front of it (negative: the geom reaches in front of the face). Geoms no ray meets
-    are left out. Measured on a copy of `spec` compiled at its reference configuration; a mesh geom by its convex
-    hull (what MuJoCo's collision uses), a primitive by `mujoco.mju_rayGeom`."""
+                   samples: int = 11) -> list[dict[int, float]]:
+    """For each pad, how far behind its face [m] each other colliding geom rigidly attached to the pad's body (welded
+    to it, `model.body_weldid`) lies, by geom id: the shortest of the rays cast along -normal from a
+    `samples` x `samples` grid over the face (rims included), started one pad thickness in front of it (negative:
+    the geom reaches in front of the face). Geoms no ray meets are left out. Measured on a copy of `spec` compiled at
+    its reference configuration; a mesh geom by its convex hull (what MuJoCo's collision uses), a primitive by
+    `mujoco.mju_rayGeom`."""
     model = spec.copy().compile()
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
+    hulls: dict[int, np.ndarray] = {}  # mesh geom id -> its convex hull's planes (world), computed once
     out = []
     for name, toward in pads:
         pad = pad_geometry(spec.geom(name), np.asarray(toward, float))
@@ -423,42 +511,32 @@ def backing_depths(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]],
         face = pad.center + aa.reshape(-1, 1) * pad.axes[0] + bb.reshape(-1, 1) * pad.axes[1]
         starts = origin + (face + pad.thickness * pad.normal) @ rot.T  # world
         direction = -rot @ pad.normal
+        welded = np.flatnonzero(model.body_weldid[model.geom_bodyid] == model.body_weldid[body])
         near = {}
-        for other in _welded_geoms(model, body):
+        for other in map(int, welded):
             if other == g or (model.geom_contype[other] == 0 and model.geom_conaffinity[other] == 0):
                 continue
-            hits = [_ray(model, data, other, start, direction) for start in starts]
+            if model.geom_type[other] == mujoco.mjtGeom.mjGEOM_MESH:
+                if other not in hulls:
+                    from scipy.spatial import ConvexHull
+
+                    frame = model.geom_bodyid[other]
+                    world = data.xpos[frame] + geom_vertices(model, other) @ data.xmat[frame].reshape(3, 3).T
+                    hulls[other] = ConvexHull(world).equations
+                hits = [_ray_hull(hulls[other], start, direction) for start in starts]
+            else:
+                hits = [mujoco.mju_rayGeom(data.geom_xpos[other], data.geom_xmat[other], model.geom_size[other],
+                                           start, direction, int(model.geom_type[other])) for start in starts]
             hits = [h for h in hits if h >= 0]
             if hits:
-                near[model.geom(other).name] = min(hits) - pad.thickness
+                near[other] = min(hits) - pad.thickness
         out.append(near)
     return out
 
 
-def _welded_geoms(model: mujoco.MjModel, body: int) -> list[int]:
-    """Geoms of `body` and of the bodies welded to it (joined to it through bodies without joints)."""
-    root = body
-    while model.body_jntnum[root] == 0 and model.body_parentid[root] != 0:
-        root = model.body_parentid[root]
-    welded = {root}
-    for b in range(root + 1, model.nbody):  # MuJoCo numbers children after their parents
-        if model.body_parentid[b] in welded and model.body_jntnum[b] == 0:
-            welded.add(b)
-    return [g for g in range(model.ngeom) if model.geom_bodyid[g] in welded]
-
-
-def _ray(model: mujoco.MjModel, data: mujoco.MjData, geom: int, start: np.ndarray, direction: np.ndarray) -> float:
-    """Distance along unit `direction` from `start` (world) to where the ray enters `geom` (-1: it misses); a mesh
-    geom by its convex hull."""
-    pos, mat = data.geom_xpos[geom], data.geom_xmat[geom]
-    if model.geom_type[geom] != mujoco.mjtGeom.mjGEOM_MESH:
-        return mujoco.mju_rayGeom(pos, mat, model.geom_size[geom], start, direction, int(model.geom_type[geom]))
-    from scipy.spatial import ConvexHull
-
-    mesh = model.geom_dataid[geom]
-    first = model.mesh_vertadr[mesh]
-    vertices = pos + model.mesh_vert[first:first + model.mesh_vertnum[mesh]] @ mat.reshape(3, 3).T
-    planes = ConvexHull(vertices).equations  # a . x + b <= 0 inside
+def _ray_hull(planes: np.ndarray, start: np.ndarray, direction: np.ndarray) -> float:
+    """Distance along unit `direction` from `start` to where the ray enters the convex hull with plane equations
+    `planes` (m, 4: a . x + b <= 0 inside; -1: it misses)."""
     along, at = planes[:, :3] @ direction, planes[:, :3] @ start + planes[:, 3]
     enter, leave = 0.0, np.inf
     for a, b in zip(along, at, strict=True):

@@ -67,8 +67,9 @@ def make_panda() -> Hand:
             "closed command is 3.5 cm past the closed stop so a blocked jaw saturates at 70 N at any width",
             "TCP at the centre of the two finger pads; finger 1 = leftfinger",
             "contacts between the two fingers excluded (their pads overlap by 1 mm at the closed stop)",
-            "compliant pads: the finger hulls, 0.4-1.25 mm behind the 8 mm pads, are moved back 6.0 mm to the "
-            "elements' 6.4 mm travel (`hands.pads.clear_backing`), so the pads, not the hulls, carry the grip",
+            "compliant pads: the finger hulls, 0.4-1.25 mm behind the 8 mm pads, are cut 6.0 mm back to the "
+            "elements' 6.4 mm travel, their outer faces kept (`hands.pads.clear_backing`), so the pads, not the "
+            "hulls, carry the grip",
         ))
 
 
