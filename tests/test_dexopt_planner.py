@@ -319,3 +319,46 @@ def test_world_near_returns_every_point_in_the_box_or_below_the_height(inspire: 
     got = np.zeros(wanted.shape, bool)
     got[rows, cols] = True
     assert wanted.sum() > 0 and np.all(got[wanted]) and got.sum() < got.size  # all of them, and fewer than all
+
+
+def test_the_close_check_simulates_the_close_and_ranks_a_hand_closing_on_nothing_last(tmp_path) -> None:
+    """`close_check`: a planned grasp and the same grasp 10 cm above the can (the hand closes on air) are closed in
+    the simulation; the raised one ends `no_contact` and goes last whatever its place in the input, a candidate
+    left unchecked (`close_check` 1) goes before a close that failed, and a grasp's verdict is its own figures'."""
+    from dataclasses import replace
+
+    from manigrasp.objects import build_object
+    from manigrasp.planners.context import PlanContext
+
+    asset = build_object(trimesh.creation.cylinder(0.033, 0.10, sections=48), name="dexopt_test_can", mass=0.35,
+                         cache_root=tmp_path).asset
+    observation = Observation.from_asset(asset)
+    hand = load_hand("inspire_right")
+    context = replace(PlanContext.standard(), grip_force=10.0, contact_friction=1.0)
+    with pytest.raises(ConfigError, match="close_check"):
+        DexOptPlanner(close_check=-1)
+    planner = DexOptPlanner(restarts=8, iterations=60, close_check=2)
+    found = planner.synthesise(observation, hand, 1, np.random.default_rng(5), None, context)
+    checked = planner.last["close"]  # synthesise closed the first candidates, at most close_check of them
+    assert found and 1 <= len(checked) <= 2 and (found[0].close is None or found[0].close.passed
+                                                 or not any(c.passed for c in checked))
+    unchecked = DexOptPlanner(restarts=8, iterations=60).synthesise(observation, hand, 100,
+                                                                    np.random.default_rng(5), None, context)
+    assert all(s.close is None for s in unchecked)
+    grasp = next(s for s in unchecked if 0 in s.fingers)  # the best-ranked grasp with a thumb pad
+    raised_pose = grasp.pose.copy()
+    raised_pose[2, 3] += 0.10
+    raised = replace(grasp, pose=raised_pose)
+    hk = planner.kinematics(hand)
+    order = planner.rerank_by_close(hk, observation, [raised, grasp], 2, context)
+    assert order == [grasp, raised]
+    assert raised.close.status == "no_contact" and not raised.close.passed
+    c = grasp.close
+    assert c.status == "" and c.fingers  # it grips the can
+    assert c.passed == (not c.defects and c.margin >= planner.min_hold_margin)
+    assert ("pushed" in c.defects) == (c.pushed > 0.005) and ("off-plan" in c.defects) == (c.gap > 0.015)
+    # close_check 1: only the raised grasp is closed (it fails); the unchecked grasp goes before it.
+    one = DexOptPlanner(restarts=8, iterations=60, close_check=1)
+    fresh, up = replace(grasp, close=None), replace(raised, close=None)
+    assert one.rerank_by_close(hk, observation, [up, fresh], 2, context) == [fresh, up]
+    assert fresh.close is None and up.close.status == "no_contact"

@@ -73,6 +73,29 @@
    6/13, but at margin >= 2 the low turns are no better (< 0.3 deg 6/9, 0.3-1 deg 5/7); Inspire and Fourier
    all under 1 deg. The margin separates: successes at margin [1, 1.3) 10/23, [1.3, 2) 19/37, >= 2 63/78
    (three hands), hence `min_hold_margin` 2.
+7. The closing check (opt-in, `close_check` > 0; GraspIt!-style: simulate the close, then judge the contacts):
+   after steps 4-6 and the non-maximum suppression, the first `close_check` candidates in that order are closed
+   in MuJoCo as the protocol closes (`CloseSimulation`: `protocol.phases.close` on a `TrialRun` in a scene of
+   the hand and the object free on the table, gravity on, the grip force `PlanContext.grip_force_for`; the hand
+   starts at the grasp pose with its fingers at the pre-shape, as at the end of the approach; no lift, no
+   perturbation), until `n` pass. A candidate passes when the close grips the object without a defect of
+   benchmarks/diagnose_dexterous.py's `close_defects` (object pushed over 5 mm, a finger's contacts over
+   15 mm from its planned pad, the thumb pressing mostly off its planned pads, over 0.55 of the friction used
+   by the squeeze alone) and the load test of step 6 on the simulated contacts (each link's contacts lumped,
+   the simulated normal forces as caps) reaches `min_hold_margin`. Passing candidates come first, those whose
+   close failed (`no_contact`, `unstable`) last, the rest in between, each in the order of step 6. (Ranking
+   the unchecked before those that gripped but did not pass, and these by fewest defects then simulated
+   margin, lost 26 -> 19/40 Allegro and 20 -> 14/40 Fourier on the runs measured next.) (In the replayed dexterous
+   trials at margin >= 2, those without a defect succeeded 18/20, at margin >= 1.3 32/35;
+   diagnose_dexterous.py.) Measured (tomato soup can, mustard bottle, potted meat can, mug x allegro_right,
+   fourier_right x 10 grasps, standard 10 N, seed 0, `manigrasp bench`; `close_check: 30` against off): Allegro
+   26 -> 25/40 (can 10 -> 9, mustard 1, potted meat 7, mug 8), Fourier 20 -> 21/40 (mug 5 -> 6, its
+   `no_contact` gone; can 6, mustard 6, potted meat 3): no gain beyond noise. Few candidates pass: of the 10
+   returned per group (same objects, planning seed 0, in-process trials), Allegro 15/40 (13 of them succeeded,
+   against 12 of the other 25; the can's 10 passed already ranked first), Fourier 0/40 (its fingers' contacts
+   over 15 mm (up to 67 mm) from the planned pads in 32 of 40; 24 of the 40 succeeded all the same). Planning
+   CPU per Allegro grasp (10 asked, one call, `time.process_time`): can 1.25 -> 1.52 s (15 closes), mustard
+   1.41 -> 1.59 s (30), potted meat 1.26 -> 1.38 s (30), mug 1.52 -> 1.81 s (24).
 
 Score = 1 / (1 + E) (in (0, 1], higher is better) with E the final energy.
 """
@@ -128,6 +151,12 @@ FORCE_SHARE_STEPS = 30  # projected-gradient steps of the contact force shares (
 # an assumed order of magnitude for the rubber fingertips: the parallel jaw's pad is 3.4e4 N/m).
 CONTACT_STIFFNESS = 1e4
 APPROACH_CHECKS = 6  # poses checked along the approach from the pre-grasp pose to the grasp pose
+# The simulated close's defects (`CloseSimulation`; the thresholds of benchmarks/diagnose_dexterous.py's
+# `close_defects`) and what counts as touching.
+PUSHED_MAX = 0.005  # [m] the object pushed on the table by the close
+GAP_MAX = 0.015  # [m] a finger's contacts from its planned pad
+FRICTION_USED_MAX = 0.55  # [-] friction used by the squeeze alone
+TOUCH_N = 0.1  # [N] a finger or link pressing at least this touches
 
 
 @dataclass
@@ -147,6 +176,9 @@ class Synthesis:
             predicts (`dexopt.grasp_stiffness`, `dexopt.load_rotation`; inf: a load along a direction the
             contacts cannot hold); recorded, not used to rank (module docstring, step 6).
         opened: the pre-shape is one of the `OPEN_TRIES` toward the open hand (ranked after the others).
+        fingers, bodies: (k,) the finger (index into `Hand.finger_bodies`, 0 the thumb) and the body (id in
+            `HandKinematics.model`) of each pad in `contacts`.
+        close: what the simulated close gave (`CloseSimulation.check`), None if not simulated (step 7).
     """
 
     pose: np.ndarray
@@ -160,6 +192,9 @@ class Synthesis:
     hold: float = float("inf")
     rotation: float = 0.0
     opened: bool = False
+    fingers: np.ndarray | None = None
+    bodies: np.ndarray | None = None
+    close: CloseResult | None = None
 
 
 @dataclass(frozen=True)
@@ -210,6 +245,8 @@ class DexOptPlanner:
             of 78 dexopt trials of the dexterous config succeeded, at [1, 2) 29 of 60, step 6; the order alone,
             2 instead of 1 at 96 x 150, moved nothing: Allegro, Fourier, Inspire 29, 37, 42/80 against 28, 36, 43).
         density: of an object without a built asset, for its mass [kg/m^3].
+        close_check: how many of the best-ranked candidates the closing check (step 7) closes in the
+            simulation at most (it stops once the `n` asked for pass); 0 (the default): off.
     """
 
     name: ClassVar[str] = "dexopt"
@@ -240,6 +277,7 @@ class DexOptPlanner:
     torsion: float = STANDARD_TORSION_M
     min_hold_margin: float = 2.0
     density: float = DEFAULT_DENSITY
+    close_check: int = 0
     _hands: dict = field(default_factory=dict, init=False, repr=False, compare=False)
     last: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -260,6 +298,8 @@ class DexOptPlanner:
         negative_friction = self.friction is not None and self.friction < 0
         if negative_friction or self.torsion < 0 or self.min_hold_margin < 0 or not self.density > 0:
             raise ConfigError("dexopt: friction, torsion and min_hold_margin must be >= 0, density > 0")
+        if int(self.close_check) < 0:
+            raise ConfigError(f"dexopt: close_check must be >= 0 (0: off), got {self.close_check}")
         if self.max_penetration < 0 or self.table_clearance < 0 or not 0 <= self.init_closure <= 1:
             raise ConfigError("dexopt: max_penetration and table_clearance must be >= 0, init_closure in [0, 1]")
 
@@ -519,7 +559,8 @@ class DexOptPlanner:
             passed.append(Synthesis(pose=tcp, q=q[i].copy(), joints=joints, energy=float(energy[i]),
                                     terms={key: float(v[i]) for key, v in terms.items()},
                                     contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold,
-                                    rotation=rotation, opened=opened))
+                                    rotation=rotation, opened=opened, fingers=hk.pad_finger[chosen][touching],
+                                    bodies=hk.contacts.bodies[chosen][touching]))
         if not passed:
             return []
         # Grasps that hold the loads first (lowest energy first among them), then the rest by hold margin; in
@@ -530,7 +571,36 @@ class DexOptPlanner:
         passed = [passed[j] for j in order]
         self.last["holding"] = int(holds.sum())
         keep = suppress(np.stack([s.pose for s in passed]), self.nms_distance, self.nms_angle)
-        return [passed[k] for k in keep[:n]]
+        diverse = [passed[k] for k in keep]
+        if self.close_check > 0:
+            diverse = self.rerank_by_close(hk, observation, diverse, n, context)
+        return diverse[:n]
+
+    def rerank_by_close(self, hk: HandKinematics, observation: Observation, ranked: list[Synthesis], n: int,
+                        context: PlanContext | None = None) -> list[Synthesis]:
+        """`ranked` re-ordered by the simulated close (module docstring, step 7): the first `close_check`
+        candidates are closed in the simulation in order (until `n` pass), each gets its `Synthesis.close`; those
+        that pass first, then those not checked and those whose close gripped the object but did not pass, then
+        those whose close failed (`CloseResult.status`), each in the given order. `last["close"]` lists the
+        results in the given order."""
+        context = resolve(context)
+        sim = CloseSimulation(hk.hand, observation, context)
+        external = loads(observation.object_mass(self.density), context.perturbation)
+        mu = self.contact_friction(context)
+        good = 0
+        for s in ranked[:self.close_check]:
+            if good >= n:
+                break
+            s.close = sim.check(s, hk, external, mu, self.torsion, self.min_hold_margin)
+            good += s.close.passed
+        self.last["close"] = [s.close for s in ranked if s.close is not None]
+
+        def rank(s: Synthesis) -> int:
+            if s.close is None:
+                return 1
+            return 0 if s.close.passed else (2 if s.close.status else 1)
+
+        return sorted(ranked, key=rank)
 
     def hand_path(self, hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray, x: np.ndarray,
                   bodies: np.ndarray, normal: np.ndarray, dist: np.ndarray, jp: np.ndarray, jr: np.ndarray,
@@ -573,6 +643,133 @@ class DexOptPlanner:
                 return np.stack([pre, squeeze]), pad_forces(rows, a.T @ force), attempt >= PRESHAPE_TRIES
         return None
 
+
+
+@dataclass(frozen=True)
+class CloseResult:
+    """The simulated close of one candidate (`CloseSimulation.check`, module docstring step 7).
+
+    Attributes:
+        status: "" if the close ended gripping the object, else the protocol's failure status (`no_contact`,
+            `unstable`).
+        pushed: [m] how far the close moved the object's centre of mass on the table.
+        gap: [m] the largest distance of a planned finger's contacts (normal-force-weighted centre) from its
+            planned pad (fingers that do not touch are left out: the load test sees them missing).
+        thumb_on_pad: share of the thumb's normal force on its planned pads' links [-] (1 without a thumb force).
+        friction_used: the friction the squeeze already uses, normal-force-weighted |f_t| / (mu f_n) [-].
+        margin: `dexopt.hold_margin` of the simulated contacts (each link's contacts lumped at their
+            force-weighted centre and mean normal, capped at the normal force the simulation presses there)
+            about the object's centre of mass now, under the planner's loads.
+        fingers: the fingers touching the object (at least `TOUCH_N` each).
+        defects: the close's defects: "pushed" (more than `PUSHED_MAX`), "off-plan" (a gap over `GAP_MAX`),
+            "thumb-off-pad" (under half its force on its pads), "friction-used" (over `FRICTION_USED_MAX`).
+        passed: no failure status, no defect, and `margin` >= the planner's `min_hold_margin`.
+    """
+
+    status: str
+    pushed: float = float("nan")
+    gap: float = float("nan")
+    thumb_on_pad: float = float("nan")
+    friction_used: float = float("nan")
+    margin: float = 0.0
+    fingers: tuple[int, ...] = ()
+    defects: tuple[str, ...] = ()
+    passed: bool = False
+
+
+class CloseSimulation:
+    """The protocol's close phase (`protocol.phases.close`) run for planned candidates in a scene of their own:
+    the hand on its mount at the grasp pose, its joints at the pre-shape (the end of the approach, which the
+    planner checked clear), the object free at its observed pose on the table, the scene's gravity, the grip
+    force of `context` (`PlanContext.grip_force_for`) and otherwise the protocol's default execution parameters;
+    after the settle the protocol holds before closing (`approach_settle_s`), the close, then the contacts.
+
+    The scene: the standard physics (`SceneConfig`) with compliant pads, or rigid ones when `context` says the
+    grasping friction is the hand's own (`grasping_friction` of a rigid-pad scene).
+    """
+
+    def __init__(self, hand: Hand, observation: Observation, context: PlanContext) -> None:
+        from manigrasp.planners.collision import mesh_object_spec
+        from manigrasp.sim import SceneConfig, build_scene
+
+        config = SceneConfig()
+        if context.contact_friction is not None and context.contact_friction != config.pad_friction:
+            config = dataclasses.replace(config, pads="rigid")
+        obj = observation.asset if observation.asset is not None else mesh_object_spec(observation.mesh)
+        self.scene = build_scene(hand, obj, config)
+        self.shift = np.eye(4)  # the scene's table top is z = 0
+        self.shift[2, 3] = -float(observation.table_height)
+        self.object_pose = observation.object_pose
+        self.grip = context.grip_force_for(hand)
+        model = self.scene.model
+        hand_bodies = set(self.scene.hand_bodies.tolist())
+        self.addresses = {model.joint(j).name.removeprefix("hand/"): int(model.jnt_qposadr[j])
+                          for j in range(model.njnt)
+                          if model.jnt_bodyid[j] in hand_bodies and model.joint(j).name.startswith("hand/")}
+        self.body_names = [model.body(b).name.removeprefix("hand/") for b in range(model.nbody)]
+
+    def check(self, s: Synthesis, hk: HandKinematics, external: np.ndarray, mu: float, torsion: float,
+              min_margin: float) -> CloseResult:
+        """Close on candidate `s` (its pose, pre-shape and squeeze rows) and judge the contacts at the end."""
+        from manigrasp.protocol import phases
+        from manigrasp.protocol.execution import Abort, GraspParams, TrialRun
+        from manigrasp.sim import read_hand_contacts
+
+        scene = self.scene
+        run = TrialRun(scene, GraspParams(grip_force=self.grip), None)
+        run.joints = np.array(s.joints, float)
+        mount = self.shift @ s.pose
+        run.reset(mount, self.shift @ self.object_pose, 0.0)
+        qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), hk.q_from_ctrl(s.joints[0]))
+        for j in hk.joints:  # the fingers at the pre-shape, as at the end of the approach
+            scene.data.qpos[self.addresses[hk.model.joint(j).name]] = qpos[hk.model.jnt_qposadr[j]]
+        mujoco.mj_forward(scene.model, scene.data)
+        start = scene.data.xipos[scene.object_body].copy()
+        try:
+            run.hold_for(run.params.approach_settle_s)
+            phases.close(run, 0.0, metrics=False)
+        except Abort as abort:
+            return CloseResult(status=abort.status.value)
+        finally:
+            phases.release_hold(run)
+            scene.set_hand_path()
+        c = read_hand_contacts(scene, "object")
+        com = scene.data.xipos[scene.object_body].copy()
+        fn = np.clip(c.normal_force, 0.0, None)
+        pos, center = c.position - self.shift[:3, 3], com - self.shift[:3, 3]  # in the observation's world
+        total = max(float(fn.sum()), 1e-12)
+        used = float((c.tangential_force / np.maximum(c.friction * fn, 1e-9) * fn).sum() / total)
+        planned = {hk.model.body(int(b)).name for b in s.bodies}
+        on_pad = np.array([self.body_names[b] in planned for b in c.hand_body], bool)
+        thumb = c.finger == 0
+        thumb_force = float(fn[thumb].sum())
+        thumb_on_pad = float(fn[thumb & on_pad].sum()) / thumb_force if thumb_force > 0 else 1.0
+        gaps = []
+        for p, f in zip(s.contacts, s.fingers, strict=True):
+            sel = (c.finger == f) & (fn > 0)
+            if fn[sel].sum() >= TOUCH_N:
+                gaps.append(float(np.linalg.norm(fn[sel] @ pos[sel] / fn[sel].sum() - p)))
+        gap = max(gaps, default=0.0)
+        pushed = float(np.linalg.norm(com - start))
+        points, normals, caps = [], [], []
+        for body in np.unique(c.hand_body):
+            sel = (c.hand_body == body) & (fn > 0)
+            if fn[sel].sum() < TOUCH_N:
+                continue
+            w = fn[sel] / fn[sel].sum()
+            points.append(w @ pos[sel])
+            normal = w @ c.normal[sel]
+            normals.append(normal / np.linalg.norm(normal))
+            caps.append(fn[sel].sum())
+        margin = (hold_margin(np.array(points), np.array(normals), np.array(caps), center, external, mu, torsion)
+                  if caps else 0.0)
+        fingers = tuple(int(f) for f in np.unique(c.finger[fn > 0]) if fn[c.finger == f].sum() >= TOUCH_N)
+        defects = tuple(name for name, bad in (("pushed", pushed > PUSHED_MAX), ("off-plan", gap > GAP_MAX),
+                                               ("thumb-off-pad", thumb_on_pad < 0.5),
+                                               ("friction-used", used > FRICTION_USED_MAX)) if bad)
+        return CloseResult(status="", pushed=pushed, gap=gap, thumb_on_pad=thumb_on_pad, friction_used=used,
+                           margin=float(margin), fingers=fingers, defects=defects,
+                           passed=not defects and margin >= min_margin)
 
 
 def pad_jacobians(x: np.ndarray, slot: np.ndarray, jp: np.ndarray, jr: np.ndarray, xpos: np.ndarray) -> np.ndarray:
