@@ -112,7 +112,7 @@ def test_open_hand_encloses_its_max_width_and_closes(name: str, objects: dict) -
     tcp = scene.tcp_pose()
     if scene.hand.kind == "parallel":  # the open jaws span max_width along the closing axis, pad face to pad face
         # measured on the rigid pads' boxes: a compliant pad's box does not collide and a ray from the centre passes
-        # between its elements, to the finger behind it (`pads.clear_backing` moves the Panda's hull back 6 mm)
+        # between its elements, to the finger behind it (`pads.clear_backing` cuts the Panda's hull 6 mm back)
         rigid = build_scene(scene.hand, None, SceneConfig(pads="rigid"))
         rigid.reset(mount=far, synergy=0.0)
         mujoco.mj_forward(rigid.model, rigid.data)

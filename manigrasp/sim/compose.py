@@ -195,13 +195,14 @@ def hand_spec(hand: Hand, config: SceneConfig) -> mujoco.MjSpec:
     """A fresh spec of `hand` alone, its pads made compliant if `config.pads` asks for it."""
     child = hand.build_spec()
     if config.pads == "compliant" and hand.pad_geoms:
-        directions = pads.pad_directions(child, hand.pad_geoms, hand.tcp_site)
-        pads.make_compliant(child, directions, config.pad_model())
+        # the pads' backing blocks stop colliding first, so `pads.clear_backing` leaves them as they are
         for name in hand.pad_backing:
             backing = child.geom(name)
             if backing is None:
                 raise SimulationError(f"hand {hand.name!r}: pad backing geom {name!r} not in its MJCF")
             backing.contype, backing.conaffinity = 0, 0
+        directions = pads.pad_directions(child, hand.pad_geoms, hand.tcp_site)
+        pads.make_compliant(child, directions, config.pad_model())
     for name in rubber_fingertips(hand, config):
         geom = child.geom(name)
         if geom is None or (geom.contype == 0 and geom.conaffinity == 0):
