@@ -362,3 +362,8 @@ def test_the_close_check_simulates_the_close_and_ranks_a_hand_closing_on_nothing
     fresh, up = replace(grasp, close=None), replace(raised, close=None)
     assert one.rerank_by_close(hk, observation, [up, fresh], 2, context) == [fresh, up]
     assert fresh.close is None and up.close.status == "no_contact"
+    # close_defects off: the simulated margin alone decides (the same close, so the same figures).
+    loose = replace(grasp, close=None)
+    DexOptPlanner(close_check=1, close_defects=False).rerank_by_close(hk, observation, [loose], 1, context)
+    assert loose.close.passed == (loose.close.margin >= planner.min_hold_margin)
+    assert loose.close.defects == c.defects and loose.close.margin == pytest.approx(c.margin, rel=1e-6)

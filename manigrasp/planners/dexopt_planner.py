@@ -88,12 +88,16 @@
    margin, lost 26 -> 19/40 Allegro and 20 -> 14/40 Fourier on the runs measured next.) (In the replayed dexterous
    trials at margin >= 2, those without a defect succeeded 18/20, at margin >= 1.3 32/35;
    diagnose_dexterous.py.) Measured (tomato soup can, mustard bottle, potted meat can, mug x allegro_right,
-   fourier_right x 10 grasps, standard 10 N, seed 0, `manigrasp bench`; `close_check: 30` against off): Allegro
-   26 -> 25/40 (can 10 -> 9, mustard 1, potted meat 7, mug 8), Fourier 20 -> 21/40 (mug 5 -> 6, its
-   `no_contact` gone; can 6, mustard 6, potted meat 3): no gain beyond noise. Few candidates pass: of the 10
+   fourier_right x 10 grasps, standard 10 N, `manigrasp bench`; off -> `close_check: 30` -> with
+   `close_defects: false`): seed 0 Allegro 26 -> 25 -> 26/40, Fourier 20 -> 21 -> 22/40; seed 1 Allegro
+   25 -> 26 -> 25/40, Fourier 24 -> 24 -> 26/40: no gain beyond noise. The benchmark runs every one of the
+   `n` candidates returned, so only a candidate the check brings into the first `n` (or pushes out) can move
+   its figures, not the order within them; and few candidates pass: of the 10
    returned per group (same objects, planning seed 0, in-process trials), Allegro 15/40 (13 of them succeeded,
    against 12 of the other 25; the can's 10 passed already ranked first), Fourier 0/40 (its fingers' contacts
-   over 15 mm (up to 67 mm) from the planned pads in 32 of 40; 24 of the 40 succeeded all the same). Planning
+   over 15 mm (up to 67 mm) from the planned pads in 32 of 40; 24 of the 40 succeeded all the same). The
+   simulated margin alone separates them better: >= 1.3 Allegro 24/33 succeeded, Fourier 14/18; < 1.3 1/7 and
+   10/22 (hence `close_defects`; on a larger sample it is untested). Planning
    CPU per Allegro grasp (10 asked, one call, `time.process_time`): can 1.25 -> 1.52 s (15 closes), mustard
    1.41 -> 1.59 s (30), potted meat 1.26 -> 1.38 s (30), mug 1.52 -> 1.81 s (24).
 
@@ -247,6 +251,8 @@ class DexOptPlanner:
         density: of an object without a built asset, for its mass [kg/m^3].
         close_check: how many of the best-ranked candidates the closing check (step 7) closes in the
             simulation at most (it stops once the `n` asked for pass); 0 (the default): off.
+        close_defects: a defect of the simulated close fails a candidate in the closing check; False: only the
+            load test on the simulated contacts decides (step 7).
     """
 
     name: ClassVar[str] = "dexopt"
@@ -278,6 +284,7 @@ class DexOptPlanner:
     min_hold_margin: float = 2.0
     density: float = DEFAULT_DENSITY
     close_check: int = 0
+    close_defects: bool = True
     _hands: dict = field(default_factory=dict, init=False, repr=False, compare=False)
     last: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -591,7 +598,7 @@ class DexOptPlanner:
         for s in ranked[:self.close_check]:
             if good >= n:
                 break
-            s.close = sim.check(s, hk, external, mu, self.torsion, self.min_hold_margin)
+            s.close = sim.check(s, hk, external, mu, self.torsion, self.min_hold_margin, self.close_defects)
             good += s.close.passed
         self.last["close"] = [s.close for s in ranked if s.close is not None]
 
@@ -709,8 +716,9 @@ class CloseSimulation:
         self.body_names = [model.body(b).name.removeprefix("hand/") for b in range(model.nbody)]
 
     def check(self, s: Synthesis, hk: HandKinematics, external: np.ndarray, mu: float, torsion: float,
-              min_margin: float) -> CloseResult:
-        """Close on candidate `s` (its pose, pre-shape and squeeze rows) and judge the contacts at the end."""
+              min_margin: float, defects_fail: bool = True) -> CloseResult:
+        """Close on candidate `s` (its pose, pre-shape and squeeze rows) and judge the contacts at the end (with
+        `defects_fail` False, a defect does not fail it: only the simulated margin counts)."""
         from manigrasp.protocol import phases
         from manigrasp.protocol.execution import Abort, GraspParams, TrialRun
         from manigrasp.sim import read_hand_contacts
@@ -769,7 +777,7 @@ class CloseSimulation:
                                                ("friction-used", used > FRICTION_USED_MAX)) if bad)
         return CloseResult(status="", pushed=pushed, gap=gap, thumb_on_pad=thumb_on_pad, friction_used=used,
                            margin=float(margin), fingers=fingers, defects=defects,
-                           passed=not defects and margin >= min_margin)
+                           passed=(not defects or not defects_fail) and margin >= min_margin)
 
 
 def pad_jacobians(x: np.ndarray, slot: np.ndarray, jp: np.ndarray, jr: np.ndarray, xpos: np.ndarray) -> np.ndarray:
