@@ -34,7 +34,9 @@
    534 -> 309, for the pre-shape 565 -> 288, passing 459 -> 951; distinct grasps at hold margin >= 2 after
    NMS 96 -> 167 (Allegro 31 -> 53, Fourier 30 -> 75, Inspire 35 -> 39). Success, standard 10 N, same seeds:
    Allegro 32 -> 40/70 (tennis ball 5 -> 10, no `no_grasp` left), Fourier 36 -> 37, Inspire 43 -> 44; 37, 31,
-   43 before the `OPEN_TRIES` pre-shapes were ranked after the others (step 6).)
+   43 before the `OPEN_TRIES` pre-shapes were ranked after the others (step 6). Those are the seeds the
+   changes were chosen on; on seed 1, held out, 8ac99d2 -> f5768df: Allegro 37 -> 44, Fourier 35 -> 40, Inspire
+   44 -> 40/70, pooled 116 -> 124/210, as seed 0's 111 -> 121: no single hand's change is significant.)
 5. Hand path (`GraspCandidate.joints`, actuator commands): first the pads' remaining gaps are closed (the
    least-norm joint motion moving each pad its distance along its normal, damped least squares): the contact
    command. The squeeze is the actuator forces f that best produce the joint torques sum_i J_i^T n_i pushing
