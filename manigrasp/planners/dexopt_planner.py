@@ -930,22 +930,12 @@ def _ray_to_surface(sdf: GridSdf, start: np.ndarray, direction: np.ndarray, far:
 
 
 def _sparse_backprop(hk: HandKinematics, points: Any, world: np.ndarray, grad: np.ndarray, xpos: np.ndarray,
-                     jp: np.ndarray, jr: np.ndarray, flat: np.ndarray | None = None) -> np.ndarray:
-    """`hk.backprop` over the (restart, point) pairs with a non-zero gradient only (`flat`: their indices into
-    the (R x n) pairs when known, else found)."""
-    out = np.zeros((len(world), jp.shape[-1]))
-    if flat is None:
-        rows, cols = np.nonzero(np.any(grad != 0.0, axis=2))
-    else:
-        rows, cols = np.divmod(np.asarray(flat, int), grad.shape[1])
-    if len(rows) == 0:
-        return out
-    slot = hk._slot[points.bodies[cols]]
-    g = grad[rows, cols]
-    torque = np.cross(world[rows, cols] - xpos[rows, slot], g)
-    contrib = np.einsum("ni,nij->nj", g, jp[rows, slot]) + np.einsum("ni,nij->nj", torque, jr[rows, slot])
-    np.add.at(out, rows, contrib)
-    return out
+                     jp: np.ndarray, jr: np.ndarray) -> np.ndarray:
+    """`hk.backprop` of the gradients `grad` (R, n, 3) at `world` (R, n, 3) over the (restart, point) pairs with a
+    non-zero gradient only (`_pair_backprop`)."""
+    rows, cols = np.nonzero(np.any(grad != 0.0, axis=2))
+    return _pair_backprop(hk, points, rows, cols, world[rows, cols], grad[rows, cols], xpos, jp, jr,
+                          np.arange(len(rows)))
 
 
 def _pair_backprop(hk: HandKinematics, points: Any, rows: np.ndarray, cols: np.ndarray, world: np.ndarray,
