@@ -403,10 +403,8 @@ def clear_backing(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]], t
         The geoms changed: id -> cut [m], travel minus the geom's depth behind the face (the largest over the pads,
         when several ask).
     """
-    depths = backing_depths(spec, pads, samples)
-    compiled = spec.copy().compile()
-    data = mujoco.MjData(compiled)
-    mujoco.mj_kinematics(compiled, data)
+    compiled, data = _compiled(spec)
+    depths = _backing_depths(spec, compiled, data, pads, samples)
     geoms = list(spec.geoms)
     if len(geoms) != compiled.ngeom:
         raise HandError(f"spec has {len(geoms)} geoms, its compiled copy {compiled.ngeom}")
@@ -500,9 +498,20 @@ def backing_depths(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]],
     the geom reaches in front of the face). Geoms no ray meets are left out. Measured on a copy of `spec` compiled at
     its reference configuration; a mesh geom by its convex hull (what MuJoCo's collision uses), a primitive by
     `mujoco.mju_rayGeom`."""
+    return _backing_depths(spec, *_compiled(spec), pads, samples)
+
+
+def _compiled(spec: mujoco.MjSpec) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """A compiled copy of `spec` and its data at the reference configuration (body poses computed)."""
     model = spec.copy().compile()
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
+    return model, data
+
+
+def _backing_depths(spec: mujoco.MjSpec, model: mujoco.MjModel, data: mujoco.MjData,
+                    pads: Sequence[tuple[str, np.ndarray]], samples: int) -> list[dict[int, float]]:
+    """`backing_depths` on `model`, `spec` compiled, with `data` at its reference configuration."""
     hulls: dict[int, np.ndarray] = {}  # mesh geom id -> its convex hull's planes (world), computed once
     out = []
     for name, toward in pads:
@@ -542,15 +551,13 @@ def _ray_hull(planes: np.ndarray, start: np.ndarray, direction: np.ndarray) -> f
     """Distance along unit `direction` from `start` to where the ray enters the convex hull with plane equations
     `planes` (m, 4: a . x + b <= 0 inside; -1: it misses)."""
     along, at = planes[:, :3] @ direction, planes[:, :3] @ start + planes[:, 3]
-    enter, leave = 0.0, np.inf
-    for a, b in zip(along, at, strict=True):
-        if abs(a) < 1e-15:
-            if b > 0:
-                return -1.0
-        elif a < 0:
-            enter = max(enter, -b / a)
-        else:
-            leave = min(leave, -b / a)
+    parallel = np.abs(along) < 1e-15
+    if np.any(at[parallel] > 0):  # parallel to a face it lies outside of
+        return -1.0
+    along, at = along[~parallel], at[~parallel]
+    t = -at / along
+    enter = max(0.0, float(t[along < 0].max(initial=0.0)))
+    leave = float(t[along > 0].min(initial=np.inf))
     return enter if enter <= leave else -1.0
 
 
