@@ -148,6 +148,7 @@ import numpy as np
 
 from manigrasp.bench.replay import find_trial, stored_grasp, stored_trials
 from manigrasp.geometry import relative_pose
+from manigrasp.planners.dexopt_planner import FRICTION_USED_MAX, GAP_MAX, PUSHED_MAX
 from manigrasp.protocol.result import Phase
 from manigrasp.sim import grip_force, read_hand_contacts
 
@@ -613,7 +614,8 @@ def close_defects(r: dict) -> list[str]:
     return out
 
 
-PUSHED_MM, GAP_MM, USED = 5.0, 15.0, 0.55  # thresholds of `close_defects`
+# thresholds of `close_defects`: the planner's closing check's (`dexopt_planner`, step 7), in mm
+PUSHED_MM, GAP_MM, USED = 1000.0 * PUSHED_MAX, 1000.0 * GAP_MAX, FRICTION_USED_MAX
 
 
 def versus_summary(rows: list[dict], out=sys.stdout) -> None:
