@@ -52,12 +52,32 @@ def test_edge_tilt_of_a_fingertip_on_a_low_object() -> None:
     assert float(cap.edge_tilt(0.006, 0.012)) == pytest.approx(math.pi / 6)
 
 
-def test_effective_friction_vanishes_at_the_cone_angle() -> None:
-    assert float(cap.effective_friction(0.5)) == pytest.approx(0.5)
-    assert float(cap.effective_friction(0.5, math.atan(0.5))) == pytest.approx(0.0, abs=1e-12)
-    assert float(cap.effective_friction(0.5, 0.6)) == 0.0  # past the cone: clipped, the squeeze pushes it out
+def test_the_friction_per_normal_force_vanishes_at_the_cone_angle() -> None:
+    assert float(cap.friction_per_normal_force(0.5)) == pytest.approx(0.5)
+    assert float(cap.friction_per_normal_force(0.5, math.atan(0.5))) == pytest.approx(0.0, abs=1e-12)
+    assert float(cap.friction_per_normal_force(0.5, 0.6)) == 0.0  # past the cone: clipped, the squeeze pushes it out
     # 30 degrees at mu 1: cos 30 - sin 30
-    assert float(cap.effective_friction(1.0, math.pi / 6)) == pytest.approx(math.sqrt(3) / 2 - 0.5)
+    assert float(cap.friction_per_normal_force(1.0, math.pi / 6)) == pytest.approx(math.sqrt(3) / 2 - 0.5)
+
+
+def test_the_friction_per_squeeze_is_the_cone_left_beyond_the_tilt() -> None:
+    assert float(cap.friction_per_squeeze(0.5)) == pytest.approx(0.5)
+    assert float(cap.friction_per_squeeze(1.0, math.pi / 6)) == pytest.approx(math.tan(math.pi / 12))  # 45 - 30 deg
+    assert float(cap.friction_per_squeeze(0.5, math.atan(0.5))) == 0.0
+    assert float(cap.friction_per_squeeze(0.5, 0.6)) == 0.0
+
+
+@pytest.mark.parametrize("mu", [0.3, 0.5, 1.0])
+@pytest.mark.parametrize("tilt", [0.0, 0.1, 0.25])  # within every cone (atan 0.3 = 0.29)
+def test_both_frictions_are_the_cone_edge_force_measured_against_the_normal_and_the_squeeze(mu, tilt) -> None:
+    """A contact force at its friction cone's edge, per N of normal force (normal tilted by `tilt` from the squeeze
+    line x, its friction turned against the load along z): its load component per N of normal force is
+    `friction_per_normal_force`, per N of its squeeze component `friction_per_squeeze` (the same at no tilt)."""
+    normal = np.array([math.cos(tilt), 0.0, -math.sin(tilt)])  # pushes along x and down
+    tangent = np.array([math.sin(tilt), 0.0, math.cos(tilt)])  # up the object's face
+    force = normal + mu * tangent
+    assert float(cap.friction_per_normal_force(mu, tilt)) == pytest.approx(force[2], abs=1e-12)
+    assert float(cap.friction_per_squeeze(mu, tilt)) == pytest.approx(force[2] / force[0], abs=1e-12)
 
 
 def test_zero_effective_friction_needs_infinite_force() -> None:
@@ -111,7 +131,8 @@ def test_rubber_halves_the_required_force() -> None:
 @pytest.mark.parametrize(("call", "match"), [
     (lambda: cap.frictional_load(-1.0), "mass"),
     (lambda: cap.frictional_load(1.0, perturb_multiple=-1.0), "perturb_multiple"),
-    (lambda: cap.effective_friction(0.0), "mu"),
+    (lambda: cap.friction_per_normal_force(0.0), "mu"),
+    (lambda: cap.friction_per_squeeze(-0.1), "mu"),
     (lambda: cap.edge_tilt(0.01, 0.0), "tip_radius"),
     (lambda: cap.required_grip(1.0, 0.5, squeeze_ratio=0.0), "squeeze_ratio"),
 ])

@@ -17,7 +17,11 @@ Fingertips on thin objects. A fingertip of radius r closing on an object of heig
 cannot reach its side face (its centre stays at least r above the table): it touches the top edge, the
 contact normal tilted down by theta = asin((r - h) / r). A two-sided squeeze along such normals pushes the
 object down with 2 F sin(theta) while friction lifts with at most 2 mu F cos(theta): the effective
-coefficient against the vertical load is mu cos(theta) - sin(theta), zero at theta = atan(mu).
+coefficient against the vertical load, per unit of contact normal force F, is mu cos(theta) - sin(theta),
+zero at theta = atan(mu) (`friction_per_normal_force`). Per unit of the squeeze along the grasp line instead
+(the normal force's component along it plus its friction's, cos(theta) + mu sin(theta) per unit of F) it is
+tan(atan(mu) - theta) (`friction_per_squeeze`, the planners' two-jaw hold model, `manigrasp.planners.hold`):
+the same friction cone tilted by theta, measured against a different force.
 
 Sizes. A hand closes across an object's narrowest horizontal width (its resting pose's minimum caliper
 width, `min_width_2d`) at most as wide as the open hand's aperture between thumb and fingertips.
@@ -66,9 +70,24 @@ def edge_tilt(height: np.ndarray | float, tip_radius: float) -> np.ndarray:
     return np.arcsin(np.clip((radius - height) / radius, 0.0, 1.0))
 
 
-def effective_friction(mu: np.ndarray | float, tilt: np.ndarray | float = 0.0) -> np.ndarray:
-    """Friction coefficient against the vertical load of a squeeze whose normals tilt down by `tilt` [rad]:
-    mu cos(tilt) - sin(tilt) (clipped at 0: such a squeeze only pushes the object out)."""
+def friction_per_squeeze(mu: np.ndarray | float, tilt: np.ndarray | float = 0.0) -> np.ndarray:
+    """The load [N] friction carries across a squeeze line per N of squeeze along it, at contacts whose normals
+    tilt by `tilt` [rad] from the line against the load: tan(atan(mu) - tilt), the friction cone's half-angle
+    left beyond the tilt (clipped at 0: past the cone the squeeze only pushes the object out).
+
+    Per N of the contacts' normal force instead: `friction_per_normal_force`."""
+    mu = _positive("mu", mu)
+    return np.tan(np.clip(np.arctan(mu) - np.asarray(tilt, dtype=float), 0.0, None))
+
+
+def friction_per_normal_force(mu: np.ndarray | float, tilt: np.ndarray | float = 0.0) -> np.ndarray:
+    """The load [N] friction carries across a squeeze line per N of the contacts' normal force, at contacts whose
+    normals tilt by `tilt` [rad] from the line against the load: mu cos(tilt) - sin(tilt) (clipped at 0: past
+    the cone the squeeze only pushes the object out). It is `friction_per_squeeze` times the squeeze per N of
+    normal force at the cone's edge, cos(tilt) + mu sin(tilt) (module docstring), written out here so that
+    neither rounds through the other (tan(atan(0.5)) is 0.49999999999999994).
+
+    Per N of squeeze along the line instead: `friction_per_squeeze`."""
     mu = _positive("mu", mu)
     tilt = np.asarray(tilt, dtype=float)
     return np.clip(mu * np.cos(tilt) - np.sin(tilt), 0.0, None)
@@ -124,7 +143,8 @@ class HoldCheck:
 
     Attributes:
         fits: the hand closes on the object's grasp width from both sides.
-        mu_eff: effective friction coefficient (after a thin object's edge tilt) [-].
+        mu_eff: effective friction coefficient (after a thin object's edge tilt), per unit of normal force
+            (`friction_per_normal_force`) [-].
         load: the load friction must carry [N].
         required: total normal force that carries it [N] (inf if mu_eff is 0).
         available: total normal force of the hand's squeeze [N].
@@ -157,7 +177,7 @@ def check_hold(fits: bool, height: float, mass: float, tip_radius: float, availa
         mu: hand-object friction coefficient [-].
         perturb_multiple, gravity, g: the protocol's load (`frictional_load`).
     """
-    mu_eff = float(effective_friction(mu, edge_tilt(height, tip_radius)))
+    mu_eff = float(friction_per_normal_force(mu, edge_tilt(height, tip_radius)))
     load = float(frictional_load(mass, perturb_multiple, gravity, g))
     required = float(required_normal_force(load, mu_eff))
     if not fits:

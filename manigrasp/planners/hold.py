@@ -24,9 +24,11 @@ The balance of the object splits exactly (two contacts on one line):
 `required_grip` is the smallest G meeting all three for every load (a
 bisection on G, exact to `GRIP_TOLERANCE`; every condition is monotone in G).
 Contact normals tilted by alpha_i from the grasp line use part of their
-friction against the squeeze: mu_i = tan(atan(mu) - alpha_i) (an
-approximation; exact for alpha = 0). Everything is homogeneous of degree one
-in (G, loads), so the hold margin
+friction against the squeeze: mu_i = tan(atan(mu) - alpha_i), the load
+carried across the line per unit of squeeze along it
+(`hands.capacity.friction_per_squeeze`; an approximation; exact for
+alpha = 0). Everything is homogeneous of degree one in (G, loads), so the
+hold margin
 
     h = G_protocol / required_grip
 
@@ -41,6 +43,7 @@ from __future__ import annotations
 import numpy as np
 
 from manigrasp.contact.defaults import STANDARD_GRAVITY as GRAVITY  # [m/s^2]
+from manigrasp.hands.capacity import friction_per_squeeze
 
 GRIP_TOLERANCE = 1e-4  # relative precision of the bisection on the grip force
 BISECTION_STEPS = 24  # 2^-24 of the initial bracket: well under GRIP_TOLERANCE
@@ -78,12 +81,6 @@ def _tangential(a: np.ndarray, width: np.ndarray, f_perp: np.ndarray,
     return np.linalg.norm(-f_perp - couple, axis=2) / 2.0, np.linalg.norm(-f_perp + couple, axis=2) / 2.0
 
 
-def effective_friction(mu: float, tilt: np.ndarray) -> np.ndarray:
-    """Friction left for the load at contacts whose normal is `tilt` [rad] off the grasp line: tan(atan(mu) - tilt),
-    at least 1e-9."""
-    return np.maximum(np.tan(np.clip(np.arctan(mu) - np.asarray(tilt, float), 0.0, None)), 1e-9)
-
-
 def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.ndarray, mu: float,
                   gamma: float | np.ndarray, tilt: np.ndarray | None = None,
                   support: np.ndarray | None = None, across: np.ndarray | None = None) -> np.ndarray:
@@ -105,7 +102,7 @@ def required_grip(p: np.ndarray, q: np.ndarray, center: np.ndarray, forces: np.n
         return np.zeros(0)
     gamma = np.maximum(np.broadcast_to(np.asarray(gamma, float), (m,)), 1e-9)[:, None]
     tilt = np.zeros((m, 2)) if tilt is None else np.asarray(tilt, float)
-    mu_eff = effective_friction(mu, tilt)  # (m, 2)
+    mu_eff = np.maximum(friction_per_squeeze(mu, tilt), 1e-9)  # (m, 2); 0 past the cone: no load is held
     a, width, axial, f_perp, tau_perp, tau = _split(p, q, np.asarray(center, float), np.asarray(forces, float))
     t1, t2 = _tangential(a, width, f_perp, tau_perp)
     need1, need2 = t1 / mu_eff[:, :1], t2 / mu_eff[:, 1:]  # (m, L) normal force each contact needs for sliding
