@@ -197,3 +197,23 @@ def test_cameras_must_match_only_where_perception_groups_are_compared(tmp_path, 
     other.write_text(json.dumps(payload))
     assert main(["compare", str(seen), str(other)]) == 2
     assert "different camera" in capsys.readouterr().err
+
+
+def test_the_verdict_line_counts_groups_lines_and_the_pooled_test_apart(tmp_path, capsys, run_and_payload):
+    """Mug 18/20 and hammer 10/20 against a baseline whose hammer held 20/20: the hammer, the planner's line (28/40
+    vs 38/40) and the pooled line regress. Before, the last line said "3 significant regression(s) ... over 2
+    group(s) in both", as if 3 of 2 groups had dropped."""
+    run, payload = run_and_payload
+    better = copy.deepcopy(payload)
+    better["groups"] = [dict(g, successes=20) if g["object"] == "048_hammer" else g for g in payload["groups"]]
+    assert _gate(tmp_path, run, better) == 1
+    out = capsys.readouterr().out.strip().splitlines()
+    assert out[-1] == ("3 significant regression(s) at alpha = 0.05: 1 of the 2 hand x planner x observation x "
+                       "protocol x object group(s) in both, 1 of the 1 hand x planner x observation x protocol "
+                       "line(s) over their groups in both, and the pooled line (pooled (groups in both))")
+    assert out[-2].startswith("p (adjusted): one-sided; Holm-adjusted across the")
+    assert sum(line.endswith("REGRESSION") for line in out) == 3
+    assert _gate(tmp_path, run, payload) == 0
+    assert capsys.readouterr().out.strip().splitlines()[-1].endswith(
+        "0 of the 2 hand x planner x observation x protocol x object group(s) in both, 0 of the 1 hand x planner x "
+        "observation x protocol line(s) over their groups in both, not the pooled line (pooled (groups in both))")

@@ -30,6 +30,10 @@ from manigrasp.bench.stats import ProportionTest, lower_than_baseline, wilson_in
 from manigrasp.errors import ConfigError
 
 POOLED_GROUP = "pooled (groups in both)"
+METHOD_WORDS = "hand x planner x observation x protocol"
+GROUP_WORDS = f"{METHOD_WORDS} x object"
+P_NOTE = (f"p (adjusted): one-sided; Holm-adjusted across the {GROUP_WORDS} groups and, apart, across the "
+          f"{METHOD_WORDS} lines; the pooled line is one test, not adjusted")
 # Config fields that must be equal on both sides for their success rates to be comparable (and every protocol,
 # hand and object present on both sides).
 _SAME = ("scene",)
@@ -85,6 +89,19 @@ class Verdict:
     def groups_compared(self) -> int:
         """How many hand x planner x observation x protocol x object groups were compared."""
         return sum(c.kind == "group" for c in self.comparisons)
+
+    def summary(self, alpha: float) -> str:
+        """The verdict in one line, each kind of test counted apart: "2 significant regression(s) at alpha = 0.05:
+        1 of 10 group(s) ..., 1 of 2 ... and not the pooled line". (The regressions of all kinds summed over the
+        groups alone read as 2 of 10 groups regressed where one had.)"""
+        def counted(kind: str) -> tuple[int, int]:
+            tests = [c for c in self.comparisons if c.kind == kind]
+            return sum(c.regression for c in tests), len(tests)
+
+        (g, groups), (m, methods), (p, _) = counted("group"), counted("method"), counted("pooled")
+        return (f"{len(self.regressions)} significant regression(s) at alpha = {alpha}: {g} of the {groups} "
+                f"{GROUP_WORDS} group(s) in both, {m} of the {methods} {METHOD_WORDS} line(s) over their groups in "
+                f"both, {'and' if p else 'not'} the pooled line ({POOLED_GROUP})")
 
 
 def load_side(path: Path) -> Side:

@@ -134,7 +134,7 @@ def _top_modes(modes: dict[str, int]) -> str:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from manigrasp.bench.compare import compare_sides, load_side
+    from manigrasp.bench.compare import P_NOTE, compare_sides, load_side
     from manigrasp.bench.report import format_rate
 
     verdict = compare_sides(load_side(args.run_dir), load_side(args.baseline), args.alpha)
@@ -149,8 +149,7 @@ def _compare(args: argparse.Namespace) -> int:
             print(f"\n{len(groups)} group(s) {where}: " + ", ".join("/".join(g) for g in groups))
     for note in verdict.notes:
         print(f"note: {note}")
-    print(f"\n{len(verdict.regressions)} significant regression(s) at alpha = {args.alpha} "
-          f"over {verdict.groups_compared} group(s) in both")
+    print(f"\n{P_NOTE}.\n{verdict.summary(args.alpha)}")
     return 1 if verdict.regressions else 0
 
 
