@@ -102,15 +102,15 @@ def plan_group(group: Group) -> Plan:
     Never raises for the group's fault: the failure is the returned plan's `status` and `error`.
     """
     from manigrasp import planners
-    from manigrasp.planners.context import PlanContext, grasping_friction
+    from manigrasp.planners.context import PlanContext
     from manigrasp.protocol import PROTOCOLS, settle_object
 
     start = time.perf_counter()
     stage = "setting up"
     try:
         scene = scene_for(group)
-        context = PlanContext.from_params(PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params)).params,
-                                          grasping_friction(group.scene, scene.hand))
+        context = PlanContext.for_run(PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params)).params,
+                                      group.scene, scene.hand)
         stage = "settling the object"
         pose = settle_object(scene)
         stage = "observing"

@@ -125,6 +125,7 @@ from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, Suppressor
 from manigrasp.planners.pairs import Pairs, cone_rays, find_pairs, thin_pairs
 from manigrasp.planners.partial import DENSE_CHECKS, SpaceProbe, free_space_target, select_clear
 from manigrasp.planners.select import pack_free, pack_ranked, select_free
+from manigrasp.sim.config import SceneConfig
 
 COMPLETIONS = ("free_space", "point_symmetry", "none")
 
@@ -290,8 +291,8 @@ class AntipodalPlanner:
 
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
              context: PlanContext | None = None) -> list[GraspCandidate]:
-        """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first, for the protocol
-        described by `context` (None: the standard protocol's defaults).
+        """At most `n` collision-free antipodal grasps for a two-jaw `hand`, best first, for the protocol and
+        scene described by `context` (None: the standard protocol's defaults, the default scene).
 
         Plans on the mesh when the observation has one, else on its point cloud: by default visible and
         single-sided pairs against the depth views' free space (`partial`), or a completed cloud (`cloud`).
@@ -301,7 +302,7 @@ class AntipodalPlanner:
             raise PlannerError(f"antipodal plans two-jaw grasps; hand {hand.name!r} is {hand.kind} "
                                "(use the 'power' planner)")
         target = self._mesh_target if observation.mesh is not None else self._cloud_target
-        pairs, center, scale, mass, probe, confidence, mesh = target(observation, hand, rng)
+        pairs, center, scale, mass, probe, confidence, mesh = target(observation, hand, rng, context.scene)
         eps = grasp_metrics(*self._contacts(pairs), center, scale,
                             ContactModel(self.contact.mu, self.contact.gamma, min_friction=False)).epsilon_l1
         score = self.score(pairs, eps, self.hold(pairs, center, mass, hand, context))
@@ -333,17 +334,21 @@ class AntipodalPlanner:
         return self._candidates(pairs, ranked.score, eps, ranked.poses, ranked.pair_of, chosen, center, scale,
                                 context.pregrasp_offset)
 
-    def _mesh_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
-        """Pairs on the mesh; centre of mass = the object frame's origin; the asset's mass (else volume x density)."""
+    def _mesh_target(self, observation: Observation, hand: Hand, rng: np.random.Generator,
+                     scene: SceneConfig | None = None) -> _Target:
+        """Pairs on the mesh; centre of mass = the object frame's origin; the asset's mass (else volume x density);
+        the hand probed in a scene of `scene` (`PlanContext.scene`)."""
         mesh = observation.world_mesh()
         center = observation.center_of_mass
         mass = observation.object_mass(self.density)
         return _Target(self.pairs(mesh, hand, rng), center, torque_scale(mesh.vertices, center), mass,
-                       HandProbe(hand, observation, self.clearance), mesh=mesh)
+                       HandProbe(hand, observation, self.clearance, config=scene), mesh=mesh)
 
-    def _cloud_target(self, observation: Observation, hand: Hand, rng: np.random.Generator) -> _Target:
-        """Pairs on the completed point cloud (`cloud`); its centre and hull; collision against the hull.
-        With ``completion="free_space"``: visible and single-sided pairs, the views' free space (`partial`)."""
+    def _cloud_target(self, observation: Observation, hand: Hand, rng: np.random.Generator,
+                      scene: SceneConfig | None = None) -> _Target:
+        """Pairs on the completed point cloud (`cloud`); its centre and hull; collision against the hull, the hand
+        probed in a scene of `scene` (`PlanContext.scene`). With ``completion="free_space"``: visible and
+        single-sided pairs, the views' free space (`partial`; its probe is compiled with the default scene)."""
         if self.completion == "free_space":
             return _Target(*free_space_target(self, observation, hand, rng))
         done = complete(observation.points, observation.normals, observation.table_height, self.completion)
@@ -355,7 +360,7 @@ class AntipodalPlanner:
         hull = collision_hull(done, self.cloud_margin)
         mass = self.density * hull_volume(done.points)
         return _Target(pairs, done.center, torque_scale(done.points, done.center), mass,
-                       HandProbe(hand, observation, self.clearance, hull=hull))
+                       HandProbe(hand, observation, self.clearance, config=scene, hull=hull))
 
     @property
     def grid(self) -> PoseGrid:

@@ -65,7 +65,8 @@ class HandProbe:
         observation: the object's observation (its asset's convex parts are the
             collision geometry; without an asset, the convex hull of its mesh).
         clearance: distance [m] below which hand and object/table count as colliding.
-        config: scene parameters (default: the standard protocol).
+        config: scene parameters (None: the default `SceneConfig`). A planner passes its context's
+            (`PlanContext.scene`): the run's pads (compliant or rigid) are the hand's collision geometry.
         hull: (n, 3) points in the world [m] whose convex hull replaces the object's geometry (a point
             cloud's completed hull), or None.
     """

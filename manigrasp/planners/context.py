@@ -9,6 +9,12 @@ protocol's parameters, not the planner's: the harness passes them to
 accepts a ``context`` keyword (older planners are called without it).
 Without a protocol (``manigrasp plan``, a planner called directly) the
 context is the standard protocol's defaults (`PlanContext.standard`).
+
+The context also carries the run's scene (`PlanContext.scene`, a `SceneConfig`):
+a planner that compiles the hand to probe it (`collision.HandProbe`) must
+compile the hand the trials run, e.g. with rigid pads under ``pads: rigid``
+(the compliant pads' scene cuts some hands' finger hulls behind the pads,
+`manigrasp.hands.pads`). The harness builds the context with `PlanContext.for_run`.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ from typing import Any
 from manigrasp.errors import ConfigError
 from manigrasp.hands.base import Hand
 from manigrasp.planners.hold import GRAVITY
+from manigrasp.sim.config import SceneConfig
 
 
 @dataclass(frozen=True)
@@ -40,6 +47,11 @@ class PlanContext:
         contact_friction: sliding friction [-] of the hand surfaces that grasp in this scene
             (`grasping_friction`), or None: unknown, each planner assumes its own. A planner with its
             own contact model may ignore it (antipodal and power do; dexopt's hold test uses it).
+        scene: the run's scene parameters, or None: the default `SceneConfig` (`scene_config`). A planner
+            compiles its probing scenes with them (`collision.HandProbe`), so that it tests the hand the trials
+            run (compliant or rigid pads). Its object-rest settings (``rest``, ``rest_k``, ``rest_index``) are
+            reset to their defaults: a planner's scene puts the object at its observed pose itself, and a
+            probe's stand-in object (a point cloud's hull) may not have the run's stable poses.
     """
 
     pregrasp_offset: float
@@ -47,6 +59,7 @@ class PlanContext:
     grip_fraction: float
     perturbation: float
     contact_friction: float | None = None
+    scene: SceneConfig | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.pregrasp_offset) and self.pregrasp_offset >= 0):
@@ -60,6 +73,16 @@ class PlanContext:
         if self.contact_friction is not None and not (math.isfinite(self.contact_friction)
                                                       and self.contact_friction >= 0):
             raise ConfigError(f"contact_friction must be a finite friction >= 0 or None, got {self.contact_friction}")
+        if self.scene is not None:
+            if not isinstance(self.scene, SceneConfig):
+                raise ConfigError(f"scene must be a SceneConfig or None, got {type(self.scene).__name__}")
+            placed = replace(self.scene, rest="file", rest_k=None, rest_index=0)
+            if placed != self.scene:
+                object.__setattr__(self, "scene", placed)
+
+    def scene_config(self) -> SceneConfig:
+        """The scene parameters a planner compiles its scenes with: `scene`, or the default `SceneConfig`."""
+        return self.scene if self.scene is not None else SceneConfig()
 
     def grip_force_for(self, hand: Hand) -> float:
         """The grip force [N] the protocol closes `hand` to (capped at its maximum, as the close phase does)."""
@@ -67,9 +90,17 @@ class PlanContext:
         return min(target, hand.max_grip_force)
 
     @classmethod
-    def from_params(cls, params: Any, contact_friction: float | None = None) -> PlanContext:
+    def for_run(cls, params: Any, scene: SceneConfig, hand: Hand) -> PlanContext:
+        """The context of a run: its protocol's parameters (`from_params`), its scene `scene` and the friction
+        of `hand`'s grasping surfaces in it (`grasping_friction`)."""
+        return cls.from_params(params, grasping_friction(scene, hand), scene=scene)
+
+    @classmethod
+    def from_params(cls, params: Any, contact_friction: float | None = None,
+                    scene: SceneConfig | None = None) -> PlanContext:
         """The context of a protocol's parameters (a `protocol.execution.GraspParams` or a subclass), in a
-        scene whose grasping surfaces have `contact_friction` (None: unknown; `grasping_friction`).
+        scene whose grasping surfaces have `contact_friction` (None: unknown; `grasping_friction`), of
+        parameters `scene` (None: the default `SceneConfig`).
 
         The perturbation is the protocol's own load in units of m g: `perturb_force_multiple` (standard),
         `force_multiple` (six_direction), the peak acceleration of the shaking over g
@@ -86,7 +117,7 @@ class PlanContext:
             perturbation = 0.0
         return cls(pregrasp_offset=float(params.pregrasp_offset), grip_force=params.grip_force,
                    grip_fraction=float(params.grip_force_fraction), perturbation=perturbation,
-                   contact_friction=None if contact_friction is None else float(contact_friction))
+                   contact_friction=None if contact_friction is None else float(contact_friction), scene=scene)
 
     @staticmethod
     def standard() -> PlanContext:
@@ -101,7 +132,7 @@ def _standard() -> PlanContext:
     return PlanContext.from_params(StandardParams())
 
 
-def grasping_friction(scene: Any, hand: Hand) -> float:
+def grasping_friction(scene: SceneConfig, hand: Hand) -> float:
     """The sliding friction [-] of `hand`'s grasping surfaces against the object in a scene of `scene`
     (a `manigrasp.sim.SceneConfig`): with ``pads: compliant``, the rubber's `pad_friction` if the hand has
     pads or rubber-covered fingertips (`Hand.pad_geoms`, `Hand.fingertip_geoms`); otherwise, and with

@@ -125,13 +125,14 @@ class PowerPlanner:
 
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
              context: PlanContext | None = None) -> list[GraspCandidate]:
-        """At most `n` enveloping grasps, best first, for the protocol described by `context` (None: the
-        standard protocol's defaults)."""
-        offset = resolve(context, self.pregrasp_offset).pregrasp_offset
+        """At most `n` enveloping grasps, best first, for the protocol and scene described by `context` (None:
+        the standard protocol's defaults, the default scene)."""
+        context = resolve(context, self.pregrasp_offset)
+        offset = context.pregrasp_offset
         mesh = observation.world_mesh()
         center = observation.center_of_mass
         scale = torque_scale(mesh.vertices, center)
-        probe = HandProbe(hand, observation, self.clearance)
+        probe = HandProbe(hand, observation, self.clearance, config=context.scene)
         poses = self.standoff_poses(probe, self.directions(rng), center, scale, hand.max_width, offset)
         sweep = FingerSweep(probe, self._path(hand))
         pos, quat = probe.roots(poses)
