@@ -450,3 +450,26 @@ def test_harness_faults_are_named_and_left_out_of_the_rates(tmp_path, capsys):
     clean = make_run(tmp_path / "clean", _results({("025_mug", "antipodal"): 16}))
     assert main(["report", str(clean)]) == 0
     assert "ended as harness_fault" not in capsys.readouterr().out
+
+
+def test_a_metric_ranked_from_low_to_high_says_so_where_its_auc_is_shown(tmp_path, capsys):
+    """min_friction (the least friction coefficient giving force closure) is ranked low-to-high: successes that
+    needed mu 0.1 against failures that needed 0.8 give AUC 1.0, and every table names it "min_friction (lower =
+    better)". Before, the bare name read as the AUC of the value itself (quick's 0.44 looked like a higher friction
+    need going with success)."""
+    results = [(key, replace(r, planned=GraspMetrics(2, 1.0, 0.1, 0.1 if r.success else 0.8)))
+               for key, r in _results({("025_mug", "antipodal"): 12, ("025_mug", "random"): 5})]
+    run = make_run(tmp_path / "run", results)
+    report = summarize(results)
+    assert report.auc[("parallel_jaw", "antipodal", "ground_truth", "standard")]["min_friction"].auc == 1.0
+    assert main(["report", str(run)]) == 0
+    out = capsys.readouterr().out
+    rows = [" ".join(line.split()) for line in out.splitlines() if "min_friction" in line]
+    assert [row.partition("min_friction")[2] for row in rows] == [
+        " (lower = better) 20 (12) 1.00 [1.00, 1.00]", " (lower = better) 20 (5) 1.00 [1.00, 1.00]",
+        " (lower = better) 40 (17) 1.00 [1.00, 1.00]"]
+    text = (run / "report.md").read_text()
+    assert text.count("| min_friction (lower = better) | 20 (12) | 1.00 [1.00, 1.00] |") == 1
+    assert "| epsilon_l1 |" in text and "higher, or lower where it says so" in text
+    assert main(["report", str(run), "--json"]) == 0  # the JSON (baselines) keeps the metric's key
+    assert {a["metric"] for a in json.loads(capsys.readouterr().out)["auc"]} >= {"min_friction", "epsilon_l1"}

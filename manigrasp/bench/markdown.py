@@ -20,6 +20,7 @@ from manigrasp.bench.report import (
     format_auc,
     format_planning_time,
     format_rate,
+    metric_label,
 )
 from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import REST_LABEL, LeftOut, left_out
@@ -77,11 +78,12 @@ def _perception(report: Report) -> list[str]:
 
 def auc_rows(report: Report) -> list[list[str]]:
     """AUC table rows per method (`method_cells`) x metric, then pooled rows (`all`) if several methods."""
-    rows = [[*method_cells(report, m), metric, f"{e.n} ({e.successes})", format_auc(e)]
+    rows = [[*method_cells(report, m), metric_label(metric), f"{e.n} ({e.successes})", format_auc(e)]
             for m, per in report.auc.items() for metric, e in per.items()]
     if len(report.auc) > 1:
         pooled = ["all", "all (pooled)", "all"] + (["all"] if len(report.protocols) > 1 else [])
-        rows += [[*pooled, metric, f"{e.n} ({e.successes})", format_auc(e)] for metric, e in report.auc_pooled.items()]
+        rows += [[*pooled, metric_label(metric), f"{e.n} ({e.successes})", format_auc(e)]
+                 for metric, e in report.auc_pooled.items()]
     return rows
 
 
@@ -343,7 +345,8 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         *twins.markdown_section(report),
         "## Analytic metrics as predictors of success",
         f"ROC AUC of each metric for telling successes from failures within one {' x '.join(headers)} (0.5 = chance), "
-        "with a 95 % bootstrap interval (resampled within successes and failures, fixed seed). n counts the "
+        "ranking the trials by the metric's better values (higher, or lower where it says so: above 0.5 the better "
+        "value goes with success), with a 95 % bootstrap interval (resampled within successes and failures, fixed seed). n counts the "
         "simulated trials with a value of the metric (successes in brackets). A metric with a single value in a "
         "group cannot rank its trials: its AUC is undefined, not 0.5."
         + (f" Rows `all` pool every trial of every {' x '.join(headers)}: there a metric partly tells those "

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from manigrasp.bench.report import PREDICTORS, Method, Rate, Report, planning_call_times
+from manigrasp.bench.report import PREDICTORS, Method, Rate, Report, metric_label, planning_call_times
 from manigrasp.bench.store import TrialKey
 from manigrasp.protocol.result import TrialResult
 
@@ -227,7 +227,7 @@ def metric_auc(report: Report, path: Path) -> Path:
                 ax.text(xi, 0.02, f"undefined: {e.undefined}", rotation=90, ha="center", va="bottom", fontsize=7,
                         color=bars.patches[0].get_facecolor())
     ax.axhline(0.5, color="grey", linestyle="--", linewidth=1, label="chance (0.5)")
-    ax.set_xticks(x, metrics, rotation=20)
+    ax.set_xticks(x, [metric_label(k).replace(" (", "\n(") for k in metrics], rotation=20)
     ax.set_ylim(0, 1.15)
     ax.set_ylabel("ROC AUC for success (95 % bootstrap interval)")
     ax.set_title("Each metric's power to predict success (n: trials with a value)", fontsize=10)

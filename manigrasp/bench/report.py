@@ -33,6 +33,16 @@ PREDICTORS = {
 }
 
 
+def metric_label(name: str) -> str:
+    """A metric as tables and plots name it: its name, with " (lower = better)" where its AUC ranks the trials
+    from low to high values (`PREDICTORS`' sign -1: ``min_friction``, the least friction coefficient that gives
+    force closure), so an AUC above 0.5 always means that the better value goes with success. (The bare name read
+    as an AUC of the value itself: min_friction's 0.44 on quick looked like "a higher friction need goes a little
+    with success", the reverse of what it says.)"""
+    sign = PREDICTORS.get(name, (None, None, 1.0))[2]
+    return f"{name} (lower = better)" if sign < 0 else name
+
+
 @dataclass(frozen=True)
 class Rate:
     """Trials, successes, their rate and its Wilson 95 % interval, failure-mode counts, planning time.
