@@ -209,7 +209,7 @@ def metric_auc(report: Report, path: Path) -> Path:
                 "or metrics constant)", ha="center", va="center")
         return _save(fig, path)
     width = 0.8 / len(methods)
-    fig, ax = plt.subplots(figsize=(max(7.0, min(14.0, 0.35 * len(metrics) * len(methods) + 3)), 4.5))
+    fig, ax = plt.subplots(figsize=(max(8.0, min(14.0, 0.35 * len(metrics) * len(methods) + 3)), 4.5))
     x = np.arange(len(metrics))
     for i, method in enumerate(methods):
         xs = x + (i - (len(methods) - 1) / 2) * width
@@ -227,7 +227,7 @@ def metric_auc(report: Report, path: Path) -> Path:
                 ax.text(xi, 0.02, f"undefined: {e.undefined}", rotation=90, ha="center", va="bottom", fontsize=7,
                         color=bars.patches[0].get_facecolor())
     ax.axhline(0.5, color="grey", linestyle="--", linewidth=1, label="chance (0.5)")
-    ax.set_xticks(x, [metric_label(k).replace(" (", "\n(") for k in metrics], rotation=20)
+    ax.set_xticks(x, [metric_label(k).replace(" (", "\n(") for k in metrics], fontsize=8)
     ax.set_ylim(0, 1.15)
     ax.set_ylabel("ROC AUC for success (95 % bootstrap interval)")
     ax.set_title("Each metric's power to predict success (n: trials with a value)", fontsize=10)
