@@ -54,9 +54,9 @@ def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np
          context: PlanContext | None = None) -> PlanResult:
     """Run `planner` for at most `n` grasps of `hand`; validated, ranked and timed.
 
-    `context`: the parameters of the protocol that will execute the grasps (`PlanContext.from_params`),
+    `context`: the parameters of the protocol that will execute the grasps and of its scene (`PlanContext.for_run`),
     passed on to a planner whose ``plan`` takes a ``context`` keyword; None: each planner's default
-    (the standard protocol's).
+    (the standard protocol's, the default scene).
 
     Raises:
         PlannerError: the planner raised, needs an observation it was not
