@@ -157,3 +157,24 @@ hands: [parallel_jaw, panda]
     config = load_config(path)
     assert config.objects[1].excluded("panda") == "1.9 kg: more than its grip holds"
     assert config.objects[1].excluded("parallel_jaw") is None and config.objects[0].exclude is None
+
+
+@pytest.mark.parametrize("entry, name", [
+    ({"name": "mug", "exclude": {"panda": "handle"}}, "025_mug"),  # an alias: named as in the trial ids
+    ({"name": "035_power_drill", "exclude": {"panda": "heavy"}}, "035_power_drill"),
+    ({"mesh": "gone/part.stl", "name": "part", "scale": 0.001, "exclude": {"panda": "wide"}}, "part"),
+    ({"mesh": "gone/part.stl", "exclude": {"panda": "wide"}}, "part"),  # a mesh named by its file
+    ({"ycb": "gone/077_rubiks_cube", "exclude": {"panda": "wide"}}, "gone/077_rubiks_cube"),  # not here: its entry
+])
+def test_a_recorded_config_that_no_longer_parses_names_left_out_objects_as_one_that_parses(tmp_path, entry, name):
+    """`left_out_of` reads a run.json whose config no longer parses (written by other code) entry by entry: each
+    left-out object is named as the parsed config names it (`ObjectEntry.trial_name`, the one definition). Before,
+    that fallback named an entry by its raw text, so an alias read "mug" where the trial ids say "025_mug"."""
+    from manigrasp.bench.markdown import left_out_of
+
+    config = {**CONFIG, "objects": ["025_mug", entry]}
+    meta = {"config": config, "config_dir": str(tmp_path)}
+    parsed = left_out_of(meta)
+    assert parsed == [LeftOut(name, "panda", next(iter(entry["exclude"].values())))]
+    assert left_out_of({**meta, "config": {**config, "a_key_of_other_code": 1}}) == parsed
+    assert left_out_of({**meta, "config": {**config, "objects": ["025_mug", {**entry, "mass": -1}]}}) == parsed

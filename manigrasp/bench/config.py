@@ -82,6 +82,26 @@ class ObjectEntry:
         """How error messages name the entry: its name, mesh or ycb folder."""
         return self.name or self.mesh or self.ycb or ""
 
+    def trial_name(self, base: Path | None = None) -> str:
+        """The object's name in trial ids and reports: its source's name (a shipped alias "mug" is "025_mug", a
+        mesh given no name its file's stem), or its `label` when the source cannot be resolved here (a YCB
+        folder or a shipped name of another machine or version); `base` resolves relative paths."""
+        from manigrasp.errors import ManigraspError
+
+        try:
+            return self.source(base).name
+        except (ManigraspError, OSError):
+            return self.label
+
+    @classmethod
+    def recorded(cls, data: Mapping[str, Any]) -> ObjectEntry:
+        """An object entry as a run.json records it, read even where it no longer validates (written by other
+        code): the entry itself if it does, else one with only its `name`, `mesh` and `ycb` that are strings."""
+        try:
+            return from_mapping(cls, data, "run.json object")
+        except (ConfigError, TypeError):
+            return cls(**{k: data[k] for k in ("name", "mesh", "ycb") if isinstance(data.get(k), str)})
+
     def excluded(self, hand: str) -> str | None:
         """The reason `hand` is left out of this object, or None if it runs it."""
         return (self.exclude or {}).get(hand)

@@ -253,9 +253,10 @@ def left_out_of(meta: dict) -> list[LeftOut]:
     """The object x hand pairs the run's config (run.json) leaves out, with their reasons (`trials.left_out`).
 
     A recorded config that no longer parses (written by other code) is read as recorded: each object entry's
-    ``exclude`` for the hands listed, the object named by its entry.
+    ``exclude`` for the hands listed, the object named as a parsed config names it (`ObjectEntry.recorded`, then
+    `ObjectEntry.trial_name`: a shipped alias by its object's name, as in the trial ids).
     """
-    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.config import ObjectEntry, parse_config
     from manigrasp.errors import ManigraspError
 
     config = meta.get("config")
@@ -263,11 +264,12 @@ def left_out_of(meta: dict) -> list[LeftOut]:
     if not isinstance(objects, list) or not any(isinstance(o, dict) and o.get("exclude") for o in objects):
         return []
     folder = meta.get("config_dir")
+    base = Path(folder) if isinstance(folder, str) else None
     try:
-        return left_out(parse_config(config, where="run.json"), Path(folder) if isinstance(folder, str) else None)
+        return left_out(parse_config(config, where="run.json"), base)
     except (ManigraspError, TypeError, ValueError):
         hands = config.get("hands") if isinstance(config.get("hands"), list) else []
-        return [LeftOut(str(o.get("name") or o.get("mesh") or o.get("ycb")), str(hand), str(reason))
+        return [LeftOut(ObjectEntry.recorded(o).trial_name(base), str(hand), str(reason))
                 for o in objects if isinstance(o, dict) and isinstance(o.get("exclude"), dict)
                 for hand, reason in o["exclude"].items() if hand in hands]
 
