@@ -6,6 +6,8 @@ Usage:
     .venv/bin/python benchmarks/diagnose_dexterous.py RUN_DIR --versus-plan [--only /standard/ fourier_right]
         [--save ROWS.pkl]                       # dexopt's plan against the replay (below)
     .venv/bin/python benchmarks/diagnose_dexterous.py RUN_DIR --versus-summary ROWS.pkl ...
+    .venv/bin/python benchmarks/diagnose_dexterous.py RUN_DIR --with close_mode=per_finger [--only dexopt]
+        # the stored grasps replayed with other protocol parameters (below)
 
 Each trial is replayed exactly as `manigrasp replay` does (same scene, settled object, stored grasp, seed) with
 an observer that only reads the scene. Printed per snapshot (end of close = start of lift; then every 0.1 s of
@@ -662,6 +664,103 @@ def format_row(r: dict) -> str:
             f"(since rest {r.get('pushed_total_mm', np.nan):.1f})")
 
 
+# ---------------------------------------------------------------------------------------------------------------
+# The same grasps under other protocol parameters (`--with`): e.g. the per-finger close against the synergy close.
+
+
+class CloseEnd:
+    """Observer reading, at the end of the close (the next phase's start), the fingers pressing on the object (at
+    least `TOUCH_N`) and how far the close pushed the object on the table [mm]."""
+
+    sample_period_s = float("inf")
+
+    def __init__(self) -> None:
+        self.start: np.ndarray | None = None
+        self.fingers, self.pushed_mm = -1, np.nan
+
+    def on_start(self, scene, grasp, object_pose) -> None:  # noqa: D102
+        pass
+
+    def on_phase(self, scene, phase, detail: str = "") -> None:  # noqa: D102
+        if phase is Phase.CLOSE:
+            self.start = scene.object_pose()[:2, 3].copy()
+        elif self.start is not None and self.fingers < 0:
+            c = read_hand_contacts(scene)
+            self.fingers = len({int(f) for f, fn in zip(c.finger, c.normal_force, strict=True)
+                                if f >= 0 and fn >= TOUCH_N})
+            self.pushed_mm = 1e3 * float(np.linalg.norm(scene.object_pose()[:2, 3] - self.start))
+
+    def on_sample(self, scene) -> None:  # noqa: D102
+        pass
+
+    def on_end(self, scene, result) -> None:  # noqa: D102
+        pass
+
+
+def parse_value(text: str):
+    """A --with value: a number, true/false/none, else the text."""
+    low = text.lower()
+    if low in ("true", "false"):
+        return low == "true"
+    if low in ("none", "null"):
+        return None
+    try:
+        return float(text) if any(c in text for c in ".e") else int(text)
+    except ValueError:
+        return text
+
+
+def replay_with(run_dir: Path, overrides: dict, ids: list[str], only: tuple[str, ...] = (), out=sys.stdout) -> list:
+    """Replay stored trials (all, or `ids`; those containing every `only`) with the run's protocol parameters
+    updated by `overrides` (same scene, settled object, stored grasp and seed as `manigrasp replay`), and print
+    per hand x planner the successes stored and replayed (k/n), and at the end of the close the trials with
+    every finger on the object and the median push by the close. Returns rows (trial id, stored status,
+    replayed status, fingers at the end of the close, push [mm], the hand's fingers)."""
+    import statistics
+    from collections import defaultdict
+
+    from manigrasp.bench.replay import _executed_nothing
+    from manigrasp.bench.worker import scene_for
+    from manigrasp.protocol import PROTOCOLS, settle_object
+
+    trials = stored_trials(run_dir)
+    ids = ids or [t for t in sorted(trials) if all(o in t for o in only)]
+    rows = []
+    for trial_id in ids:
+        trial = trials[trial_id]
+        stored = trial.result
+        if _executed_nothing(stored):
+            rows.append((trial_id, stored.status.value, stored.status.value, -1, np.nan, -1))
+            continue
+        group = trial.group
+        scene = scene_for(group)
+        object_pose = settle_object(scene)
+        protocol = PROTOCOLS.load(group.protocol.name, **{**dict(group.protocol.params), **overrides})
+        seed = group.trial_seed(trial.index)
+        seen = CloseEnd()
+        result = protocol.run(scene, stored_grasp(stored), np.random.default_rng(seed),
+                              deadline=time.monotonic() + 600, object_pose=object_pose, observer=seen, seed=seed)
+        rows.append((trial_id, stored.status.value, result.status.value, seen.fingers, seen.pushed_mm,
+                     len(scene.hand.finger_bodies)))
+        print(f"{trial_id} | {stored.status.value} -> {result.status.value} | fingers {seen.fingers} | "
+              f"pushed {seen.pushed_mm:.1f} mm", file=out, flush=True)
+    table = defaultdict(list)
+    for row in rows:
+        table[tuple(row[0].split("/")[1:3])].append(row)
+    print(f"hand x planner | stored | with {overrides} | all fingers on at the end of the close | median push mm",
+          file=out)
+    for (hand, planner), group_rows in sorted(table.items()):
+        n = len(group_rows)
+        n_fingers = max(r[5] for r in group_rows)
+        closed = [r for r in group_rows if r[3] >= 0]
+        pushes = [r[4] for r in closed]
+        print(f"{hand} x {planner} | {sum(r[1] == 'success' for r in group_rows)}/{n} | "
+              f"{sum(r[2] == 'success' for r in group_rows)}/{n} | "
+              f"{sum(r[3] == n_fingers for r in closed)}/{len(closed)} | "
+              f"{statistics.median(pushes) if pushes else np.nan:.1f}", file=out)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -678,8 +777,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--save", type=Path, help="with --versus-plan: pickle the rows here (for --versus-summary)")
     ap.add_argument("--versus-summary", nargs="*", type=Path, metavar="ROWS",
                     help="success rates by margin and by the close's defects of saved --versus-plan rows")
+    ap.add_argument("--with", dest="overrides", nargs="*", metavar="KEY=VALUE",
+                    help="replay stored trials (all, or ids; --only filters) with these protocol parameters changed "
+                         "(e.g. close_mode=per_finger) and print success k/n per hand x planner, stored and replayed")
     args = ap.parse_intermixed_args(argv)
     ids = args.trials
+    if args.overrides is not None:
+        overrides = dict(kv.split("=", 1) for kv in args.overrides)
+        replay_with(args.run_dir, {k: parse_value(v) for k, v in overrides.items()}, ids, only=tuple(args.only))
+        return 0
     if args.versus_summary:
         import pickle
 

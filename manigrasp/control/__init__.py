@@ -8,9 +8,11 @@
 - `HybridController`: selection-matrix hybrid position/force control (PI with anti-windup).
 - `GuardedApproach`: approach that stops pushing at a contact-force threshold.
 - `GripController`: close on position until contact, then regulate the grip force.
+- `FingerClose`: close a dexterous hand finger by finger until each touches, then regulate the grip force.
 - `FingerHold`: after closing, hold a hand's finger servos around the grasp they reached (stiff against opening).
 """
 
+from manigrasp.control.fingers import FingerClose
 from manigrasp.control.hold import FingerHold
 from manigrasp.control.hybrid import ForceGains, ForcePI, GripController, GuardedApproach, HybridController
 from manigrasp.control.impedance import AdaptiveStiffness, ImpedanceController, ImpedanceGains, default_gains
@@ -19,6 +21,7 @@ from manigrasp.control.native import BaseKinematics, NativeImpedance, euler_xyz
 __all__ = [
     "AdaptiveStiffness",
     "BaseKinematics",
+    "FingerClose",
     "FingerHold",
     "ForceGains",
     "ForcePI",

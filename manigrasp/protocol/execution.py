@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from manigrasp.control import GripController, NativeImpedance, default_gains
+from manigrasp.control import FingerClose, GripController, NativeImpedance, default_gains
 from manigrasp.control.hold import HOLD_GAIN
 from manigrasp.errors import ConfigError
 from manigrasp.geometry import pose_distance, relative_pose
@@ -42,7 +42,9 @@ from manigrasp.protocol.metrics import radius_of_gyration
 from manigrasp.protocol.observer import TrialObserver
 from manigrasp.protocol.result import GraspMetrics, Phase, Status
 from manigrasp.protocol.sampling import Sampler
-from manigrasp.sim import Scene, current_grip_force, read_hand_contacts
+from manigrasp.sim import Scene, current_grip_force, grip_force, read_hand_contacts
+
+CLOSE_MODES = ("synergy", "per_finger")  # `GraspParams.close_mode`
 
 Trajectory = Callable[[float], tuple[np.ndarray, np.ndarray]]
 """A set-point as a function of the time since its phase began [s]: (TCP pose (4, 4), twist (6,)), world."""
@@ -82,6 +84,11 @@ class GraspParams:
         finger_hold_gain: after a dexterous hand closes, hold each finger servo that closes with the
             squeeze this many times stiffer against being pushed open, keeping the force it reached
             (`manigrasp.control.FingerHold`; default `HOLD_GAIN`, 40); 0: off [-].
+        close_mode: how a dexterous hand closes: "synergy" (one command along the hand path for every finger,
+            `control.GripController`: the grip force is regulated as soon as the thumb and the first fingers
+            touch) or "per_finger" (each finger closes on its own until it touches the object, then the grip
+            force is regulated by a common offset on the fingers that touched, `control.FingerClose`). A
+            parallel-jaw hand closes with the synergy in either mode.
         finger_hold_joints: hold a finger with several closing servos (the Allegro's) in its joint
             configuration (no force floor) instead of letting each of its servos push on with `FLOOR` of its
             force where the object moves away (the default, as for a finger one actuator closes). Opt-in: it
@@ -116,6 +123,7 @@ class GraspParams:
     regulate_grip_after_close: bool = False
     finger_hold_gain: float = HOLD_GAIN
     finger_hold_joints: bool = False
+    close_mode: str = "synergy"
     metric_edges: int = 8
     metric_friction_tol: float = 0.01
     simulated_min_friction: bool = False
@@ -140,6 +148,8 @@ class GraspParams:
             raise ConfigError("metric_edges must be even and >= 4, metric_friction_tol > 0")
         if not (self.finger_hold_gain == 0 or self.finger_hold_gain >= 1):
             raise ConfigError(f"finger_hold_gain must be 0 (off) or >= 1, got {self.finger_hold_gain}")
+        if self.close_mode not in CLOSE_MODES:
+            raise ConfigError(f"close_mode must be one of {', '.join(CLOSE_MODES)}, got {self.close_mode!r}")
         if self.torque_scale is not None and not self.torque_scale > 0:
             raise ConfigError(f"torque_scale must be > 0 or None, got {self.torque_scale}")
 
@@ -189,7 +199,7 @@ class TrialRun:
         self.stopped_in: tuple[Phase, str] | None = None  # (phase, detail) in progress when the trial stopped
         self._depth = 0  # phases in progress (nested: the hold inside the lift)
         self.impedance = self._impedance()
-        self.grip: GripController | None = None
+        self.grip: GripController | FingerClose | None = None
         self.in_hand: np.ndarray | None = None  # object-in-TCP pose after closing (the reference)
         self.watch: tuple[np.ndarray, Status, str] | None = None
         self.max_translation, self.max_rotation = math.nan, math.nan
@@ -290,7 +300,9 @@ class TrialRun:
             if trajectory is not None:
                 pose, twist = trajectory((done + 0.5 * (k + 1)) * self.dt)
                 self.impedance.track(pose, twist)
-            if self.grip is not None:
+            if isinstance(self.grip, FingerClose):
+                self._finger_tick(self.grip)
+            elif self.grip is not None:
                 scene = self.scene
                 force = current_grip_force(scene)
                 scene.set_synergy(self.grip.update(force, self.chunk * self.dt, scene.hand_synergy(),
@@ -303,6 +315,17 @@ class TrialRun:
                 self.check()
         if self.steps != self.next_check - self.check_chunk:
             self.check()
+
+    def _finger_tick(self, grip: FingerClose) -> None:
+        """One control tick of a per-finger close: each finger's normal force on the object and the grip force
+        in, the hand's actuator commands out."""
+        scene = self.scene
+        contacts = read_hand_contacts(scene)
+        own = contacts.finger >= 0
+        forces = np.bincount(contacts.finger[own], weights=np.clip(contacts.normal_force[own], 0.0, None),
+                             minlength=grip.n_fingers)[:grip.n_fingers]
+        scene.data.ctrl[scene.hand_actuators] = grip.update(
+            forces, grip_force(contacts), scene.data.actuator_length[scene.hand_actuators], self.chunk * self.dt)
 
     def hold_for(self, seconds: float) -> None:
         """Step for `seconds` [s] with the current set-points."""

@@ -15,7 +15,7 @@ import weakref
 
 import numpy as np
 
-from manigrasp.control import FingerHold, GripController
+from manigrasp.control import FingerClose, FingerHold, GripController
 from manigrasp.geometry import pregrasp_pose
 from manigrasp.protocol.execution import Abort, Trajectory, TrialRun
 from manigrasp.protocol.metrics import simulated_metrics
@@ -106,9 +106,17 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
     """The close phase's work (`close`)."""
     p, hand = run.params, run.scene.hand
     target = p.grip_force if p.grip_force is not None else p.grip_force_fraction * hand.max_grip_force
-    grip = GripController(min(target, hand.max_grip_force), hand.max_grip_force, close_speed=p.close_speed,
-                          contact_force=p.contact_force, stiffness=hand.grip_stiffness,
-                          stall_check=hand.grip_stiffness is not None or hand.kind == "parallel")
+    target = min(target, hand.max_grip_force)
+    if p.close_mode == "per_finger" and hand.kind == "dexterous":
+        scene = run.scene
+        open_ctrl, closed_ctrl = scene.hand_path
+        grip = FingerClose(open_ctrl, closed_ctrl, scene.actuator_fingers, scene.actuator_leads(),
+                           len(hand.finger_bodies), target, hand.max_grip_force, close_speed=p.close_speed,
+                           contact_force=p.contact_force)
+    else:
+        grip = GripController(target, hand.max_grip_force, close_speed=p.close_speed,
+                              contact_force=p.contact_force, stiffness=hand.grip_stiffness,
+                              stall_check=hand.grip_stiffness is not None or hand.kind == "parallel")
     grip.reset(preshape)
     release_hold(run)
     run.grip = grip
@@ -123,7 +131,8 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
             touched_at = elapsed
         if touched_at is not None and elapsed - touched_at >= run.n_steps(p.close_settle_s):
             break
-        if grip.mode == "position" and (run.scene.hand_synergy() > CLOSED_SYNERGY or grip.stalled):
+        if grip.mode == "position" and (grip.stalled or (isinstance(grip, GripController)
+                                                        and run.scene.hand_synergy() > CLOSED_SYNERGY)):
             break
     if not p.regulate_grip_after_close:
         run.grip = None

@@ -346,6 +346,22 @@ class Scene:
         lead = limit[servo] / (kp[servo] * np.abs(span[moving][servo]))
         return servo, np.maximum(lead, 0.0)
 
+    def actuator_leads(self) -> np.ndarray:
+        """(n_act,) each hand actuator's command lead to its force limit along `hand_path`, in synergy units:
+        f_max / (kp |closed - open|) in the closing direction (as `closing_reach` uses per finger; a per-finger
+        close, `control.FingerClose`, per actuator); NaN for an actuator that does not move along the path or is
+        not a force-limited position servo (`position_servos`)."""
+        open_ctrl, closed_ctrl = self._path
+        span = closed_ctrl - open_ctrl
+        m, ids = self.model, self.hand_actuators
+        moving = np.abs(span) > SPAN_EPSILON
+        servo = moving & position_servos(m, ids) & m.actuator_forcelimited[ids].astype(bool)
+        limit = np.where(span > 0, m.actuator_forcerange[ids, 1], -m.actuator_forcerange[ids, 0])
+        kp = m.actuator_gainprm[ids, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lead = np.maximum(limit / (kp * np.abs(span)), 0.0)
+        return np.where(servo, lead, np.nan)
+
     def forward(self) -> None:
         """`mj_forward`: recompute positions, contacts and forces of the current state."""
         mujoco.mj_forward(self.model, self.data)
