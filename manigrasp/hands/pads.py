@@ -194,6 +194,30 @@ slower too (61.9 vs 55.1, with 12.2 contacts per step against 9.5). Outside `mj_
 costs 0.010 s more (0.045 vs 0.035 s per trial on quick); 0.004 of it is the simulated-contact metrics
 over the grip's more contacts (0.019 vs 0.015 s per trial; on the sugar box's antipodal grasps, 3 of them,
 0.066 vs 0.035: the Ferrari-Canny hull of 40-130 primitive wrenches, 28 vs 23 ms per Qhull call).
+
+Measured and not taken in MuJoCo 4.0 (quick's own trials replayed with variants of the compliant scene,
+interleaved in one process, 2-3 grasps of each of the ten groups or of the sugar box and mug; thread CPU per
+`mj_step` on a loaded machine, so larger than above; two identical variants in one run differed by up to 4-5 %,
+so only larger differences count). 4.0's defaults have multi-CCD and native CCD on and sleeping off
+(`opt.disableflags`, `opt.enableflags` 0). Per step, variant vs this model in the same run: multi-CCD off 86.6
+vs 83.1 us and 90.2 vs 94.3 (an element is an ellipsoid, one contact either way; the object's contacts with the
+table and the fingers drop to one each: 3 of 20 statuses changed); libccd instead of native CCD 92.0 vs 83.1;
+sleeping islands 86.9 vs 83.1 and 88.7 vs 94.3; speculative contacts 129.9 vs 94.3; exact constraint diagonals
+98.7 vs 94.3; the CG solver 190.8 vs 106.5 (33 iterations per step, 4 of 20 statuses changed), PGS 305.8. Element
+geoms with a contact margin of 0.2, 0.5 or 1 mm (the ellipsoid shrunk by it, so that a held contact needs a GJK
+distance and no EPA) 119-120 vs 110; armature 0.5, 2 or 4 times 115-119 vs 112 (Newton iterations 1.89-2.04 vs
+1.88); no travel limit 102.8 vs 106.5 and 83.0 vs 81.6; box elements 174 vs 112 (19.7 contacts per step: multi-CCD
+gives a box up to 4 against a mesh), with multi-CCD off 112.0 vs 112.2; a second, non-colliding geom on each
+element body (MuJoCo then tests an element against the table, a single-geom world body, by boxes in its midphase
+instead of by bounding spheres alone) 92.2 vs 91.9; element solimp 0.99 102.4 vs 106.5 (and the creep above).
+Both modes simulate the same steps per trial (1834 vs 1841 here; 1980 vs 1951 in `bench_pad_speed.py`), and hold
+as many contacts in the elliptic cone's middle zone (5.2 vs 5.1 per step); a compliant step takes 1.57 Newton
+iterations against 1.29, on a system of 26 degrees of freedom against 14 (the Newton Hessian and its per-cone-contact
+rank-1 updates, `HessianConeUpdate`, are dense nv x nv). By phase: hand on the object 121 vs 53 us per step (74 % of
+the steps), near it 62 vs 40. `perf` over 40 trials of each mode (9.1 vs 4.9 s thread CPU): MuJoCo 5.8 vs 2.4 s;
+of the difference 1.3 s is the elements' narrowphase (mesh hill-climbing support 0.35, ellipsoid support 0.27, GJK
+0.26, its simplex and EPA 0.40), 1.1 s the solver (`HessianConeUpdate` 0.53, `mj_solPrimal` 0.30, Cholesky 0.14)
+and 0.6 s Python, NumPy and Qhull outside MuJoCo (Qhull 0.12: the metrics' hull over more contacts).
 """
 
 from __future__ import annotations
