@@ -473,3 +473,34 @@ def test_a_metric_ranked_from_low_to_high_says_so_where_its_auc_is_shown(tmp_pat
     assert "| epsilon_l1 |" in text and "higher, or lower where it says so" in text
     assert main(["report", str(run), "--json"]) == 0  # the JSON (baselines) keeps the metric's key
     assert {a["metric"] for a in json.loads(capsys.readouterr().out)["auc"]} >= {"min_friction", "epsilon_l1"}
+
+
+def test_every_table_and_plot_lists_the_protocols_in_the_configs_order(tmp_path, capsys):
+    """dexterous lists standard, then six_direction: its lead lines did, but the tables, the plots' legends and bars
+    listed six_direction first (sorted by name), so the first row under the lead line standard 14/20 was 8/20."""
+    from manigrasp.bench.markdown import in_protocol_order
+
+    results = [(TrialKey(obj, "inspire_right", "power", "ground_truth", protocol, i),
+                TrialResult(Status.SUCCESS if i < held else Status.SLIPPED_LIFT))
+               for protocol, held in (("standard", 7), ("six_direction", 4)) for obj in ("025_mug", "004_sugar_box")
+               for i in range(10)]
+    meta = {**RUN_META, "config": {**RUN_META["config"], "protocol": None,
+                                   "protocols": [{"name": "standard", "params": {}}, {"name": "six_direction"}]}}
+    run = make_run(tmp_path / "run", results, meta)
+    report = summarize(results)
+    ordered = in_protocol_order(report, ["standard", "six_direction"])
+    assert [m[3] for m in ordered.by_method] == [m[3] for m in ordered.auc] == ["standard", "six_direction"]
+    assert [g[3:] for g in ordered.groups] == [("standard", "004_sugar_box"), ("standard", "025_mug"),
+                                                ("six_direction", "004_sugar_box"), ("six_direction", "025_mug")]
+    assert ordered.by_method == report.by_method and ordered.groups == report.groups  # the same figures
+    assert main(["report", str(run)]) == 0
+    out = capsys.readouterr().out
+    lines = [line for line in out.splitlines() if line.startswith("inspire_right")]
+    assert [line.split()[3] for line in lines[:4]] == ["standard", "standard", "six_direction", "six_direction"]
+    assert [line.split()[3] for line in lines[4:6]] == ["standard", "six_direction"]  # per hand and planner
+    text = (run / "report.md").read_text()
+    method_table = text.split("## Per hand and planner")[1]
+    assert method_table.index("| standard | 20 | 14 |") < method_table.index("| six_direction | 20 | 8 |")
+    assert text.index("| standard | 004_sugar_box | 10 | 7 |") < text.index("| six_direction | 004_sugar_box |")
+    assert main(["report", str(run), "--json"]) == 0  # the JSON keeps its sorted order (baselines diff cleanly)
+    assert [m["protocol"] for m in json.loads(capsys.readouterr().out)["methods"]] == ["six_direction", "standard"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from dataclasses import astuple
+from dataclasses import astuple, replace
 from itertools import combinations
 from pathlib import Path
 
@@ -116,6 +116,20 @@ def protocol_order(report: Report, meta: dict | None = None) -> list[str]:
     except (TypeError, KeyError, AttributeError, ValueError):  # no list recorded (or not one of entries)
         order = []
     return [p for p in order if p in report.protocols] + [p for p in report.protocols if p not in order]
+
+
+def in_protocol_order(report: Report, order: list[str]) -> Report:
+    """`report` with its methods, groups and AUCs listed in `order` of protocols (`protocol_order`: the config's)
+    within each hand x planner x observation, so that every table and plot lists them as the lead lines do (they
+    are sorted by name otherwise: six_direction before standard). The figures are the same."""
+    rank = {p: i for i, p in enumerate(order)}
+
+    def key(item: tuple) -> tuple:
+        m = item[0]
+        return (*m[:3], rank.get(m[3], len(rank)), m[3], *m[4:])
+
+    return replace(report, by_method=dict(sorted(report.by_method.items(), key=key)),
+                   groups=dict(sorted(report.groups.items(), key=key)), auc=dict(sorted(report.auc.items(), key=key)))
 
 
 def protocol_rows(report: Report, order: list[str] | None = None) -> list[list[str]]:
@@ -312,11 +326,12 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
     """Write ``report.md`` and its PNGs into `run_dir`; returns the markdown path. `done`: how complete the run
     is (`manigrasp.bench.completeness.completeness`; None: not checked), said first when it is not."""
     run_dir = Path(run_dir)
+    report = in_protocol_order(report, protocol_order(report, meta))
     images = {
         "Success rate per object": plots.success_by_object(report, run_dir / "success_by_object.png"),
         "Success rate per hand and planner": plots.success_by_method(report, run_dir / "success_by_method.png"),
         "Outcomes": plots.failure_modes(report, run_dir / "failure_modes.png"),
-        "Planning time": plots.planning_times(results, run_dir / "planning_time.png"),
+        "Planning time": plots.planning_times(results, run_dir / "planning_time.png", list(report.by_method)),
         "How well each analytic metric predicts success": plots.metric_auc(report, run_dir / "metric_auc.png"),
     }
     config = meta.get("config", {})

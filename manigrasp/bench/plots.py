@@ -166,15 +166,18 @@ def failure_modes(report: Report, path: Path) -> Path:
     return _save(fig, path)
 
 
-def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path) -> Path:
-    """One point per planning call (its wall time for every candidate of one object), box per hand x planner."""
+def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path, methods: list[Method] | None = None
+                   ) -> Path:
+    """One point per planning call (its wall time for every candidate of one object), box per hand x planner, in
+    the order of `methods` (the report's; default sorted)."""
     plt = _pyplot()
     groups: dict[tuple, list[TrialResult]] = defaultdict(list)
     for key, result in results:
         groups[(key.hand, key.planner, key.observation, key.protocol, key.object)].append(result)
     protocols = len({k[3] for k in groups}) > 1
+    rank = {m: i for i, m in enumerate(methods or [])}
     by_method: dict[str, list[float]] = defaultdict(list)
-    for group_key, group in sorted(groups.items()):
+    for group_key, group in sorted(groups.items(), key=lambda kv: (rank.get(kv[0][:4], len(rank)), kv[0])):
         by_method[method_label(group_key[:4], protocols)] += [t for t in planning_call_times(group) if t > 0]
     by_method = {k: v for k, v in by_method.items() if v}
     fig, ax = plt.subplots(figsize=(7, 1.4 + 0.6 * max(1, len(by_method))))

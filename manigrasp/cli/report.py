@@ -102,9 +102,18 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
 
 
 def _print_tables(report, meta: dict) -> None:
-    from manigrasp.bench.markdown import auc_rows, lead_lines, method_cells, method_headers, pooled_line, protocol_order
+    from manigrasp.bench.markdown import (
+        auc_rows,
+        in_protocol_order,
+        lead_lines,
+        method_cells,
+        method_headers,
+        pooled_line,
+        protocol_order,
+    )
     from manigrasp.bench.report import PLANNING_TIME_HEADER, format_planning_time, format_rate
 
+    report = in_protocol_order(report, protocol_order(report, meta))
     headers = method_headers(report)
     rows = [[*method_cells(report, g[:4]), g[4], r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes)]
             for g, r in report.groups.items()]
