@@ -73,8 +73,12 @@ def resolve_config(name: str) -> Path:
     shipped = configs_dir() / f"{name}.yaml"
     if shipped.is_file():
         return shipped
+    from manigrasp.registry import nearest
+
     names = sorted(p.stem for p in configs_dir().glob("*.yaml"))
-    raise ConfigError(f"no config file {name!r}; shipped configs: {', '.join(names)}")
+    hint = nearest(name, names)
+    raise ConfigError(f"no config file {name!r}{f' (did you mean {hint!r}?)' if hint else ''}; shipped configs: "
+                      f"{', '.join(names)}")
 
 
 def _bench(args: argparse.Namespace) -> int:
