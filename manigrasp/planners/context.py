@@ -15,6 +15,11 @@ a planner that compiles the hand to probe it (`collision.HandProbe`) must
 compile the hand the trials run, e.g. with rigid pads under ``pads: rigid``
 (the compliant pads' scene cuts some hands' finger hulls behind the pads,
 `manigrasp.hands.pads`). The harness builds the context with `PlanContext.for_run`.
+Measured (quick's 5 objects, seed 0, antipodal): compliant runs plan exactly as
+before (100/100 parallel_jaw plans identical); a ``pads: rigid`` Panda run's plans
+change (95/100: the rigid fingers reach 16.1 mm beyond the TCP, the cut ones
+14.7 mm, which sets antipodal's pose grid), none of the old ones collided with
+the uncut hulls (0/100), and it succeeds as often (86/100 before and after).
 """
 
 from __future__ import annotations
