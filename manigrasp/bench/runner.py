@@ -197,8 +197,8 @@ def run_benchmark(
                     successes += result.success
                 if on_result is not None:
                     on_result(key, result)
+                bar.set_postfix(success=f"{successes}/{ran}", refresh=False)  # before the step that draws it
                 bar.update(1)
-                bar.set_postfix(success=f"{successes}/{ran}", refresh=False)
         finally:
             bar.close()
             store.close()

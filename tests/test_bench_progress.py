@@ -1,0 +1,43 @@
+"""The progress bar's running success count is the count of the trials the bar has counted."""
+
+from __future__ import annotations
+
+from manigrasp.bench import runner
+from manigrasp.bench.config import parse_config
+from manigrasp.protocol.result import Status, TrialResult
+
+
+class _Bar:
+    """Records, at each step of the bar, the success count it would show with that step."""
+
+    def __init__(self) -> None:
+        self.postfix = ""
+        self.shown: list[str] = []
+
+    def update(self, n: int) -> None:
+        self.shown.append(self.postfix)  # what tqdm draws on update: the postfix set so far
+
+    def set_postfix(self, refresh: bool = True, **values: str) -> None:
+        self.postfix = ", ".join(f"{k}={v}" for k, v in values.items())
+
+    def close(self) -> None:
+        pass
+
+
+def test_each_step_of_the_bar_shows_the_successes_of_the_trials_it_counts(tmp_path, monkeypatch):
+    """Trials 0, 1, 2 of the mug: success, failure, success. Before, the bar drew each step before it updated
+    the count, so after 2 trials it read success=1/1 (and after the first, an empty count)."""
+    outcomes = [Status.SUCCESS, Status.NO_CONTACT, Status.SUCCESS]
+
+    def tasks(pending, todo, jobs, address, settings):
+        for group in pending:
+            for i in todo[id(group)]:
+                yield group.key(i), TrialResult(outcomes[i], seed=group.trial_seed(i))
+
+    bar = _Bar()
+    monkeypatch.setattr(runner, "_iter_local", tasks)
+    monkeypatch.setattr(runner, "_progress_bar", lambda total, initial, enabled: bar)
+    config = parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 3})
+    summary = runner.run_benchmark(config, tmp_path / "run", progress=True)
+    assert (summary.ran, summary.successes) == (3, 2)
+    assert bar.shown == ["success=1/1", "success=1/2", "success=2/3"]
