@@ -92,8 +92,8 @@ class Verdict:
 
     def summary(self, alpha: float) -> str:
         """The verdict in one line, each kind of test counted apart: "2 significant regression(s) at alpha = 0.05:
-        1 of 10 group(s) ..., 1 of 2 ... and not the pooled line". (The regressions of all kinds summed over the
-        groups alone read as 2 of 10 groups regressed where one had.)"""
+        1 of the 10 ... group(s) in both, 1 of the 2 ... line(s) over their groups in both, not the pooled line
+        (...)". (The regressions of all kinds counted "over 10 group(s)" read as 2 of 10 groups where one was.)"""
         def counted(kind: str) -> tuple[int, int]:
             tests = [c for c in self.comparisons if c.kind == kind]
             return sum(c.regression for c in tests), len(tests)
