@@ -10,7 +10,7 @@ import numpy as np
 
 from manigrasp.cli.output import format_table, print_json
 from manigrasp.errors import ConfigError
-from manigrasp.objects import catalog, recipes
+from manigrasp.objects import catalog, recipes, scans
 from manigrasp.objects.catalog import BuildOutcome, ObjectSource
 from manigrasp.objects.pipeline import DEFAULT_DENSITY
 
@@ -21,12 +21,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                                    description="The shipped YCB-like object set and your own meshes.")
     sub = parser.add_subparsers(dest="objects_command", metavar="SUBCOMMAND", required=True)
 
-    p = sub.add_parser("list", help="the shipped objects: YCB id, extents, mass, volume, built or not")
+    p = sub.add_parser("list", help="the shipped objects (the recipes, then the real scans `<stem>_scan`): YCB id, "
+                                    "extents, mass, volume (- for a scan not watertight as shipped), built or not "
+                                    "(- for a scan: not tracked)")
     p.add_argument("--json", action="store_true", help="print a JSON list instead of a table")
     p.set_defaults(func=_list)
 
     p = sub.add_parser("show", help="one object's metadata (builds it first if needed)")
-    p.add_argument("name", help="shipped object name, e.g. 025_mug or mug")
+    p.add_argument("name", help="shipped object name, e.g. 025_mug, mug or 003_cracker_box_scan")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.set_defaults(func=_show)
 
@@ -58,26 +60,52 @@ def _list(args: argparse.Namespace) -> int:
             "extents_m": list(recipe.extents_m), "mass_kg": recipe.mass_kg,
             "volume_m3": float(recipes.build_mesh(recipe).volume), "built": catalog.is_built(name),
         })
+    rows += [_scan_row(name) for name in scans.names()]
     if args.json:
         print_json(rows)
         return 0
     headers = ["name", "ycb_id", "extents [mm]", "mass [kg]", "volume [cm^3]", "built"]
     table = [[r["name"], r["ycb_id"], " x ".join(f"{1000 * e:.0f}" for e in r["extents_m"]),
-              f"{r['mass_kg']:.3f}", f"{1e6 * r['volume_m3']:.0f}", "yes" if r["built"] else "no"] for r in rows]
+              f"{r['mass_kg']:.3f}", "-" if r["volume_m3"] is None else f"{1e6 * r['volume_m3']:.0f}",
+              "-" if r["built"] is None else "yes" if r["built"] else "no"] for r in rows]
     print(format_table(headers, table))
     return 0
 
 
+def _scan_row(name: str) -> dict[str, Any]:
+    """A shipped real scan as a row of `objects list`: its twin's YCB id and common name, the extents of its mesh
+    as shipped, the YCB table's mass, and its volume where the mesh is watertight as shipped (None otherwise: a
+    mesh with holes has no volume until it is repaired; `objects show` gives the built one). Whether it is built
+    is None (unknown): the cache marks recipe builds only (`catalog.is_built` is False for every scan)."""
+    import trimesh
+
+    scan = scans.get(name)
+    twin = recipes.get(scan.twin)
+    mesh = trimesh.load(scan.path, force="mesh")
+    return {"name": name, "ycb_id": twin.ycb_id, "common_name": f"{twin.common_name} (scan)",
+            "extents_m": [float(e) for e in mesh.extents], "mass_kg": scan.mass_kg,
+            "volume_m3": float(mesh.volume) if scan.watertight else None, "built": None}
+
+
 def _show(args: argparse.Namespace) -> int:
     source = catalog.shipped(args.name)
-    recipe = recipes.get(source.name)
     asset = catalog.build(source).asset
+    if scans.is_scan(source.name):  # a real scan: described by its recipe twin and the scans' README
+        scan = scans.get(source.name)
+        twin = recipes.get(scan.twin)
+        ycb_id, common_name = twin.ycb_id, f"{twin.common_name} (scan)"
+        origin = f"YCB scan {scan.path.name} (assets/scans/README.md: source, licence, masses)"
+        notes = (f"real scan of {scan.twin} (its recipe twin); watertight as shipped: "
+                 f"{'yes' if scan.watertight else 'no'}")
+    else:
+        recipe = recipes.get(source.name)
+        ycb_id, common_name, origin, notes = recipe.ycb_id, recipe.common_name, recipe.source, recipe.notes
     info = {
-        "name": asset.name, "ycb_id": recipe.ycb_id, "common_name": recipe.common_name,
+        "name": asset.name, "ycb_id": ycb_id, "common_name": common_name,
         "extents_m": rounded(asset.extents), "mass_kg": rounded(asset.mass), "volume_m3": rounded(asset.volume),
         "inertia_kg_m2": rounded(asset.inertia, noise=1e-9 * float(np.max(np.abs(asset.inertia)))),
         "n_hulls": asset.n_parts, "mjcf": str(asset.mjcf_path),
-        "visual_mesh": str(asset.visual_path), "source": recipe.source, "notes": recipe.notes,
+        "visual_mesh": str(asset.visual_path), "source": origin, "notes": notes,
         "metadata": asset.metadata,
     }
     if args.json:
