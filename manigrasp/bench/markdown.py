@@ -363,9 +363,9 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         "## Analytic metrics as predictors of success",
         f"ROC AUC of each metric for telling successes from failures within one {' x '.join(headers)} (0.5 = chance), "
         "ranking the trials by the metric's better values (higher, or lower where it says so: above 0.5 the better "
-        "value goes with success), with a 95 % bootstrap interval (resampled within successes and failures, fixed seed). n counts the "
-        "simulated trials with a value of the metric (successes in brackets). A metric with a single value in a "
-        "group cannot rank its trials: its AUC is undefined, not 0.5."
+        "value goes with success), with a 95 % bootstrap interval (resampled within successes and failures, fixed "
+        "seed). n counts the simulated trials with a value of the metric (successes in brackets). A metric with a "
+        "single value in a group cannot rank its trials: its AUC is undefined, not 0.5."
         + (f" Rows `all` pool every trial of every {' x '.join(headers)}: there a metric partly tells those "
            "apart (planners, protocols) instead of ranking the grasps of one." if len(report.auc) > 1 else ""),
         _table([*headers, "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)),
