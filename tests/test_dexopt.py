@@ -295,3 +295,51 @@ def test_load_rotation_of_a_pinch_above_the_centre_of_mass_is_the_torque_over_th
     assert rotation[2] < 0.1 * rotation[1]  # along the line: held by the fingers' lateral stiffness
     loose = dexopt.grasp_stiffness(x, n, jac, 5e3 * np.eye(6), np.zeros(3), 1e4)
     assert np.isinf(dexopt.load_rotation(loose, np.array([[0.0, 5.0, 0.0]]))[0][0])
+
+
+def _wedge_pinch(tilt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Two contacts at x = -+5 cm whose inward normals lean `tilt` [rad] up from the line between them (a wedge),
+    each pushed by a slide joint of its own along the line (joint 0 moves contact 0 along +x, joint 1 contact 1
+    along -x)."""
+    points = np.array([[-0.05, 0.0, 0.0], [0.05, 0.0, 0.0]])
+    normals = np.array([[np.cos(tilt), 0.0, np.sin(tilt)], [-np.cos(tilt), 0.0, np.sin(tilt)]])
+    jac = np.zeros((2, 3, 2))
+    jac[0, 0, 0], jac[1, 0, 1] = 1.0, -1.0
+    return points, normals, jac
+
+
+@pytest.mark.parametrize("tilt", [0.0, 0.2, 0.6])
+def test_squeeze_friction_of_a_pinch_is_the_tangent_of_the_normals_tilt(tilt: float) -> None:
+    # Two contacts can only squeeze each other along their line: the tangential part over the normal is tan(tilt),
+    # whatever the size of the squeeze.
+    points, normals, jac = _wedge_pinch(tilt)
+    for size in (1.0, 7.0):
+        used = dexopt.squeeze_friction(points, normals, jac, size * np.ones(2), np.zeros(3))
+        assert used == pytest.approx(np.tan(tilt), abs=1e-9)
+
+
+def test_squeeze_friction_is_infinite_when_the_joints_pull_the_contacts_apart() -> None:
+    points, normals, jac = _wedge_pinch(0.2)
+    assert dexopt.squeeze_friction(points, normals, jac, -np.ones(2), np.zeros(3)) == float("inf")
+
+
+def test_squeeze_friction_of_three_fingers_pressing_a_sphere_along_its_normals_is_zero() -> None:
+    # Three contacts 120 deg apart on a sphere's equator, each on a slide joint along its inward normal: the
+    # internal forces along the normals produce the joint torques exactly, with no friction. A second joint
+    # pushing contact 0 up cannot be balanced by the object (three contacts in a plane press no vertical forces
+    # that cancel in force and torque): the fit leaves it over (the finger moves), the friction stays 0.
+    angles = 2.0 * np.pi * np.arange(3) / 3.0
+    points = 0.04 * np.stack([np.cos(angles), np.sin(angles), np.zeros(3)], axis=1)
+    normals = -points / 0.04
+    jac = np.zeros((3, 3, 4))
+    for i in range(3):
+        jac[i, :, i] = normals[i]
+    jac[0, 2, 3] = 1.0
+    assert dexopt.squeeze_friction(points, normals, jac, np.array([1.0, 1.0, 1.0, 0.0]), np.zeros(3)) == \
+        pytest.approx(0.0, abs=1e-9)
+    assert dexopt.squeeze_friction(points, normals, jac, np.array([1.0, 1.0, 1.0, 0.5]), np.zeros(3)) == \
+        pytest.approx(0.0, abs=1e-9)
+    # Unequal pushes (1, 2, 1) along the normals: the extra unit at contact 1 must be balanced by the tangential
+    # forces of contacts 0 and 2 (b and -b, no net torque), 2 b sin(60 deg) = 1: sum |t| / sum f_n = (2 / sqrt 3) / 4.
+    assert dexopt.squeeze_friction(points, normals, jac, np.array([1.0, 2.0, 1.0, 0.0]), np.zeros(3)) == \
+        pytest.approx(np.sqrt(3.0) / 6.0, rel=1e-9)

@@ -26,6 +26,9 @@ gradient to the hand's generalised coordinates with MuJoCo's Jacobians (`mj_jac`
 `hold_margin` is the planner's load test (not a term of the energy): one linear programme over contact forces
 in linearised friction cones (`friction_pyramid`) with per-contact normal-force caps (what the hand's squeeze
 presses each contact with) that must balance the object's weight and the protocol's perturbations.
+`squeeze_friction` is how much friction the squeeze alone uses: the contact forces that best produce the
+squeeze's joint torques while balancing the object among themselves (internal forces), their tangential over
+their normal parts (recorded per grasp, `Synthesis.friction_used`; not a term, not a ranking).
 `grasp_stiffness` (Cutkosky & Kao, 1989) and `load_rotation` estimate how far a held object turns and moves in
 the hand under those loads (the contacts and the finger servos as springs; no slip, no preload term); the
 planner records it per grasp (`Synthesis.rotation`), it does not select on it.
@@ -459,3 +462,45 @@ def load_rotation(stiffness: np.ndarray, loads: np.ndarray) -> tuple[np.ndarray,
     rotation = np.where(unbounded, np.inf, np.linalg.norm(d[:, 3:], axis=1))
     translation = np.where(unbounded, np.inf, np.linalg.norm(d[:, :3], axis=1))
     return rotation, translation
+
+
+def squeeze_friction(points: np.ndarray, normals: np.ndarray, jacobians: np.ndarray, torque: np.ndarray,
+                     center: np.ndarray) -> float:
+    """The friction [-] the squeeze alone uses: sum_i |t_i| / sum_i max(0, f_i . n_i) over the contact forces f_i
+    (tangential parts t_i) that best produce the squeeze's joint `torque` (n_q,) while the object stays in
+    equilibrium (weightless, nothing else touching it).
+
+    The hand's statics: the fingers press the object with f_i at `points` (k, 3) [m], the joints feel
+    sum_i J_i^T f_i, `jacobians` (k, 3, n_q); the object is balanced when sum_i f_i = 0 and
+    sum_i (x_i - c) x f_i = 0 about `center` (3,). Among the forces that balance the object (the grasp map's null
+    space: the internal forces), the least-squares fit of the joint torques (the servos' forces the joints must
+    carry; what the fit leaves over moves the fingers). The ratio is homogeneous of degree zero in `torque`
+    (the grip's size does not change it): 0 when the squeeze presses along the inward unit `normals` (k, 3) only,
+    1 at a contact force on a cone of friction 1; a contact pulled (normal part <= 0) adds its whole tangential
+    part and no normal force (inf if no contact is pressed). It is the planner's estimate of the simulated close's
+    `friction_used` (`dexopt_planner.CloseResult`) divided by the friction coefficient.
+    """
+    from scipy.linalg import null_space
+
+    x = np.atleast_2d(np.asarray(points, float))
+    n = np.atleast_2d(np.asarray(normals, float))
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    jac = np.asarray(jacobians, float)
+    k = len(x)
+    if k < 2:
+        return float("inf")
+    arm = x - np.asarray(center, float)
+    scale = max(float(np.linalg.norm(arm, axis=1).max()), 1e-9)
+    grasp = np.concatenate([np.tile(np.eye(3), k), np.concatenate(_skew(arm / scale), axis=1)], axis=0)  # (6, 3k)
+    internal = null_space(grasp)  # (3k, m) forces that balance the object
+    if internal.shape[1] == 0:
+        return float("inf")
+    joint_map = np.concatenate(list(jac.transpose(0, 2, 1)), axis=1)  # (n_q, 3k): sum_i J_i^T f_i
+    z = np.linalg.lstsq(joint_map @ internal, np.asarray(torque, float), rcond=None)[0]
+    f = (internal @ z).reshape(k, 3)
+    normal = np.einsum("ki,ki->k", f, n)
+    tangential = np.linalg.norm(f - normal[:, None] * n, axis=1)
+    pressed = np.clip(normal, 0.0, None).sum()
+    if not pressed > 0:
+        return float("inf")
+    return float(tangential.sum() / pressed)

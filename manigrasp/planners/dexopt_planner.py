@@ -75,6 +75,13 @@
    6/13, but at margin >= 2 the low turns are no better (< 0.3 deg 6/9, 0.3-1 deg 5/7); Inspire and Fourier
    all under 1 deg. The margin separates: successes at margin [1, 1.3) 10/23, [1.3, 2) 19/37, >= 2 63/78
    (three hands), hence `min_hold_margin` 2.
+   Each candidate also gets the friction its squeeze alone uses (`dexopt.squeeze_friction` over the touching
+   pads and the squeeze's joint torques, divided by `friction`; `Synthesis.friction_used`), the planner's
+   estimate of the simulated close's `friction_used` (`CloseResult`): recorded, not used to rank. On the
+   Allegro at 04ffbb2 (seed 0, standard 10 N, the trials matched to their grasps by TCP pose) the banana's
+   grasps at over 0.6 succeeded 0/5 (they slip out in the lift: the replayed trial 0003 ends its close with every
+   contact on its cone, 0.99-1.00, and the grip falls from 6 to 0.8 N in the lift), at 0.6 or less 2/5; the
+   tennis ball's ten 0.25-0.57, all succeeded. Too few trials to rank by it yet.
 7. The closing check (opt-in, `close_check` > 0; GraspIt!-style: simulate the close, then judge the contacts):
    after steps 4-6 and the non-maximum suppression, the first `close_check` candidates in that order are closed
    in MuJoCo as the protocol closes (`CloseSimulation`: `protocol.phases.close` on a `TrialRun` in a scene of
@@ -125,7 +132,14 @@ from manigrasp.objects.pipeline import DEFAULT_DENSITY
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.context import PlanContext, resolve
-from manigrasp.planners.dexopt import EnergyWeights, GridSdf, grasp_stiffness, hold_margin, load_rotation
+from manigrasp.planners.dexopt import (
+    EnergyWeights,
+    GridSdf,
+    grasp_stiffness,
+    hold_margin,
+    load_rotation,
+    squeeze_friction,
+)
 from manigrasp.planners.dexopt_hand import HandKinematics
 from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
 from manigrasp.planners.hold import loads
@@ -182,6 +196,9 @@ class Synthesis:
             predicts (`dexopt.grasp_stiffness`, `dexopt.load_rotation`; inf: a load along a direction the
             contacts cannot hold); recorded, not used to rank (module docstring, step 6).
         opened: the pre-shape is one of the `OPEN_TRIES` toward the open hand (ranked after the others).
+        friction_used: the friction the squeeze alone uses over the friction the hold test assumes
+            (`dexopt.squeeze_friction` / `friction`; > 1: the squeeze pushes some pad outside its cone); recorded,
+            not used to rank (module docstring, step 6).
         fingers, bodies: (k,) the finger (index into `Hand.finger_bodies`, 0 the thumb) and the body (id in
             `HandKinematics.model`) of each pad in `contacts`.
         close: what the simulated close gave (`CloseSimulation.check`), None if not simulated (step 7).
@@ -198,6 +215,7 @@ class Synthesis:
     hold: float = float("inf")
     rotation: float = 0.0
     opened: bool = False
+    friction_used: float = 0.0
     fingers: np.ndarray | None = None
     bodies: np.ndarray | None = None
     close: CloseResult | None = None
@@ -556,11 +574,13 @@ class DexOptPlanner:
             if path is None:
                 rejected["preshape"] = rejected.get("preshape", 0) + 1
                 continue
-            joints, press, opened = path
+            joints, press, opened, torque = path
             caps = squeeze_caps(press[touching], hk.pad_finger[chosen][touching] == 0, grip)
             hold = hold_margin(x[touching], normal[touching], caps, observation.center_of_mass, external,
                                mu, self.torsion)
             jac = pad_jacobians(x, hk._slot[hk.contacts.bodies[chosen]], jp[0], jr[0], xpos[0])
+            used = squeeze_friction(x[touching], normal[touching], jac[touching], torque,
+                                    observation.center_of_mass) / mu if mu > 0 else float("inf")
             stiffness = grasp_stiffness(x[touching], normal[touching], jac[touching],
                                         held_joint_stiffness(hk, q[i], joints[1] - joints[0]),
                                         observation.center_of_mass, CONTACT_STIFFNESS)
@@ -568,7 +588,8 @@ class DexOptPlanner:
             passed.append(Synthesis(pose=tcp, q=q[i].copy(), joints=joints, energy=float(energy[i]),
                                     terms={key: float(v[i]) for key, v in terms.items()},
                                     contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold,
-                                    rotation=rotation, opened=opened, fingers=hk.pad_finger[chosen][touching],
+                                    rotation=rotation, opened=opened, friction_used=used,
+                                    fingers=hk.pad_finger[chosen][touching],
                                     bodies=hk.contacts.bodies[chosen][touching]))
         if not passed:
             return []
@@ -614,9 +635,10 @@ class DexOptPlanner:
     def hand_path(self, hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray, x: np.ndarray,
                   bodies: np.ndarray, normal: np.ndarray, dist: np.ndarray, jp: np.ndarray, jr: np.ndarray,
                   xpos: np.ndarray, addresses: dict[str, int], names: list[str],
-                  offset: float = PREGRASP_OFFSET) -> tuple[np.ndarray, np.ndarray, bool] | None:
+                  offset: float = PREGRASP_OFFSET) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray] | None:
         """(2, n_act) pre-shape and squeeze commands (module docstring, step 5), the normal forces (k,) the
-        squeeze presses the pads with (relative) and whether the pre-shape is one of the `OPEN_TRIES`; or None if
+        squeeze presses the pads with (relative), whether the pre-shape is one of the `OPEN_TRIES` and the
+        squeeze's joint torques (n_q,) (relative, A^T f); or None if
         no pre-shape of the `PRESHAPE_TRIES` back-offs and the `OPEN_TRIES` toward the open hand is collision-free
         along the approach."""
         jac = pad_jacobians(x, hk._slot[bodies], jp, jr, xpos)
@@ -649,7 +671,8 @@ class DexOptPlanner:
                       for nm, j in zip(names, hk.joints, strict=True)}
             if all(_probe_contacts(probe, pose, hand_q)[0] <= self.max_penetration
                    for pose in _approach_poses(tcp, offset)):
-                return np.stack([pre, squeeze]), pad_forces(rows, a.T @ force), attempt >= PRESHAPE_TRIES
+                torque = a.T @ force
+                return np.stack([pre, squeeze]), pad_forces(rows, torque), attempt >= PRESHAPE_TRIES, torque
         return None
 
 
