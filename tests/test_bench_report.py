@@ -504,3 +504,23 @@ def test_every_table_and_plot_lists_the_protocols_in_the_configs_order(tmp_path,
     assert text.index("| standard | 004_sugar_box | 10 | 7 |") < text.index("| six_direction | 004_sugar_box |")
     assert main(["report", str(run), "--json"]) == 0  # the JSON keeps its sorted order (baselines diff cleanly)
     assert [m["protocol"] for m in json.loads(capsys.readouterr().out)["methods"]] == ["six_direction", "standard"]
+
+
+def test_the_header_names_the_pad_model_and_every_scene_parameter_off_its_default(tmp_path):
+    """A run with `scene.pads=rigid` (the model of older figures) printed the very same header as one with the
+    default compliant pads: nothing in report.md told the two apart. The header names the pad model always, and
+    each other scene parameter that differs from this version's default."""
+    from manigrasp.config import to_mapping
+    from manigrasp.sim.config import SceneConfig
+
+    results = _results({("025_mug", "antipodal"): 18})
+    scene = json.loads(json.dumps(to_mapping(SceneConfig())))
+
+    def header(**change):
+        meta = {**RUN_META, "config": {**RUN_META["config"], "scene": {**scene, **change}}}
+        return write_markdown(summarize(results), results, tmp_path, meta).read_text().splitlines()[2]
+
+    assert "; scene: pads=compliant (every other scene parameter at its default), seed 0" in header()
+    assert "; scene: pads=rigid (every other scene parameter at its default)" in header(pads="rigid")
+    assert "; scene: pads=compliant, rest=stable_k, rest_k=3, timestep=0.001 (every other" in header(
+        rest="stable_k", rest_k=3, timestep=0.001)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from collections import defaultdict
 from dataclasses import astuple, replace
@@ -321,6 +322,25 @@ def _protocol_line(config: dict) -> str:
     return line
 
 
+def _scene_text(config: dict) -> str:
+    """"scene: pads=compliant, rest=stable_k, rest_k=3 (every other scene parameter at its default)": the pad model
+    always (a rigid-pad run's figures differ from a compliant one's, and its header read the same), then each
+    recorded scene parameter that differs from this version's default, sorted; "" when the run records no scene."""
+    from manigrasp.config import to_mapping
+    from manigrasp.sim.config import SceneConfig
+
+    scene = config.get("scene")
+    if not isinstance(scene, dict):
+        return ""
+    plain = SceneConfig()
+    defaults = json.loads(json.dumps(to_mapping(plain), default=str))
+    differ = {k: v for k, v in scene.items()
+              if k != "pads" and v != defaults.get(k, json.loads(json.dumps(getattr(plain, k, None), default=str)))}
+    shown = ({"pads": scene["pads"]} if "pads" in scene else {}) | dict(sorted(differ.items()))
+    text = ", ".join(f"{k}={v if isinstance(v, str) else json.dumps(v)}" for k, v in shown.items())
+    return f"; scene: {text or 'defaults'} (every other scene parameter at its default)"
+
+
 def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], run_dir: Path,
                    meta: dict, done: Completeness | None = None) -> Path:
     """Write ``report.md`` and its PNGs into `run_dir`; returns the markdown path. `done`: how complete the run
@@ -338,7 +358,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
     headers = method_headers(report)
     parts = [
         f"# manigrasp report: {config.get('name', run_dir.name)}",
-        f"{_protocol_line(config)}, seed {meta.get('seed')}, "
+        f"{_protocol_line(config)}{_scene_text(config)}, seed {meta.get('seed')}, "
         f"manigrasp {meta.get('versions', {}).get('manigrasp')}, mujoco {meta.get('versions', {}).get('mujoco')}, "
         f"commit {meta.get('git_commit') or 'unknown'}, started {meta.get('started')}.",
         *(f"**Warning: {line}.**" for line in warning_lines(meta, done, report)),
