@@ -17,8 +17,8 @@ class _Bar:
     def update(self, n: int) -> None:
         self.shown.append(self.postfix)  # what tqdm draws on update: the postfix set so far
 
-    def set_postfix(self, refresh: bool = True, **values: str) -> None:
-        self.postfix = ", ".join(f"{k}={v}" for k, v in values.items())
+    def set_postfix_str(self, text: str, refresh: bool = True) -> None:
+        self.postfix = text
 
     def close(self) -> None:
         pass
@@ -41,3 +41,12 @@ def test_each_step_of_the_bar_shows_the_successes_of_the_trials_it_counts(tmp_pa
     summary = runner.run_benchmark(config, tmp_path / "run", progress=True)
     assert (summary.ran, summary.successes) == (3, 2)
     assert bar.shown == ["success=1/1", "success=1/2", "success=2/3"]
+    # Resumed with trial 2 removed: the bar starts at 2 of 3 stored, and its count says it is this session's.
+    import sqlite3
+
+    with sqlite3.connect(tmp_path / "run" / "results.sqlite") as db:
+        db.execute("DELETE FROM trials WHERE grasp_index = 2")
+    bar.shown.clear()
+    summary = runner.run_benchmark(config, tmp_path / "run", progress=True)
+    assert (summary.already_done, summary.ran, summary.successes) == (2, 1, 1)
+    assert bar.shown == ["success=1/1 this session"]

@@ -197,7 +197,10 @@ def run_benchmark(
                     successes += result.success
                 if on_result is not None:
                     on_result(key, result)
-                bar.set_postfix(success=f"{successes}/{ran}", refresh=False)  # before the step that draws it
+                # Set before the step that draws it; on a resumed run the bar counts the stored trials too, the
+                # successes only this session's trials.
+                bar.set_postfix_str(f"success={successes}/{ran}" + (" this session" if already else ""),
+                                    refresh=False)
                 bar.update(1)
         finally:
             bar.close()
