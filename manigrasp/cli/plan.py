@@ -15,7 +15,7 @@ from manigrasp.cli.output import format_table, print_json
 from manigrasp.errors import ConfigError
 from manigrasp.planners.base import GraspCandidate
 
-_HEADERS = ["rank", "score", "epsilon L1", "width [mm]", "force closure", "approach"]
+_HEADERS = ["rank", "score", "epsilon L1", "width [mm]", "force closure", "approach (unit vector, world)"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
