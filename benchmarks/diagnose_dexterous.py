@@ -76,6 +76,19 @@ successes of 40, Allegro + Fourier, against 15 = 7 + 8 for dexopt's defaults; +-
   Not confirmed for the Fourier hand on other objects (mustard, mug, banana, can, potted meat x 5, seed 1): 5/25
   against 7/25 at the default 0.3.
 
+The same grasps with other protocol parameters (`--with KEY=VALUE ...`, e.g. `close_mode=per_finger`): every
+stored trial (or the ids; `--only` filters) is replayed with the run's protocol parameters so changed, and the
+successes stored and replayed are printed per hand x planner (k/n), with, at the end of the close, the trials
+with every finger on the object (>= 0.1 N) and the median push of the object on the table by the close. The
+per-finger close against the synergy close (`manigrasp bench dexterous "protocols=[{name: standard, params:
+{grip_force: 10.0}}]" --out RUN` at 04ffbb2, then `RUN --with close_mode=per_finger` and `RUN --with
+close_mode=synergy --only dexopt`; the mug's dexopt group from a run of its own with `trial_timeout_s=900`, its
+planning having overrun 120 s on the loaded machine): dexopt 40/37/44 -> 40/37/45 of 70 (Allegro, Fourier,
+Inspire), power 19/53/54 -> 23/57/50, none beyond noise; every finger on at the end of the close (dexopt)
+Fourier 1/64 -> 16/63, Inspire 20/67 -> 37/66, Allegro 61/69 -> 58/67; pushed over 5 mm 27/64 -> 15/63,
+12/67 -> 12/66, 29/69 -> 25/67 (`manigrasp.control.fingers`). Replaying with the run's own parameters gives its
+stored statuses (209 of the 210 dexopt trials).
+
 The plan against the simulation (`--versus-plan`): each dexopt trial's group is planned again in the process
 that replays it, every candidate kept, with what dexopt's load test (`dexopt_planner`, step 6) was given: the
 pads in contact, their fingers and links, their normal-force caps, the loads, mu. A trial whose executed pose no

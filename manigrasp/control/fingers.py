@@ -36,6 +36,29 @@ the squeeze is shared among all the fingers that reached the object, not among t
 Fully actuated fingers (the Allegro's: three closing servos per finger, two for the thumb) are one finger each:
 a contact on any link of the finger stops all its servos, each just past its own position; a finger of the
 five-finger hands is one tendon actuator.
+
+Measured (the dexterous config under `standard` at 10 N, seed 0, 7 objects x 10 per hand and planner; the run's
+stored grasps replayed with ``close_mode`` changed, `benchmarks/diagnose_dexterous.py RUN --with
+close_mode=per_finger`, which gives what ``manigrasp bench`` with the override gives: 20/20 trials identical on a
+check; the mug's dexopt grasps from a run with ``trial_timeout_s=900``, its planning having overrun 120 s on the
+loaded machine), synergy -> per_finger:
+
+- success, dexopt: allegro_right 40 -> 40/70, fourier_right 37 -> 37, inspire_right 44 -> 45; power: 19 -> 23,
+  53 -> 57, 54 -> 50. No change is beyond noise: the trials that change go both ways (lost + gained, dexopt:
+  Allegro 3 + 3, Fourier 9 + 9, Inspire 2 + 3; power: 5 + 9, 4 + 8, 6 + 2; exact McNemar p >= 0.29);
+- the close itself, dexopt (trials that reached the end of the close): every finger on the object (>= 0.1 N)
+  Fourier 1/64 -> 16/63, Inspire 20/67 -> 37/66, Allegro 61/69 -> 58/67; the object pushed over 5 mm on the
+  table by the close: Fourier 27/64 -> 15/63, Inspire 12/67 -> 12/66, Allegro 29/69 -> 25/67.
+
+So the close has fewer of the defects the planner's diagnosis blamed (`diagnose_dexterous --versus-plan`), and
+the successes do not follow: the grasps lost with it are mostly dropped in the perturbations, where the
+squeeze, shared among more fingers, leaves each held finger a smaller force (`FingerHold` keeps what the close
+reached; its floor is a fraction of it). Opt-in for that reason. Not better either (Fourier dexopt, tomato soup
+can + mustard bottle x 10, against 12/20 with the synergy): `PRELOAD` 0.3 10/20, 0.1 9/20.
+Rejected while building it: a stall check on the clipped finger position (a finger still short of its open
+command never counted as moving and stopped at once), a squeeze that waited for every finger (a finger passing
+under the object closed on until the close's timeout: `no_contact`), a feed-forward offset target / k at the
+start of the squeeze (11.4 N on a 10 N target at once).
 """
 
 from __future__ import annotations
