@@ -732,7 +732,6 @@ def replay_with(run_dir: Path, overrides: dict, ids: list[str], only: tuple[str,
     import statistics
     from collections import defaultdict
 
-    from manigrasp.bench.replay import _executed_nothing
     from manigrasp.bench.worker import scene_for
     from manigrasp.protocol import PROTOCOLS, settle_object
 
@@ -742,7 +741,7 @@ def replay_with(run_dir: Path, overrides: dict, ids: list[str], only: tuple[str,
     for trial_id in ids:
         trial = trials[trial_id]
         stored = trial.result
-        if _executed_nothing(stored):
+        if not np.isfinite(stored.grasp.x_m):  # no grasp was executed (a planner error, planning timed out)
             rows.append((trial_id, stored.status.value, stored.status.value, -1, np.nan, -1))
             continue
         group = trial.group

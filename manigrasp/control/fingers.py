@@ -51,10 +51,16 @@ loaded machine), synergy -> per_finger:
   table by the close: Fourier 27/64 -> 15/63, Inspire 12/67 -> 12/66, Allegro 29/69 -> 25/67.
 
 So the close has fewer of the defects the planner's diagnosis blamed (`diagnose_dexterous --versus-plan`), and
-the successes do not follow: the grasps lost with it are mostly dropped in the perturbations, where the
-squeeze, shared among more fingers, leaves each held finger a smaller force (`FingerHold` keeps what the close
-reached; its floor is a fraction of it). Opt-in for that reason. Not better either (Fourier dexopt, tomato soup
+the successes do not follow. Of the 14 dexopt successes it loses, 9 drop in the perturbations and 5 slip in
+the lift, mostly on the heavier objects (sugar box, mustard bottle, mug: 9; 5 of these 9 the synergy close held
+with 2-3 fingers on, this one closes with 4-5); it wins 15 (the banana and the potted meat can: 9). In the two lost
+grasps traced (Fourier, mustard 0004 and tomato soup can 0000) the thumb's servo pushed 0.25-0.42 N m at the
+start of the lift against 0.46-0.86 N m after the synergy close for the same grip force, and `FingerHold` holds
+what the close reached. Opt-in for that reason. Not better either (Fourier dexopt, tomato soup
 can + mustard bottle x 10, against 12/20 with the synergy): `PRELOAD` 0.3 10/20, 0.1 9/20.
+Nor does resting the fingers still closing when the close ends just past where they stand (instead of leaving
+their commands run ahead, as the synergy close leaves the fingers that have not touched): Fourier dexopt, all
+7 objects x 10, 36/70 against 37/70.
 Rejected while building it: a stall check on the clipped finger position (a finger still short of its open
 command never counted as moving and stopped at once), a squeeze that waited for every finger (a finger passing
 under the object closed on until the close's timeout: `no_contact`), a feed-forward offset target / k at the
