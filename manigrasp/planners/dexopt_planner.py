@@ -21,8 +21,14 @@
    - the depth of the hand's surface samples inside the object and below the table top + `table_clearance`;
    - the fingers' mutual penetration (spheres along their links); joint limits;
    - the pads' centroid away from the centre of mass, |mean_i (x_i - c) / r|^2, meant to let the weight
-     hang between the fingers rather than twist out of them (its effect on success not measured alone).
-   With `wrap`, every moving finger link is a pad of its own; with `palm`, the palm's front is one more.
+     hang between the fingers rather than twist out of them. Its weight 10 instead of 1 (`CENTROID_WEIGHT`;
+     standard 10 N, 04ffbb2, paired seeds, `manigrasp bench`): Allegro seed 0 sugar box 2 -> 4, mustard 1 -> 4,
+     banana 2 -> 3, can 10 -> 8, mug 8 -> 6/10; seed 1 can 9 -> 8, mustard 1 -> 1/10; Fourier and Inspire
+     mustard (seed 0) 2 and 4/10 against 6 and 8/10 at 1: no gain beyond noise, worse on the five-finger hands;
+     kept at 1.
+   With `wrap`, every moving finger link is a pad of its own; with `palm`, the palm's front is one more. (Both
+   on the Allegro, same runs: sugar box 3/10, mustard 2/10, against 2 and 1/10: the caps of step 6 credit a
+   wrap with no more than a fingertip grasp, so the ranking cannot prefer what it would press harder.)
 4. Selection, lowest energy first: at least `min_contacts` pads within `contact_tolerance` of the surface;
    a MuJoCo check at the planned configuration in the real scene (hand geoms vs object parts and table,
    `mj_collision`, no margin): a hand that penetrates is first moved out along the contact normals (a few
@@ -78,10 +84,15 @@
    Each candidate also gets the friction its squeeze alone uses (`dexopt.squeeze_friction` over the touching
    pads and the squeeze's joint torques, divided by `friction`; `Synthesis.friction_used`), the planner's
    estimate of the simulated close's `friction_used` (`CloseResult`): recorded, not used to rank. On the
-   Allegro at 04ffbb2 (seed 0, standard 10 N, the trials matched to their grasps by TCP pose) the banana's
-   grasps at over 0.6 succeeded 0/5 (they slip out in the lift: the replayed trial 0003 ends its close with every
-   contact on its cone, 0.99-1.00, and the grip falls from 6 to 0.8 N in the lift), at 0.6 or less 2/5; the
-   tennis ball's ten 0.25-0.57, all succeeded. Too few trials to rank by it yet.
+   Allegro at 04ffbb2 (standard 10 N; 90 trials matched to their grasps by TCP pose: seed 0 can, mug, sugar
+   box, potted meat, banana, tennis ball, seed 1 can, mug, sugar box) it predicts: successes at < 0.3 29/33, [0.3, 0.45) 23/35, [0.45, 0.6) 8/12, >= 0.6 1/10 (banana 0/5,
+   sugar box 0/2, mug 1/3); the banana's slip out in the lift (replayed trial 0003 ends its close with every
+   contact on its cone, 0.99-1.00, and the grip falls from 6 to 0.8 N in the lift). Ranking those over 0.6
+   after the others (tried, not kept; banana, mug, sugar box, potted meat x 10 on the Allegro, seed 0 / seed 1,
+   against 19 / 24 of 40): within each group of the hold test 20 / 24, after every other candidate 20 / 23: no
+   gain, because the benchmark runs all `n` candidates returned and the diverse pool seldom has another one
+   to bring in (the banana keeps 7 that hold). A term of the energy is the next thing to try. On the five-finger
+   hands (tendon-coupled joints) the estimate reads 2-10 on a test can (12 restarts x 100 steps): unchecked.
 7. The closing check (opt-in, `close_check` > 0; GraspIt!-style: simulate the close, then judge the contacts):
    after steps 4-6 and the non-maximum suppression, the first `close_check` candidates in that order are closed
    in MuJoCo as the protocol closes (`CloseSimulation`: `protocol.phases.close` on a `TrialRun` in a scene of
