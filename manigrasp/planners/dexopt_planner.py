@@ -86,8 +86,9 @@
    estimate of the simulated close's `friction_used` (`CloseResult`): recorded, not used to rank. On the
    Allegro at 04ffbb2 (standard 10 N; 90 trials matched to their grasps by TCP pose: seed 0 can, mug, sugar
    box, potted meat, banana, tennis ball, seed 1 can, mug, sugar box) it predicts: successes at < 0.3
-   29/33, [0.3, 0.45) 23/35, [0.45, 0.6) 8/12, >= 0.6 1/10 (banana 0/5, sugar box 0/2, mug 1/3); the banana's slip out in the lift (replayed trial 0003 ends its close with every
-   contact on its cone, 0.99-1.00, and the grip falls from 6 to 0.8 N in the lift). Ranking those over 0.6
+   29/33, [0.3, 0.45) 23/35, [0.45, 0.6) 8/12, >= 0.6 1/10 (banana 0/5, sugar box 0/2, mug 1/3); the
+   banana's slip out in the lift (replayed trial 0003 ends its close with every contact on its cone,
+   0.99-1.00, and the grip falls from 6 to 0.8 N in the lift). Ranking those over 0.6
    after the others (tried, not kept; banana, mug, sugar box, potted meat x 10 on the Allegro, seed 0 / seed 1,
    against 19 / 24 of 40): within each group of the hold test 20 / 24, after every other candidate 20 / 23: no
    gain, because the benchmark runs all `n` candidates returned and the diverse pool seldom has another one
