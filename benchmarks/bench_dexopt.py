@@ -49,7 +49,7 @@ from manigrasp.hands.registry import load as load_hand  # noqa: E402
 from manigrasp.objects import catalog  # noqa: E402
 from manigrasp.planners.base import Observation  # noqa: E402
 from manigrasp.planners.collision import HandProbe  # noqa: E402
-from manigrasp.planners.context import PlanContext, grasping_friction  # noqa: E402
+from manigrasp.planners.context import PlanContext  # noqa: E402
 from manigrasp.planners.dexopt_planner import DexOptPlanner, _probe_contacts, choose_pads  # noqa: E402
 from manigrasp.protocol import PROTOCOLS, settle_object  # noqa: E402
 from manigrasp.protocol.grasp import as_grasp  # noqa: E402
@@ -80,7 +80,7 @@ def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
     planner.kinematics(hand)  # the hand's model is built once per process, not per call: not timed
     cpu, wall = time.process_time(), time.perf_counter()
     protocol = PROTOCOLS.load("standard", grip_force=10.0)
-    context = PlanContext.from_params(protocol.params, grasping_friction(SceneConfig(), hand))
+    context = PlanContext.for_run(protocol.params, SceneConfig(), hand)
     found = planner.synthesise(observation, hand, args.grasps, np.random.default_rng(args.seed), None, context)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     hk, sdf = planner.kinematics(hand), planner.object_sdf(observation)
@@ -131,8 +131,8 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
         if g.planner.name != "dexopt":
             continue
         scene = scene_for(g)
-        context = PlanContext.from_params(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params,
-                                          grasping_friction(g.scene, scene.hand))
+        context = PlanContext.for_run(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params,
+                                      g.scene, scene.hand)
         pose = settle_object(scene)
         observation, _ = observe_with_info(g.observation, _asset(g), pose, scene, seed=g.seed, camera=g.camera)
         planner = DexOptPlanner(**{**dict(g.planner.params), **(override or {})})

@@ -355,12 +355,12 @@ def planned_grasps(group) -> list[PlannedGrasp]:
     import manigrasp.planners.dexopt_planner as dp
     from manigrasp.bench.observe import observe_with_info
     from manigrasp.bench.worker import _asset, scene_for
-    from manigrasp.planners.context import PlanContext, grasping_friction
+    from manigrasp.planners.context import PlanContext
     from manigrasp.protocol import PROTOCOLS, settle_object
 
     scene = scene_for(group)
-    context = PlanContext.from_params(PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params)).params,
-                                      grasping_friction(group.scene, scene.hand))
+    context = PlanContext.for_run(PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params)).params,
+                                  group.scene, scene.hand)
     observation, _ = observe_with_info(group.observation, _asset(group), settle_object(scene), scene,
                                        seed=group.seed, camera=group.camera)
     planner = dp.DexOptPlanner(**dict(group.planner.params))

@@ -348,9 +348,9 @@ class AntipodalPlanner:
                       scene: SceneConfig | None = None) -> _Target:
         """Pairs on the completed point cloud (`cloud`); its centre and hull; collision against the hull, the hand
         probed in a scene of `scene` (`PlanContext.scene`). With ``completion="free_space"``: visible and
-        single-sided pairs, the views' free space (`partial`; its probe is compiled with the default scene)."""
+        single-sided pairs, the views' free space (`partial`; its probe is compiled in the same scene)."""
         if self.completion == "free_space":
-            return _Target(*free_space_target(self, observation, hand, rng))
+            return _Target(*free_space_target(self, observation, hand, rng, scene))
         done = complete(observation.points, observation.normals, observation.table_height, self.completion)
         radius = max(self.cloud_radius, 1.5 * done.spacing)
         widths = (self.min_width, hand.max_width - self.width_margin)

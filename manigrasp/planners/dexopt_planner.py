@@ -547,7 +547,7 @@ class DexOptPlanner:
         grip = context.grip_force_for(hk.hand)
         external = loads(observation.object_mass(self.density), context.perturbation)
         mu = self.contact_friction(context)
-        probe = HandProbe(hk.hand, observation, clearance=0.0)
+        probe = HandProbe(hk.hand, observation, clearance=0.0, config=context.scene)
         addresses = probe.hand_qpos_addresses()
         names = [hk.model.joint(j).name for j in hk.joints]
         need = min(self.min_contacts, len(np.unique(hk.pad_finger)))
@@ -728,17 +728,15 @@ class CloseSimulation:
     force of `context` (`PlanContext.grip_force_for`) and otherwise the protocol's default execution parameters;
     after the settle the protocol holds before closing (`approach_settle_s`), the close, then the contacts.
 
-    The scene: the standard physics (`SceneConfig`) with compliant pads, or rigid ones when `context` says the
-    grasping friction is the hand's own (`grasping_friction` of a rigid-pad scene).
+    The scene: the run's (`PlanContext.scene_config`: its pads, friction and physics; the default `SceneConfig`
+    when the context carries none).
     """
 
     def __init__(self, hand: Hand, observation: Observation, context: PlanContext) -> None:
         from manigrasp.planners.collision import mesh_object_spec
-        from manigrasp.sim import SceneConfig, build_scene
+        from manigrasp.sim import build_scene
 
-        config = SceneConfig()
-        if context.contact_friction is not None and context.contact_friction != config.pad_friction:
-            config = dataclasses.replace(config, pads="rigid")
+        config = context.scene_config()
         obj = observation.asset if observation.asset is not None else mesh_object_spec(observation.mesh)
         self.scene = build_scene(hand, obj, config)
         self.shift = np.eye(4)  # the scene's table top is z = 0

@@ -61,6 +61,7 @@ from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.context import resolve
 from manigrasp.planners.free_space import OCCUPIED, UNKNOWN, FreeSpace
 from manigrasp.planners.pairs import Pairs
+from manigrasp.sim.config import SceneConfig
 
 MAX_VERTICAL = 0.9  # |d_z| above which a single-sided line is not tried (within ~25 degrees of vertical)
 FLAT_COS = np.cos(np.radians(15.0))  # a single-sided line starts where the neighbours' normals agree this well
@@ -239,7 +240,7 @@ class SpaceProbe(HandProbe):
     `free` test both.
 
     Args:
-        hand, observation, clearance: as `HandProbe`.
+        hand, observation, clearance, config: as `HandProbe`.
         space: the views' free space; region: (low, high) the object's box [m].
         voxel: edge of the grid's voxels [m]; finger_spacing, palm_spacing: of the test points [m].
         hidden_margin: None: all unknown space in `region` is blocked; a distance [m]: only unknown space
@@ -248,10 +249,11 @@ class SpaceProbe(HandProbe):
 
     def __init__(self, hand: Hand, observation, space: FreeSpace, region: tuple[np.ndarray, np.ndarray],
                  clearance: float, voxel: float = 0.002, finger_spacing: float = 0.005,
-                 palm_spacing: float = 0.015, hidden_margin: float | None = None) -> None:
+                 palm_spacing: float = 0.015, hidden_margin: float | None = None,
+                 config: SceneConfig | None = None) -> None:
         from scipy.ndimage import distance_transform_edt
 
-        super().__init__(hand, observation, clearance, hull=PLACEHOLDER)
+        super().__init__(hand, observation, clearance, config=config, hull=PLACEHOLDER)
         self.region, self.voxel = region, voxel
         self.points = self._hand_points(finger_spacing, palm_spacing)
         pad = clearance + 2 * voxel
@@ -344,9 +346,11 @@ def select_clear(probe: SpaceProbe, nms, ranked: np.ndarray, n: int, pregrasp_of
     return np.concatenate(kept) if kept else np.zeros(0, int)
 
 
-def free_space_target(planner, observation, hand: Hand, rng: np.random.Generator) -> tuple:
+def free_space_target(planner, observation, hand: Hand, rng: np.random.Generator,
+                      scene: SceneConfig | None = None) -> tuple:
     """(pairs, centre of mass (3,), torque scale, mass, probe, confidence (m,)) of `planner` (an
-    `AntipodalPlanner`) on a viewed point cloud (module docstring).
+    `AntipodalPlanner`) on a viewed point cloud (module docstring); the probe is compiled in a scene of
+    `scene` (None: the default `SceneConfig`; `PlanContext.scene`).
 
     Raises:
         PlannerError: the observation carries no depth views, or too few points.
@@ -379,6 +383,7 @@ def free_space_target(planner, observation, hand: Hand, rng: np.random.Generator
                                  * (1.0 - 0.5 * uncertainty / max(planner.hidden_uncertainty, 1e-9))])
     hull = footprint_hull(done.points, observation.table_height)
     center = np.asarray(hull.center_mass, float)
-    probe = SpaceProbe(hand, observation, space, region, planner.clearance, hidden_margin=planner.hidden_margin)
+    probe = SpaceProbe(hand, observation, space, region, planner.clearance, hidden_margin=planner.hidden_margin,
+                       config=scene)
     return (pairs, center, torque_scale(done.points, center), planner.density * float(hull.volume), probe,
             confidence)
