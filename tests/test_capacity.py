@@ -18,8 +18,9 @@ def test_standard_load_is_weight_plus_the_downward_perturbation() -> None:
     assert cap.frictional_load(0.5, perturb_multiple=0.0) == pytest.approx(0.5 * G)  # a plain lift
 
 
-def test_six_direction_load_is_ten_weights_without_gravity() -> None:
-    assert cap.frictional_load(0.349, perturb_multiple=10.0, gravity=False) == pytest.approx(10 * 0.349 * G)
+def test_six_direction_load_is_its_push_without_gravity() -> None:
+    # DexGraspBench's push: 10 N per kg, no weight on top of it
+    assert cap.frictional_load(0.349, perturb_multiple=10.0 / G, gravity=False) == pytest.approx(10 * 0.349)
 
 
 def test_load_broadcasts_over_masses() -> None:

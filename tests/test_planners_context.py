@@ -45,7 +45,7 @@ def test_the_standard_context_is_the_standard_protocols_defaults() -> None:
 
 @pytest.mark.parametrize(("name", "params", "perturbation"), [
     ("standard", {"perturb_force_multiple": 2.5}, 2.5),
-    ("six_direction", {}, 10.0),  # DexGraspBench's 10 m g
+    ("six_direction", {}, 10.0 / 9.81),  # DexGraspBench's 10 N per kg of the object's mass
     ("lift", {}, 0.0),  # the weight only
     ("shake", {"shake_amplitude": 0.02, "shake_frequency": 2.0}, 0.02 * (4 * math.pi) ** 2 / 9.81),  # A w^2 / g
 ])

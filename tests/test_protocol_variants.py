@@ -29,7 +29,8 @@ def test_every_protocol_is_registered() -> None:
 
 
 def test_six_direction_end_to_end_on_a_box(box: tuple) -> None:
-    """35 N of grip with friction 0.5 holds 2 x 0.5 x 35 = 35 N > 10 m g = 29.4 N in every direction."""
+    """35 N of grip on the rubber pads (mu 1.0) holds 2 x 1.0 x 35 = 70 N > the 3.0 N push (10 N per kg of the
+    0.3 kg cube) in every direction."""
     scene = box[0]
     gravity, contype = scene.model.opt.gravity.copy(), int(scene.model.geom_contype[scene.table_geom])
     result = _run(box, "six_direction")
@@ -43,10 +44,50 @@ def test_six_direction_end_to_end_on_a_box(box: tuple) -> None:
     assert scene.model.geom_contype[scene.table_geom] == contype
 
 
+def test_six_direction_pushes_with_dexgraspbenchs_force(box: tuple) -> None:
+    """The push on the object during each direction is 10 N per kg of its mass (DexGraspBench's
+    ``10 * direction * obj_mass``), along the direction, with gravity off; nothing pushes outside it."""
+
+    class Pushes:
+        sample_period_s = 0.05
+
+        def __init__(self) -> None:
+            self.phase, self.seen = "", []
+
+        def on_start(self, scene, grasp, object_pose) -> None:
+            pass
+
+        def on_phase(self, scene, phase, detail="") -> None:
+            self.phase = f"{phase} {detail}"
+
+        def on_sample(self, scene) -> None:
+            self.seen.append((self.phase, scene.data.xfrc_applied[scene.object_body].copy(),
+                              float(scene.model.opt.gravity[2])))
+
+        def on_end(self, scene, result) -> None:
+            pass
+
+    scene, rest, pose = box
+    pushes = Pushes()
+    result = PROTOCOLS.load("six_direction", force_s=0.2, directions=("+x", "-z")).run(
+        scene, pose, np.random.default_rng(0), object_pose=rest, observer=pushes)
+    assert result.status is Status.SUCCESS, result.detail
+    mass = scene.object_mass()
+    during = {phase: [f for p, f, _ in pushes.seen if p == phase] for phase in ("perturb +x", "perturb -z")}
+    assert all(len(f) >= 3 for f in during.values())
+    for phase, direction in (("perturb +x", [1, 0, 0]), ("perturb -z", [0, 0, -1])):
+        for f in during[phase]:
+            np.testing.assert_allclose(f[:3], 10.0 * mass * np.array(direction), atol=1e-12)
+            assert not f[3:].any()
+    assert all(not f.any() for p, f, _ in pushes.seen if not p.startswith("perturb"))
+    assert all(g == 0.0 for p, _, g in pushes.seen if p.startswith(("close", "perturb")))
+    assert PROTOCOLS.load("six_direction").params.force_multiple == pytest.approx(10.0 / 9.81)
+
+
 def test_six_direction_weak_grip_drops_in_the_first_direction(box: tuple) -> None:
-    """2 N of grip holds at most 2 x 0.5 x 2 = 2 N, far below the 29.4 N push: the cube leaves at +x."""
+    """2 N of grip holds at most 2 x 1.0 x 2 = 4 N, far below a 10 m g = 29.4 N push: the cube leaves at +x."""
     scene = box[0]
-    result = _run(box, "six_direction", grip_force=2.0)
+    result = _run(box, "six_direction", grip_force=2.0, force_multiple=10.0)
     assert result.status is Status.DROPPED_PERTURB, result.detail
     assert result.detail.startswith("+x") and result.perturb_direction == "+x"
     assert result.last_phase == "close"
@@ -77,7 +118,7 @@ def test_six_direction_failure_names_its_direction_in_a_field_the_report_counts(
     """2 N of grip: a 10 m g push along the closing axis (+y) takes the cube off one jaw (+z, into the palm,
     is held). The trial fails at +y with a detail that names no direction; the direction is the
     result's field, and the report's failure modes count the trial under it."""
-    result = _run(box, "six_direction", grip_force=2.0, directions=("+z", "+y"), force_s=1.0)
+    result = _run(box, "six_direction", grip_force=2.0, directions=("+z", "+y"), force_s=1.0, force_multiple=10.0)
     assert result.status is Status.DROPPED_PERTURB, result.detail
     assert result.perturb_direction == "+y" and not result.detail.startswith("+y")
     assert result.last_phase is Phase.CLOSE  # +z passed, then the closing of +y, not its push

@@ -4,13 +4,20 @@ Phases: pre-grasp check as in `standard` (the open hand 10 cm back along the
 approach axis must touch nothing, table included); then gravity is switched
 off and the table made non-colliding, and for each of +x, -x, +y, -y, +z, -z
 (world) from a fresh reset: the open hand at the grasp pose squeezes to the
-grip force (`no_contact` if it closes on air), then a force of 10 m g_0
-(g_0 = 9.81 m/s^2, the object's weight on Earth) pushes the object's centre
-of mass for 2 s; the object moving more than 5 cm or 15 deg relative to the
-hand fails the trial as `dropped_perturb` (its `perturb_direction` the
-direction), and so do fewer than `min_fingers` fingers touching at the end of
-any direction.
+grip force (`no_contact` if it closes on air), then a force of 10 N per kg
+of the object's mass (`force_multiple` 1.02 m g_0, g_0 = 9.81 m/s^2: about
+the object's weight on Earth) pushes the object's centre of mass for 2 s;
+the object moving more than 5 cm or 15 deg relative to the hand fails the
+trial as `dropped_perturb` (its `perturb_direction` the direction), and so do
+fewer than `min_fingers` fingers touching at the end of any direction.
 The scene's gravity and table are restored afterwards, whatever happens.
+
+The load is DexGraspBench's: its force-closure test applies ``10 * direction * obj_mass``
+newtons to the object (its `FCMocapEval`; mass 0.1 kg, friction 0.6, 5 cm / 15 deg thresholds
+in its `config/task/eval.yaml`). Until 2026-12-03 this protocol applied 10 m g_0, ten times
+that load, so its results of that time are not DexGraspBench's (README: the dexterous figures).
+Unlike DexGraspBench, the object keeps its own mass and the hand squeezes to a grip force
+(`GraspParams`) instead of commanding a squeeze pose.
 """
 
 from __future__ import annotations
@@ -28,20 +35,23 @@ from manigrasp.protocol.phases import close, place_pregrasp, require_fingers
 from manigrasp.protocol.result import Phase, Status
 from manigrasp.protocol.standard import DIRECTIONS
 
+DEXGRASPBENCH_FORCE_PER_KG = 10.0  # [N/kg] the external force per kg of object mass (module docstring)
+
 
 @dataclass(frozen=True)
 class SixDirectionParams(GraspParams):
     """`GraspParams` (thresholds 5 cm / 15 deg) plus the external force.
 
     Attributes:
-        force_multiple: force magnitude in units of m g_0 [-] (DexGraspBench: 10).
+        force_multiple: force magnitude in units of m g_0 [-] (default DexGraspBench's 10 N per kg:
+            `DEXGRASPBENCH_FORCE_PER_KG` / g_0 = 1.0194).
         force_s: duration of each direction's force [s].
         directions: world directions, in order.
         disable_table: make the table non-colliding during the test (DexGraspBench has no table).
     """
 
     translation_threshold: float = 0.05
-    force_multiple: float = 10.0
+    force_multiple: float = DEXGRASPBENCH_FORCE_PER_KG / STANDARD_GRAVITY
     force_s: float = 2.0
     directions: tuple[str, ...] = ("+x", "-x", "+y", "-y", "+z", "-z")
     disable_table: bool = True
