@@ -8,10 +8,10 @@ mu carries at most mu sum(f_n) of load by friction, in any direction the contact
 above or the side, so nothing supports the object from below: the load along gravity is carried by friction
 alone, and the worst direction of the `standard` protocol is gravity plus the downward perturbation,
 (1 + k) m g with k = `perturb_force_multiple` (1). DexGraspBench's `six_direction` is gravity-free with
-k = `force_multiple` (1.02: 10 N per kg). A squeeze between a thumb side and a finger side, each pushing with the grip force F
-(`manigrasp.sim.grip_force`, what the protocol regulates), has sum(f_n) = rho F with rho >= 2 (2 for a
-balanced two-sided squeeze, more when the fingers also press each other's sides of the object); so the grip
-it needs is F >= (g_on + k) m g / (rho mu).
+k = `force_multiple` (1.02: 10 N per kg). A squeeze between a thumb side and a finger side, each pushing
+with the grip force F (`manigrasp.sim.grip_force`, what the protocol regulates), has sum(f_n) = rho F with
+rho >= 2 (2 for a balanced two-sided squeeze, more when the fingers also press each other's sides of the
+object); so the grip it needs is F >= (g_on + k) m g / (rho mu).
 
 Fingertips on thin objects. A fingertip of radius r closing on an object of height h < r lying on the table
 cannot reach its side face (its centre stays at least r above the table): it touches the top edge, the
