@@ -9,19 +9,13 @@ TCP, 0.3 mm behind the pad face) reaches over the plate's edge, the cut one (6 m
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import trimesh
 
 from manigrasp import hands, planners
-from manigrasp.bench import worker
-from manigrasp.bench.config import NamedEntry
-from manigrasp.bench.trials import Group
 from manigrasp.errors import ConfigError
 from manigrasp.objects import build_object
-from manigrasp.objects.catalog import ObjectSource
 from manigrasp.planners import antipodal, power
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.context import PlanContext, grasping_friction
@@ -106,22 +100,3 @@ def test_the_context_keeps_the_scene_but_not_its_object_rest(jaw) -> None:
         PlanContext.from_params(params, scene={"pads": "rigid"})
 
 
-@pytest.mark.parametrize("pads", ["compliant", "rigid"])
-def test_the_harness_plans_in_the_groups_scene(tmp_path: Path, monkeypatch, pads: str) -> None:
-    seen: list[PlanContext] = []
-    real = planners.plan
-
-    def spy(planner, observation, hand, n, rng, context=None):
-        seen.append(context)
-        return real(planner, observation, hand, n, rng, context=context)
-
-    monkeypatch.setattr(planners, "plan", spy)
-    mesh = tmp_path / "scene_box.obj"
-    trimesh.creation.box((0.05,) * 3).export(mesh)
-    source = ObjectSource(name="scene_box", mesh=str(mesh), mass=0.3)
-    scene = SceneConfig(pads=pads, table_friction=0.8)
-    group = Group(source, "panda", NamedEntry("antipodal"), NamedEntry("standard"), "ground_truth", scene, 2, 3, 60.0)
-    plan = worker.plan_group(group)
-    assert plan.error is None, plan.error
-    assert [c.scene for c in seen] == [scene]
-    assert seen[0].contact_friction == grasping_friction(scene, hands.load("panda"))

@@ -215,6 +215,8 @@ def test_the_grasping_friction_is_the_rubbers_with_compliant_pads_and_the_hands_
 @pytest.mark.parametrize(("pads", "friction"), [("compliant", 1.0), ("rigid", 0.5)])
 def test_the_harness_tells_the_planner_the_scenes_contact_friction(tmp_path: Path, monkeypatch, pads: str,
                                                                     friction: float) -> None:
+    """The planner gets the group's scene (`PlanContext.scene`, which its probes compile) and the friction of
+    the hand's grasping surfaces in it."""
     seen: list[PlanContext] = []
     real = planners.plan
 
@@ -226,9 +228,11 @@ def test_the_harness_tells_the_planner_the_scenes_contact_friction(tmp_path: Pat
     mesh = tmp_path / "ctx_box.obj"
     trimesh.creation.box((0.05,) * 3).export(mesh)
     source = ObjectSource(name="ctx_box", mesh=str(mesh), mass=0.3)
+    scene = SceneConfig(pads=pads, table_friction=0.8)
     group = Group(source, "parallel_jaw", NamedEntry("antipodal"), NamedEntry("standard"), "ground_truth",
-                  SceneConfig(pads=pads), 2, 3, 60.0)
+                  scene, 2, 3, 60.0)
     plan = worker.plan_group(group)
     assert plan.error is None, plan.error
     assert [c.contact_friction for c in seen] == [friction]
+    assert [c.scene for c in seen] == [scene]
     assert seen[0].perturbation == PROTOCOLS.load("standard").params.perturb_force_multiple
