@@ -126,3 +126,54 @@ def test_six_direction_failure_names_its_direction_in_a_field_the_report_counts(
     rate = summarize([(key, result)]).overall
     assert rate.failure_modes == {"dropped_perturb+y": 1}
     assert summarize([(key, replace(result, perturb_direction=""))]).overall.failure_modes == {"dropped_perturb": 1}
+
+
+def test_six_direction_closes_a_dexterous_hand_alike_in_every_direction(tmp_path) -> None:
+    """Each direction starts from a reset with the hand open: the finger hold of the previous direction (stiffer
+    servos with one-sided force ranges, `FingerHold`) must be gone, so every close takes as long as the first and
+    touches the can. (With the hold still engaged at the reset, the second close crept at 0.09 instead of 0.23 of
+    the synergy per second and ran out of time short of the object: `no_contact`.)"""
+    import time
+
+    import trimesh
+
+    from manigrasp import hands
+    from manigrasp.hands.placement import side_power_grasp
+    from manigrasp.objects import build_object
+    from manigrasp.planners.base import GraspCandidate
+    from manigrasp.protocol import settle_object
+    from manigrasp.sim import build_scene
+
+    class Closes:
+        sample_period_s = float("inf")
+
+        def __init__(self) -> None:
+            self.began, self.took = None, []
+
+        def on_start(self, scene, grasp, object_pose) -> None:
+            pass
+
+        def on_phase(self, scene, phase, detail="") -> None:
+            if phase is Phase.CLOSE:
+                self.began = scene.time
+            elif phase is Phase.PERTURB:
+                self.took.append(scene.time - self.began)
+
+        def on_sample(self, scene) -> None:
+            pass
+
+        def on_end(self, scene, result) -> None:
+            pass
+
+    can = build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,
+                       cache_root=tmp_path).asset
+    scene = build_scene(hands.load("fourier_right"), can)
+    object_pose = settle_object(scene)
+    pose = side_power_grasp(scene.hand, [object_pose[0, 3], object_pose[1, 3], scene.object_rest_height])
+    closes = Closes()
+    result = PROTOCOLS.load("six_direction", grip_force=10.0, force_s=0.3, directions=("+x", "-x", "+z")).run(
+        scene, GraspCandidate(pose=pose, score=1.0), np.random.default_rng(0), deadline=time.monotonic() + 120,
+        object_pose=object_pose, seed=0, observer=closes)
+    assert result.status is Status.SUCCESS, result.detail
+    assert len(closes.took) == 3
+    np.testing.assert_allclose(closes.took, closes.took[0], rtol=0.05)
