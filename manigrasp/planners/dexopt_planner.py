@@ -762,7 +762,7 @@ class CloseSimulation:
         run = TrialRun(scene, GraspParams(grip_force=self.grip), None)
         run.joints = np.array(s.joints, float)
         mount = self.shift @ s.pose
-        run.reset(mount, self.shift @ self.object_pose, 0.0)
+        phases.reset(run, mount, self.shift @ self.object_pose, 0.0)
         qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), hk.q_from_ctrl(s.joints[0]))
         for j in hk.joints:  # the fingers at the pre-shape, as at the end of the approach
             scene.data.qpos[self.addresses[hk.model.joint(j).name]] = qpos[hk.model.jnt_qposadr[j]]

@@ -46,12 +46,19 @@ def release_hold(run: TrialRun) -> None:
         _HOLDS[run.scene][1].release()
 
 
+def reset(run: TrialRun, mount: np.ndarray, object_pose: np.ndarray, preshape: float) -> None:
+    """`TrialRun.reset` with the hand's closing gains given back first (`release_hold`): the reset sets the hand
+    path, whose servo leads (`Scene.closing_reach`) are read from the gains, and a held grasp's are stiffer (a
+    close after a reset with the hold still engaged crept and timed out short of the object)."""
+    release_hold(run)
+    run.reset(mount, object_pose, preshape)
+
+
 def place_pregrasp(run: TrialRun, pose: np.ndarray, object_pose: np.ndarray, preshape: float) -> np.ndarray:
     """Reset with the open hand at the pre-grasp pose of `pose`; any hand contact: `pregrasp_collision`."""
     start = pregrasp_pose(pose, run.pregrasp_offset)
     with run.phase(Phase.PREGRASP):
-        release_hold(run)
-        run.reset(start, object_pose, preshape)
+        reset(run, start, object_pose, preshape)
         touching = read_hand_contacts(run.scene, "any")
         if len(touching):
             other = "the object" if np.isin(touching.other_geom, run.scene.object_geoms).any() else "the table"

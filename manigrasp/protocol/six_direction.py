@@ -31,7 +31,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.base import Protocol, register
 from manigrasp.protocol.execution import GraspParams, TrialRun
 from manigrasp.protocol.grasp import Grasp
-from manigrasp.protocol.phases import close, place_pregrasp, release_hold, require_fingers
+from manigrasp.protocol.phases import close, place_pregrasp, require_fingers, reset
 from manigrasp.protocol.result import Phase, Status
 from manigrasp.protocol.standard import DIRECTIONS
 
@@ -78,8 +78,7 @@ def six_directions(run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Gra
         if p.disable_table:
             model.geom_contype[scene.table_geom] = model.geom_conaffinity[scene.table_geom] = 0
         for i, name in enumerate(p.directions):
-            release_hold(run)  # the previous direction's finger hold, before the reset reads the hand's gains
-            run.reset(pose, rest, grasp.preshape)
+            reset(run, pose, rest, grasp.preshape)  # the previous direction's finger hold released
             close(run, grasp.preshape, metrics=i == 0, detail=name)
             with run.phase(Phase.PERTURB, name, watch=Status.DROPPED_PERTURB, reference=run.in_hand):
                 scene.data.xfrc_applied[scene.object_body, :3] = force * np.asarray(DIRECTIONS[name], float)
