@@ -65,6 +65,18 @@ def box_asset(tmp_path_factory: pytest.TempPathFactory):
     return build_object(mesh, name="box", mass=BOX_MASS, cache_root=tmp_path_factory.mktemp("box")).asset
 
 
+@pytest.fixture(scope="session")
+def can(tmp_path_factory: pytest.TempPathFactory):
+    """A soup-can-sized cylinder (66 mm wide, 120 mm tall, 0.35 kg) for the dexterous hands' hand-placed grasps,
+    built once per session."""
+    import trimesh
+
+    from manigrasp.objects import build_object
+
+    mesh = trimesh.creation.cylinder(0.033, 0.12, sections=48)
+    return build_object(mesh, name="can", mass=0.35, cache_root=tmp_path_factory.mktemp("can")).asset
+
+
 @dataclass(frozen=True)
 class BoxScene:
     """The cube on the table with the parallel jaw (`box_scene`).

@@ -12,14 +12,12 @@ import time
 import mujoco
 import numpy as np
 import pytest
-import trimesh
 
 from manigrasp import hands
 from manigrasp.control import FingerHold
 from manigrasp.control.hold import FLOOR, HOLD_GAIN
 from manigrasp.errors import ConfigError
 from manigrasp.hands.placement import side_power_grasp
-from manigrasp.objects import build_object
 from manigrasp.planners.base import GraspCandidate
 from manigrasp.protocol import PROTOCOLS, settle_object
 from manigrasp.protocol.phases import _HOLDS
@@ -120,12 +118,6 @@ def test_hold_gain_below_one_is_refused() -> None:
     model, _ = _pushed()
     with pytest.raises(ConfigError, match="hold gain"):
         FingerHold(model, np.array([0]), gain=0.5)
-
-
-@pytest.fixture(scope="module")
-def can(tmp_path_factory: pytest.TempPathFactory):
-    return build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,
-                        cache_root=tmp_path_factory.mktemp("objects")).asset
 
 
 def _side_power_grasp(scene, object_pose: np.ndarray) -> np.ndarray:

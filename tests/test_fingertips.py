@@ -16,12 +16,10 @@ import time
 import mujoco
 import numpy as np
 import pytest
-import trimesh
 
 from manigrasp import hands
 from manigrasp.errors import SimulationError
 from manigrasp.hands.placement import side_power_grasp
-from manigrasp.objects import build_object
 from manigrasp.planners.base import GraspCandidate
 from manigrasp.protocol import PROTOCOLS, settle_object
 from manigrasp.sim import build_scene
@@ -86,12 +84,6 @@ def test_a_pressed_fingertip_holds_its_friction_times_the_press(name: str, pads:
     assert press.friction == (1.0 if pads == "compliant" else 0.5)
     assert press.normal_force == pytest.approx(PRESS, rel=0.02)
     assert press.slip_force == pytest.approx(press.friction * PRESS, rel=0.05)
-
-
-@pytest.fixture(scope="module")
-def can(tmp_path_factory: pytest.TempPathFactory):
-    return build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,
-                        cache_root=tmp_path_factory.mktemp("objects")).asset
 
 
 @pytest.mark.slow

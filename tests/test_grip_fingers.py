@@ -12,7 +12,6 @@ import time
 
 import numpy as np
 import pytest
-import trimesh
 
 from manigrasp import hands
 from manigrasp.control import FingerClose
@@ -20,7 +19,6 @@ from manigrasp.control.fingers import CLOSING, PRELOAD, STOPPED, TOUCHED
 from manigrasp.control.hybrid import STALL_S
 from manigrasp.errors import ConfigError
 from manigrasp.hands.placement import side_power_grasp
-from manigrasp.objects import build_object
 from manigrasp.planners.base import GraspCandidate
 from manigrasp.protocol import PROTOCOLS, settle_object
 from manigrasp.protocol.result import Phase
@@ -122,12 +120,6 @@ def test_close_mode_is_validated() -> None:
     with pytest.raises(ConfigError, match="close_mode"):
         PROTOCOLS.load("standard", close_mode="fingers")
     assert PROTOCOLS.load("standard", close_mode="per_finger").params.close_mode == "per_finger"
-
-
-@pytest.fixture(scope="module")
-def can(tmp_path_factory: pytest.TempPathFactory):
-    return build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,
-                        cache_root=tmp_path_factory.mktemp("objects")).asset
 
 
 class _EndOfClose:

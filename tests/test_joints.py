@@ -21,12 +21,6 @@ HAND = "fourier_right"
 
 
 @pytest.fixture(scope="module")
-def can(tmp_path_factory: pytest.TempPathFactory):
-    return build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,
-                        cache_root=tmp_path_factory.mktemp("objects")).asset
-
-
-@pytest.fixture(scope="module")
 def scene(can):
     return build_scene(hands.load(HAND), can)
 

@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from manigrasp import hands
 from manigrasp.bench.report import summarize
 from manigrasp.bench.store import TrialKey
-from manigrasp.protocol import PROTOCOLS, Phase, Status, TrialResult
-from manigrasp.sim import Scene
+from manigrasp.hands.placement import side_power_grasp
+from manigrasp.planners.base import GraspCandidate
+from manigrasp.protocol import PROTOCOLS, Phase, Status, TrialResult, settle_object
+from manigrasp.sim import Scene, build_scene
 
 
 @pytest.fixture(scope="module")
@@ -128,22 +132,11 @@ def test_six_direction_failure_names_its_direction_in_a_field_the_report_counts(
     assert summarize([(key, replace(result, perturb_direction=""))]).overall.failure_modes == {"dropped_perturb": 1}
 
 
-def test_six_direction_closes_a_dexterous_hand_alike_in_every_direction(tmp_path) -> None:
+def test_six_direction_closes_a_dexterous_hand_alike_in_every_direction(can) -> None:
     """Each direction starts from a reset with the hand open: the finger hold of the previous direction (stiffer
     servos with one-sided force ranges, `FingerHold`) must be gone, so every close takes as long as the first and
     touches the can. (With the hold still engaged at the reset, the second close crept at 0.09 instead of 0.23 of
     the synergy per second and ran out of time short of the object: `no_contact`.)"""
-    import time
-
-    import trimesh
-
-    from manigrasp import hands
-    from manigrasp.hands.placement import side_power_grasp
-    from manigrasp.objects import build_object
-    from manigrasp.planners.base import GraspCandidate
-    from manigrasp.protocol import settle_object
-    from manigrasp.sim import build_scene
-
     class Closes:
         sample_period_s = float("inf")
 
@@ -165,8 +158,6 @@ def test_six_direction_closes_a_dexterous_hand_alike_in_every_direction(tmp_path
         def on_end(self, scene, result) -> None:
             pass
 
-    can = build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,
-                       cache_root=tmp_path).asset
     scene = build_scene(hands.load("fourier_right"), can)
     object_pose = settle_object(scene)
     pose = side_power_grasp(scene.hand, [object_pose[0, 3], object_pose[1, 3], scene.object_rest_height])
