@@ -37,14 +37,15 @@ regression: setup
 	$(BIN)/manigrasp compare runs/regression_dexterous benchmarks/baselines/dexterous.json; dexterous=$$?; \
 	exit $$(( quick > dexterous ? quick : dexterous ))
 
-# The whole suite (what CI runs).
+# The whole suite (what CI runs), on $(JOBS) worker processes (pytest-xdist), each taking whole test files so that
+# a file's module fixtures are built once; `$(BIN)/python -m pytest` runs it in one process.
 test: setup
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n $(JOBS) --dist loadfile
 
 # Everything but the tests marked slow (each over ~1.5 s of CPU: every shipped object built and planned, benchmark
 # runs, CoACD builds, worker processes, kill -9, Ray, hard time-outs): about 100 s of CPU.
 test-fast: setup
-	$(BIN)/python -m pytest -m "not slow"
+	$(BIN)/python -m pytest -m "not slow" -n $(JOBS) --dist loadfile
 
 lint: setup
 	$(BIN)/ruff check manigrasp tests benchmarks
