@@ -14,7 +14,13 @@ from manigrasp.planners import registry as planner_registry
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.dexopt import Box, GridSdf, Sphere
 from manigrasp.planners.dexopt_hand import HandKinematics
-from manigrasp.planners.dexopt_planner import DexOptPlanner, _probe_contacts, choose_pads, force_shares
+from manigrasp.planners.dexopt_planner import (
+    CLOSE_DEFECTS,
+    DexOptPlanner,
+    _probe_contacts,
+    choose_pads,
+    force_shares,
+)
 
 
 def _sphere_grid(centre=(0.0, 0.0, 0.3), radius=0.04) -> GridSdf:
@@ -367,3 +373,38 @@ def test_the_close_check_simulates_the_close_and_ranks_a_hand_closing_on_nothing
     DexOptPlanner(close_check=1, close_defects=False).rerank_by_close(hk, observation, [loose], 1, context)
     assert loose.close.passed == (loose.close.margin >= planner.min_hold_margin)
     assert loose.close.defects == c.defects and loose.close.margin == pytest.approx(c.margin, rel=1e-6)
+    # The simulated contacts' epsilon (the trials' sim_epsilon_l1): positive for the grip, 0 for the close on air;
+    # close_min_epsilon fails a candidate below it.
+    assert c.epsilon > 0 and raised.close.epsilon == 0
+    for bar, passes in ((c.epsilon * 0.99, True), (c.epsilon * 1.01, False)):
+        strict = replace(grasp, close=None)
+        DexOptPlanner(close_check=1, close_defects=False, min_hold_margin=0.0,
+                      close_min_epsilon=bar).rerank_by_close(hk, observation, [strict], 1, context)
+        assert strict.close.epsilon == pytest.approx(c.epsilon, rel=1e-6) and strict.close.passed == passes
+    with pytest.raises(ConfigError, match="close_min_epsilon"):
+        DexOptPlanner(close_min_epsilon=-0.1)
+    # close_order epsilon: within a class (here none passes: epsilon 10 is out of reach) the simulated epsilon
+    # decides, highest first, the close on air last; close_min_margin replaces min_hold_margin in the check.
+    pool = [replace(s, close=None) for s in unchecked[:3]] + [replace(raised, close=None)]
+    ordered = DexOptPlanner(close_check=4, close_defects=False, close_min_epsilon=10.0,
+                            close_order="epsilon").rerank_by_close(hk, observation, pool, 4, context)
+    assert ordered[-1].close.status == "no_contact" and not any(s.close.passed for s in ordered)
+    eps = [s.close.epsilon for s in ordered[:-1]]
+    assert eps == sorted(eps, reverse=True) and len(set(eps)) > 1
+    lenient = replace(grasp, close=None)
+    DexOptPlanner(close_check=1, close_defects=False, close_min_margin=0.0).rerank_by_close(
+        hk, observation, [lenient], 1, context)
+    assert lenient.close.passed  # it grips, and no margin or epsilon is asked
+    with pytest.raises(ConfigError, match="close_order"):
+        DexOptPlanner(close_order="score")
+    # close_defects as a list: only the named defects fail a candidate.
+    for named in (["friction-used"], ["pushed", "off-plan"]):
+        picky = replace(grasp, close=None)
+        DexOptPlanner(close_check=1, close_defects=named).rerank_by_close(hk, observation, [picky], 1, context)
+        assert picky.close.defects == c.defects
+        assert picky.close.passed == (not set(c.defects) & set(named) and c.margin >= planner.min_hold_margin)
+    assert DexOptPlanner(close_defects=True).failing_defects == CLOSE_DEFECTS
+    assert DexOptPlanner(close_defects=False).failing_defects == ()
+    assert DexOptPlanner(close_defects="pushed").failing_defects == ("pushed",)
+    with pytest.raises(ConfigError, match="unknown close_defects.*friction-used"):
+        DexOptPlanner(close_defects=["slipped"])

@@ -121,6 +121,25 @@
    10/22 (hence `close_defects`; on a larger sample it is untested). Planning
    CPU per Allegro grasp (10 asked, one call, `time.process_time`): can 1.25 -> 1.52 s (15 closes), mustard
    1.41 -> 1.59 s (30), potted meat 1.26 -> 1.38 s (30), mug 1.52 -> 1.81 s (24).
+   The check can also judge by the simulated contacts' Ferrari-Canny epsilon (`close_min_epsilon`, `CloseResult.
+   epsilon`: computed as the trials compute their `sim_epsilon_l1` at the end of the close), name the defects
+   that fail (`close_defects: [friction-used]`), set its own margin (`close_min_margin`) and order each class by
+   that epsilon (`close_order: epsilon`). Why: in the trials the end-of-close epsilon separates successes best
+   (dexterous config at 62178f2, standard, seed 0: >= 0.2 Allegro 33/38, Fourier 13/13, Inspire 20/20; < 0.1
+   1/9, 10/34, 12/30; report AUC 0.85-0.91; benchmarks/diagnose_dexterous.py). Measured on the dexterous config's
+   7 objects x 10, standard 10 N (`manigrasp bench` with a config of dexopt's params; Allegro, Fourier, Inspire
+   of 70; the defaults give 40, 37, 44 on seed 0):
+   - `close_check: 30, close_defects: [friction-used]`: -, 41, 45;
+   - `close_check: 40, close_defects: false, close_min_epsilon: 0.15`: 39, 42, 46;
+   - `close_check: 60`, the same with `close_min_margin: 0, close_order: epsilon`: 42, 43, 44;
+   - the same with `restarts: 160, close_check: 100`: 44, 41, 55, planning 52-58 s per call of 10 against about
+     30 s (two jobs on a shared 2-core machine); Inspire on seed 1: 45 against the defaults' 40/70. Pooled over
+     the two seeds the Inspire's 84/140 -> 100/140 (Fisher p = 0.06): a lead, not yet a result, and not the
+     0.75 on seed 1 (0.64). Few candidates close well: at 80 restarts, 14-48 per group after the suppression,
+     of them closes at epsilon >= 0.15 Fourier soup can 16/34, potted meat 12/30, Inspire mug 3/14, Allegro
+     mustard 20/48 (all closed, `close_check: 1000`); and the trials' own close does not always reproduce the
+     check's (Fourier: 43 of its 70 trials end the close at epsilon >= 0.15, 34 of them succeed). So it stays
+     opt-in; a larger pool of well-closing candidates (the closing motion in the energy) is what it needs.
 
 Score = 1 / (1 + E) (in (0, 1], higher is better) with E the final energy.
 """
@@ -189,6 +208,8 @@ PUSHED_MAX = 0.005  # [m] the object pushed on the table by the close
 GAP_MAX = 0.015  # [m] a finger's contacts from its planned pad
 FRICTION_USED_MAX = 0.55  # [-] friction used by the squeeze alone
 TOUCH_N = 0.1  # [N] a finger or link pressing at least this touches
+CLOSE_DEFECTS = ("pushed", "off-plan", "thumb-off-pad", "friction-used")  # `CloseResult.defects`, in that order
+CLOSE_ORDERS = ("plan", "epsilon")  # `DexOptPlanner.close_order`
 
 
 @dataclass
@@ -283,8 +304,15 @@ class DexOptPlanner:
         density: of an object without a built asset, for its mass [kg/m^3].
         close_check: how many of the best-ranked candidates the closing check (step 7) closes in the
             simulation at most (it stops once the `n` asked for pass); 0 (the default): off.
-        close_defects: a defect of the simulated close fails a candidate in the closing check; False: only the
-            load test on the simulated contacts decides (step 7).
+        close_defects: which defects of the simulated close fail a candidate in the closing check: True all of
+            `CLOSE_DEFECTS`, False none (only the load test on the simulated contacts decides, step 7), or a list
+            of their names (e.g. ``[friction-used]``).
+        close_min_epsilon: a candidate passes the closing check only if the simulated contacts' Ferrari-Canny
+            epsilon (L1, the trials' `sim_epsilon_l1`, `CloseResult.epsilon`) reaches this [-]; 0: not asked.
+        close_min_margin: the simulated contacts' load-test margin a candidate needs to pass the closing check;
+            None: `min_hold_margin`.
+        close_order: within each class of the closing check's ranking (passed, not checked or gripped without
+            passing, failed), "plan": the order of step 6; "epsilon": the simulated epsilon, highest first.
     """
 
     name: ClassVar[str] = "dexopt"
@@ -316,7 +344,10 @@ class DexOptPlanner:
     min_hold_margin: float = 2.0
     density: float = DEFAULT_DENSITY
     close_check: int = 0
-    close_defects: bool = True
+    close_defects: bool | tuple[str, ...] = True
+    close_min_epsilon: float = 0.0
+    close_min_margin: float | None = None
+    close_order: str = "plan"
     _hands: dict = field(default_factory=dict, init=False, repr=False, compare=False)
     last: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -339,8 +370,28 @@ class DexOptPlanner:
             raise ConfigError("dexopt: friction, torsion and min_hold_margin must be >= 0, density > 0")
         if int(self.close_check) < 0:
             raise ConfigError(f"dexopt: close_check must be >= 0 (0: off), got {self.close_check}")
+        if not self.close_min_epsilon >= 0:
+            raise ConfigError(f"dexopt: close_min_epsilon must be >= 0, got {self.close_min_epsilon}")
+        if self.close_min_margin is not None and not self.close_min_margin >= 0:
+            raise ConfigError(f"dexopt: close_min_margin must be >= 0 or None, got {self.close_min_margin}")
+        if self.close_order not in CLOSE_ORDERS:
+            raise ConfigError(f"dexopt: unknown close_order {self.close_order!r}; valid: {', '.join(CLOSE_ORDERS)}")
+        if not isinstance(self.close_defects, bool):
+            names = (self.close_defects,) if isinstance(self.close_defects, str) else tuple(self.close_defects)
+            unknown = [d for d in names if d not in CLOSE_DEFECTS]
+            if unknown:
+                raise ConfigError(f"dexopt: unknown close_defects {unknown}; valid: true, false or a list of "
+                                  f"{', '.join(CLOSE_DEFECTS)}")
+            object.__setattr__(self, "close_defects", names)
         if self.max_penetration < 0 or self.table_clearance < 0 or not 0 <= self.init_closure <= 1:
             raise ConfigError("dexopt: max_penetration and table_clearance must be >= 0, init_closure in [0, 1]")
+
+    @property
+    def failing_defects(self) -> tuple[str, ...]:
+        """The defects of the simulated close that fail a candidate (`close_defects` resolved)."""
+        if isinstance(self.close_defects, bool):
+            return CLOSE_DEFECTS if self.close_defects else ()
+        return self.close_defects
 
     def contact_friction(self, context: PlanContext | None = None) -> float:
         """The sliding friction [-] the hold test assumes: `friction` if set, else the scene's
@@ -633,14 +684,17 @@ class DexOptPlanner:
         for s in ranked[:self.close_check]:
             if good >= n:
                 break
-            s.close = sim.check(s, hk, external, mu, self.torsion, self.min_hold_margin, self.close_defects)
+            margin = self.min_hold_margin if self.close_min_margin is None else self.close_min_margin
+            s.close = sim.check(s, hk, external, mu, self.torsion, margin, self.failing_defects,
+                                self.close_min_epsilon)
             good += s.close.passed
         self.last["close"] = [s.close for s in ranked if s.close is not None]
 
-        def rank(s: Synthesis) -> int:
+        def rank(s: Synthesis) -> tuple[int, float]:
             if s.close is None:
-                return 1
-            return 0 if s.close.passed else (2 if s.close.status else 1)
+                return 1, 0.0
+            order = -s.close.epsilon if self.close_order == "epsilon" else 0.0
+            return (0 if s.close.passed else (2 if s.close.status else 1)), order
 
         return sorted(ranked, key=rank)
 
@@ -704,10 +758,13 @@ class CloseResult:
         margin: `dexopt.hold_margin` of the simulated contacts (each link's contacts lumped at their
             force-weighted centre and mean normal, capped at the normal force the simulation presses there)
             about the object's centre of mass now, under the planner's loads.
+        epsilon: Ferrari-Canny epsilon (L1) of the simulated contacts at the end of the close, computed as the trials
+            compute their `sim_epsilon_l1` (`protocol.metrics.simulated_metrics`; 0 where undefined).
         fingers: the fingers touching the object (at least `TOUCH_N` each).
         defects: the close's defects: "pushed" (more than `PUSHED_MAX`), "off-plan" (a gap over `GAP_MAX`),
             "thumb-off-pad" (under half its force on its pads), "friction-used" (over `FRICTION_USED_MAX`).
-        passed: no failure status, no defect, and `margin` >= the planner's `min_hold_margin`.
+        passed: no failure status, none of the planner's failing defects, `margin` >= its `min_hold_margin` and
+            `epsilon` >= its `close_min_epsilon`.
     """
 
     status: str
@@ -716,6 +773,7 @@ class CloseResult:
     thumb_on_pad: float = float("nan")
     friction_used: float = float("nan")
     margin: float = 0.0
+    epsilon: float = 0.0
     fingers: tuple[int, ...] = ()
     defects: tuple[str, ...] = ()
     passed: bool = False
@@ -751,11 +809,13 @@ class CloseSimulation:
         self.body_names = [model.body(b).name.removeprefix("hand/") for b in range(model.nbody)]
 
     def check(self, s: Synthesis, hk: HandKinematics, external: np.ndarray, mu: float, torsion: float,
-              min_margin: float, defects_fail: bool = True) -> CloseResult:
-        """Close on candidate `s` (its pose, pre-shape and squeeze rows) and judge the contacts at the end (with
-        `defects_fail` False, a defect does not fail it: only the simulated margin counts)."""
+              min_margin: float, failing: tuple[str, ...] = CLOSE_DEFECTS, min_epsilon: float = 0.0) -> CloseResult:
+        """Close on candidate `s` (its pose, pre-shape and squeeze rows) and judge the contacts at the end: it
+        passes with none of the `failing` defects (names of `CLOSE_DEFECTS`; empty: only the simulated margin
+        counts), the margin at least `min_margin` and the simulated epsilon at least `min_epsilon`."""
         from manigrasp.protocol import phases
         from manigrasp.protocol.execution import Abort, GraspParams, TrialRun
+        from manigrasp.protocol.metrics import simulated_metrics
         from manigrasp.sim import read_hand_contacts
 
         scene = self.scene
@@ -771,6 +831,8 @@ class CloseSimulation:
         try:
             run.hold_for(run.params.approach_settle_s)
             phases.close(run, 0.0, metrics=False)
+            p = run.params  # the trials' simulated metrics (`phases.close`), before the hold is released
+            epsilon = simulated_metrics(scene, run.torque_scale, p.metric_edges, p.metric_friction_tol).epsilon_l1
         except Abort as abort:
             return CloseResult(status=abort.status.value)
         finally:
@@ -810,9 +872,10 @@ class CloseSimulation:
         defects = tuple(name for name, bad in (("pushed", pushed > PUSHED_MAX), ("off-plan", gap > GAP_MAX),
                                                ("thumb-off-pad", thumb_on_pad < 0.5),
                                                ("friction-used", used > FRICTION_USED_MAX)) if bad)
+        epsilon = float(epsilon) if np.isfinite(epsilon) else 0.0
         return CloseResult(status="", pushed=pushed, gap=gap, thumb_on_pad=thumb_on_pad, friction_used=used,
-                           margin=float(margin), fingers=fingers, defects=defects,
-                           passed=(not defects or not defects_fail) and margin >= min_margin)
+                           margin=float(margin), epsilon=epsilon, fingers=fingers, defects=defects,
+                           passed=not set(defects) & set(failing) and margin >= min_margin and epsilon >= min_epsilon)
 
 
 def pad_jacobians(x: np.ndarray, slot: np.ndarray, jp: np.ndarray, jr: np.ndarray, xpos: np.ndarray) -> np.ndarray:
