@@ -148,6 +148,21 @@ Tried on these findings, no gain (4 objects: mustard, potted meat, banana, sugar
 - a hold that lets a closing finger which presses nothing when the hold engages close in with 0.4 x the mean
   force of the pushing fingers (so a finger short of the object catches up): Fourier's 14 failures at margin
   >= 1.3 gave 1 success, its 8 successes stayed.
+
+Neither creep nor link friction (3 Dec 2026; the dexterous config's run at 62178f2, `standard`, replayed at
+f89b0bd+; the replays give the stored statuses):
+- the Allegro's drops turn just past 15 deg, as a creep in MuJoCo's soft contacts would (the hand geoms keep
+  MuJoCo's default solref 0.02, solimp 0.9-0.95). Stiffer hand contacts do not hold them: the 20 dexopt trials
+  of the sugar box and mustard bottle (3 successes) replayed with `--solimp 0.95 0.99` gave 4, `--solimp 0.99
+  0.995` 1, with `--solref 0.01` too 1 (the turns stay 15-20 deg: the grasp yields, it does not creep);
+- the Inspire's finger and palm links at the fingertips' rubber friction (`--friction 1.0`; its RH56DFTP's
+  tactile skins cover the fingers and palm): its 70 dexopt trials 44 -> 42, its 70 power trials 54 -> 54.
+  What does separate them is the squeeze at the end of the close: on the Inspire, trials whose normal force
+  lies mostly inside the friction cones (`--summary`'s "fn on cone" < 0.3) succeed 36/45, the others 8/22
+  (sugar box 0003: every contact on its cone, the hand's synergy stopped at 0.08, the object drops in 0.1 s of
+  the lift); on the Fourier 30/49 and 7/15. The trials' simulated epsilon at the end of the close
+  (`sim_epsilon_l1`) separates them better still (>= 0.2: Allegro 33/38, Fourier 13/13, Inspire 20/20; < 0.1:
+  1/9, 10/34, 12/30): what `dexopt_planner`'s closing check can rank by (`close_order: epsilon`, step 7).
 """
 
 from __future__ import annotations
@@ -155,6 +170,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -267,24 +283,33 @@ class Probe:
 _ORIGINAL: dict[int, tuple[np.ndarray, float, np.ndarray]] = {}
 
 
-def counterfactual(scene, friction: float | None, mass_scale: float) -> None:
+def counterfactual(scene, friction: float | None, mass_scale: float, solimp: Sequence[float] | None = None,
+                   solref: float | None = None) -> None:
     """Change the physics of `scene` for a what-if replay: the hand geoms' sliding friction (the hand-object
-    coefficient: hand geoms have contact priority) and the object's mass and inertia (x `mass_scale`).
-    The model's own values are kept and restored when called with (None, 1.0)."""
+    coefficient: hand geoms have contact priority, so their contact parameters are the contacts'), the object's
+    mass and inertia (x `mass_scale`), the hand geoms' contact impedance `solimp` (dmin, dmax) and time constant
+    `solref` [s]. The model's own values are kept and restored when called with (None, 1.0)."""
     m = scene.model
     if id(m) not in _ORIGINAL:
         _ORIGINAL[id(m)] = (m.geom_friction[:, 0].copy(), float(m.body_mass[scene.object_body]),
-                            m.body_inertia[scene.object_body].copy())
-    mu, mass, inertia = _ORIGINAL[id(m)]
-    m.geom_friction[:, 0] = np.where(scene.geom_is_hand, friction, mu) if friction is not None else mu
+                            m.body_inertia[scene.object_body].copy(), m.geom_solimp.copy(), m.geom_solref.copy())
+    mu, mass, inertia, imp, ref = _ORIGINAL[id(m)]
+    hand = scene.geom_is_hand
+    m.geom_friction[:, 0] = np.where(hand, friction, mu) if friction is not None else mu
     m.body_mass[scene.object_body] = mass * mass_scale
     m.body_inertia[scene.object_body] = inertia * mass_scale
+    m.geom_solimp[:] = imp
+    m.geom_solref[:] = ref
+    if solimp is not None:
+        m.geom_solimp[hand, :2] = solimp
+    if solref is not None:
+        m.geom_solref[hand, 0] = solref
 
 
 def replay_probe(run_dir: Path, trial_id: str, quiet: bool = False, friction: float | None = None,
-                 mass_scale: float = 1.0) -> tuple[object, Probe]:
-    """Replay `trial_id` of `run_dir` with a `Probe`; returns (result, probe). `friction`, `mass_scale`: a
-    what-if (`counterfactual`), applied after the object has settled."""
+                 mass_scale: float = 1.0, **contact) -> tuple[object, Probe]:
+    """Replay `trial_id` of `run_dir` with a `Probe`; returns (result, probe). `friction`, `mass_scale` and
+    `contact` (`solimp`, `solref`): a what-if (`counterfactual`), applied after the object has settled."""
     from manigrasp.bench.worker import scene_for
     from manigrasp.protocol import PROTOCOLS, settle_object
 
@@ -293,7 +318,7 @@ def replay_probe(run_dir: Path, trial_id: str, quiet: bool = False, friction: fl
     scene = scene_for(group)
     counterfactual(scene, None, 1.0)
     object_pose = settle_object(scene)
-    counterfactual(scene, friction, mass_scale)
+    counterfactual(scene, friction, mass_scale, **contact)
     probe = Probe(quiet=quiet)
     protocol = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params))
     seed = group.trial_seed(trial.index)
@@ -302,13 +327,14 @@ def replay_probe(run_dir: Path, trial_id: str, quiet: bool = False, friction: fl
     return result, probe
 
 
-def summary(run_dir: Path, ids: list[str], friction: float | None = None, mass_scale: float = 1.0) -> int:
+def summary(run_dir: Path, ids: list[str], friction: float | None = None, mass_scale: float = 1.0, **contact) -> int:
     """One line per trial: the state at the end of the close (start of the lift)."""
     ids = ids or sorted(stored_trials(run_dir))
     print("trial | status | grip N | sum fn N | mu sum fn / mg | fn on cone | fn on tips | palm N | fingers | "
           "saturated actuators | at the first perturbation: drift mm, deg, sum fn N, fingers")
     for trial_id in ids:
-        result, probe = replay_probe(run_dir, trial_id, quiet=True, friction=friction, mass_scale=mass_scale)
+        result, probe = replay_probe(run_dir, trial_id, quiet=True, friction=friction, mass_scale=mass_scale,
+                                     **contact)
         first = next((r for r in probe.rows if r["label"] == "end of close"), None)
         if first is None:
             print(f"{trial_id} | {result.status.value} | (no lift)")
@@ -782,6 +808,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max", type=int, default=4)
     ap.add_argument("--friction", type=float, help="what-if: hand-object sliding friction (default: the run's)")
     ap.add_argument("--mass-scale", type=float, default=1.0, help="what-if: the object's mass x this")
+    ap.add_argument("--solimp", type=float, nargs=2, metavar=("DMIN", "DMAX"),
+                    help="what-if: the hand geoms' contact impedance (default: the run's, MuJoCo's 0.9 0.95)")
+    ap.add_argument("--solref", type=float, metavar="TIMECONST",
+                    help="what-if: the hand geoms' contact time constant [s] (default: the run's, MuJoCo's 0.02)")
     ap.add_argument("--summary", action="store_true", help="one line per trial (every stored trial if no ids)")
     ap.add_argument("--versus-plan", action="store_true",
                     help="dexopt trials (every stored one if no ids): its load test's assumptions against the replay")
@@ -811,15 +841,17 @@ def main(argv: list[str] | None = None) -> int:
             args.save.write_bytes(pickle.dumps(rows))
         versus_summary(rows)
         return 0
+    contact = dict(solimp=args.solimp, solref=args.solref)
     if args.summary:
-        return summary(args.run_dir, ids, args.friction, args.mass_scale)
+        return summary(args.run_dir, ids, args.friction, args.mass_scale, **contact)
     if not ids:
         trials = stored_trials(args.run_dir)
         ids = [t for t, s in sorted(trials.items()) if s.result.status.value == args.status][:args.max]
     for trial_id in ids:
         stored = find_trial(args.run_dir, trial_id).result
         print(f"== {trial_id}: stored {stored.status.value} (grip {stored.grip_force_n:.2f} N)")
-        result, _ = replay_probe(args.run_dir, trial_id, friction=args.friction, mass_scale=args.mass_scale)
+        result, _ = replay_probe(args.run_dir, trial_id, friction=args.friction, mass_scale=args.mass_scale,
+                                 **contact)
         print(f"   replayed: {result.status.value}")
     return 0
 
