@@ -27,6 +27,14 @@ stiffness predicts under the loads (`Synthesis.rotation`); then per hand the suc
 passes the load test (margin >= the planner's `min_hold_margin`) and of those that do not. `--set KEY=VALUE ...`
 re-plans with those planner parameters changed (a what-if on the same trials; a grasp the changed checks reject
 is reported as not planned).
+
+With --closes --config CONFIG [--only TEXT ...]: each dexopt group of the config (those whose hand/object contains
+one of the --only texts) is planned as `manigrasp bench` plans it, with its closing check (`close_check`, step 7
+of `dexopt_planner`) run on every candidate left after the suppression; printed: the candidates, how many pass
+the check as configured, how many closes grip, and how many end at a simulated epsilon (the trials'
+`sim_epsilon_l1`) of at least 0.15 and 0.1, with the CPU time of the call. `--set` changes planner parameters.
+
+    .venv/bin/python benchmarks/bench_dexopt.py --closes --config dexterous --only fourier_right/010_potted
 """
 
 from __future__ import annotations
@@ -40,6 +48,7 @@ import argparse  # noqa: E402
 import platform  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
@@ -159,6 +168,37 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
         print(f"{hand}: passing the load test {s1}/{n1} succeeded, failing it {s0}/{n0}")
 
 
+def closes(config: str, only: list[str], override: dict | None = None) -> None:
+    """How many of each group's candidates close well in the simulation (module docstring, --closes)."""
+    from manigrasp.bench.config import load_config
+    from manigrasp.bench.observe import observe_with_info
+    from manigrasp.bench.trials import groups
+    from manigrasp.bench.worker import _asset, scene_for
+    from manigrasp.paths import configs_dir
+
+    print(f"{'hand':<14} {'object':<20} {'protocol':<13} {'candidates':>10} {'passed':>6} {'gripped':>7} "
+          f"{'eps>=0.15':>9} {'eps>=0.1':>8} {'cpu s':>6}")
+    path = Path(config) if Path(config).is_file() else configs_dir() / f"{config}.yaml"  # a path or a shipped name
+    for g in groups(load_config(path)):
+        label = f"{g.hand}/{g.object_source.name}"
+        if g.planner.name != "dexopt" or (only and not any(text in label for text in only)):
+            continue
+        scene = scene_for(g)
+        context = PlanContext.for_run(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params,
+                                      g.scene, scene.hand)
+        pose = settle_object(scene)
+        observation, _ = observe_with_info(g.observation, _asset(g), pose, scene, seed=g.seed, camera=g.camera)
+        planner = DexOptPlanner(**{**dict(g.planner.params), **(override or {}), "close_check": 10**6})
+        start = time.process_time()
+        found = planner.synthesise(observation, scene.hand, 10**6, g.rng(), context.pregrasp_offset, context)
+        cpu = time.process_time() - start
+        checked = planner.last.get("close", [])
+        eps = np.array([c.epsilon for c in checked])
+        print(f"{g.hand:<14} {g.object_source.name:<20} {g.protocol.name:<13} {len(found):>10} "
+              f"{sum(c.passed for c in checked):>6} {sum(not c.status for c in checked):>7} "
+              f"{int(np.sum(eps >= 0.15)):>9} {int(np.sum(eps >= 0.1)):>8} {cpu:>6.1f}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--hands", nargs="+", default=list(HANDS))
@@ -169,11 +209,19 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--trials", action="store_true", help="run each grasp through the standard protocol")
     parser.add_argument("--run", help="a stored run of dexopt: its trials' hold margins against their outcomes")
-    parser.add_argument("--config", help="the run's config (with --run)")
+    parser.add_argument("--config", help="the run's config (with --run), the config planned (with --closes)")
+    parser.add_argument("--closes", action="store_true",
+                        help="with --config: how many of each group's candidates close well (module docstring)")
+    parser.add_argument("--only", nargs="*", default=[], help="with --closes: groups whose hand/object contains these")
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                        help="with --run: planner parameters changed in the re-planning (values read as YAML, "
+                        help="with --run or --closes: planner parameters changed (values read as YAML, "
                              "as `manigrasp bench` overrides: restarts=40 min_hold_margin=1.5)")
     args = parser.parse_args()
+    if args.closes:
+        if not args.config:
+            parser.error("--closes needs --config")
+        closes(args.config, args.only, apply_overrides({}, args.set))
+        return
     if args.run:
         if not args.config:
             parser.error("--run needs --config")
