@@ -120,6 +120,20 @@ def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
     return out
 
 
+def planning_inputs(g) -> tuple:
+    """What `manigrasp bench` plans group `g` with: its scene, planning context and observation of the settled
+    object."""
+    from manigrasp.bench.observe import observe_with_info
+    from manigrasp.bench.worker import _asset, scene_for
+
+    scene = scene_for(g)
+    context = PlanContext.for_run(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params, g.scene,
+                                  scene.hand)
+    pose = settle_object(scene)
+    observation, _ = observe_with_info(g.observation, _asset(g), pose, scene, seed=g.seed, camera=g.camera)
+    return scene, context, observation
+
+
 def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> None:
     """Hold margin of each dexopt trial's grasp in a stored run against its outcome (module docstring);
     `override`: planner parameters replaced in the re-planning (a what-if: the margins the trials' grasps would
@@ -128,9 +142,7 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
 
     import manigrasp.planners.dexopt_planner as dexopt_planner
     from manigrasp.bench.config import load_config
-    from manigrasp.bench.observe import observe_with_info
     from manigrasp.bench.trials import groups
-    from manigrasp.bench.worker import _asset, scene_for
 
     keep_all = lambda poses, distance, angle: np.arange(len(poses))  # noqa: E731
     dexopt_planner.suppress = keep_all  # every candidate that passed the checks, to match the run's against
@@ -139,11 +151,7 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
     for g in groups(load_config(config)):
         if g.planner.name != "dexopt":
             continue
-        scene = scene_for(g)
-        context = PlanContext.for_run(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params,
-                                      g.scene, scene.hand)
-        pose = settle_object(scene)
-        observation, _ = observe_with_info(g.observation, _asset(g), pose, scene, seed=g.seed, camera=g.camera)
+        scene, context, observation = planning_inputs(g)
         planner = DexOptPlanner(**{**dict(g.planner.params), **(override or {})})
         found = planner.synthesise(observation, scene.hand, 10**6, g.rng(), context.pregrasp_offset, context)
         if not found:
@@ -171,9 +179,7 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
 def closes(config: str, only: list[str], override: dict | None = None) -> None:
     """How many of each group's candidates close well in the simulation (module docstring, --closes)."""
     from manigrasp.bench.config import load_config
-    from manigrasp.bench.observe import observe_with_info
     from manigrasp.bench.trials import groups
-    from manigrasp.bench.worker import _asset, scene_for
     from manigrasp.paths import configs_dir
 
     print(f"{'hand':<14} {'object':<20} {'protocol':<13} {'candidates':>10} {'passed':>6} {'gripped':>7} "
@@ -183,11 +189,7 @@ def closes(config: str, only: list[str], override: dict | None = None) -> None:
         label = f"{g.hand}/{g.object_source.name}"
         if g.planner.name != "dexopt" or (only and not any(text in label for text in only)):
             continue
-        scene = scene_for(g)
-        context = PlanContext.for_run(PROTOCOLS.load(g.protocol.name, **dict(g.protocol.params)).params,
-                                      g.scene, scene.hand)
-        pose = settle_object(scene)
-        observation, _ = observe_with_info(g.observation, _asset(g), pose, scene, seed=g.seed, camera=g.camera)
+        scene, context, observation = planning_inputs(g)
         planner = DexOptPlanner(**{**dict(g.planner.params), **(override or {}), "close_check": 10**6})
         start = time.process_time()
         found = planner.synthesise(observation, scene.hand, 10**6, g.rng(), context.pregrasp_offset, context)
