@@ -133,13 +133,14 @@
    - `close_check: 40, close_defects: false, close_min_epsilon: 0.15`: 39, 42, 46;
    - `close_check: 60`, the same with `close_min_margin: 0, close_order: epsilon`: 42, 43, 44;
    - the same with `restarts: 160, close_check: 100`: 44, 41, 55, planning 52-58 s per call of 10 against about
-     30 s (two jobs on a shared 2-core machine); Inspire on seed 1: 45 against the defaults' 40/70. Pooled over
-     the two seeds the Inspire's 84/140 -> 100/140 (Fisher p = 0.06): a lead, not yet a result, and not the
-     0.75 on seed 1 (0.64). Few candidates close well: at 80 restarts, 14-48 per group after the suppression,
-     of them closes at epsilon >= 0.15 Fourier soup can 16/34, potted meat 12/30, Inspire mug 3/14, Allegro
-     mustard 20/48 (all closed, `close_check: 1000`); and the trials' own close does not always reproduce the
-     check's (Fourier: 43 of its 70 trials end the close at epsilon >= 0.15, 34 of them succeed). So it stays
-     opt-in; a larger pool of well-closing candidates (the closing motion in the energy) is what it needs.
+     30 s (two jobs on a shared 2-core machine); on seed 1: 39, 38, 45 against the defaults' 44, 40, 40/70.
+     Pooled over the two seeds the Inspire's 84/140 -> 100/140 (Fisher p = 0.06): a lead for that hand, not yet
+     a result, and not the 0.75 on seed 1 (0.64); the Allegro's 84 -> 83 and the Fourier's 77 -> 79: nothing.
+     Few candidates close well: at 80 restarts, 14-48 per group after the suppression, of them closes at epsilon >=
+     0.15 Fourier soup can 16/34, potted meat 12/30, Inspire mug 3/14, Allegro mustard 20/48 (all closed,
+     `close_check: 1000`, `benchmarks/bench_dexopt.py --closes`); and the trials' own close does not always
+     reproduce the check's (Fourier: 43 of its 70 trials end the close at epsilon >= 0.15, 34 of them succeed). So
+     it stays opt-in; a larger pool of well-closing candidates (the closing motion in the energy) is what it needs.
 
 Score = 1 / (1 + E) (in (0, 1], higher is better) with E the final energy.
 """
