@@ -48,11 +48,11 @@ import argparse  # noqa: E402
 import platform  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
-from pathlib import Path  # noqa: E402
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
+from manigrasp.cli.bench import resolve_config  # noqa: E402
 from manigrasp.config import apply_overrides  # noqa: E402
 from manigrasp.hands.registry import load as load_hand  # noqa: E402
 from manigrasp.objects import catalog  # noqa: E402
@@ -148,7 +148,7 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
     dexopt_planner.suppress = keep_all  # every candidate that passed the checks, to match the run's against
     db = sqlite3.connect(f"{run_dir}/results.sqlite")
     tally: dict[str, list[int]] = {}
-    for g in groups(load_config(config)):
+    for g in groups(load_config(resolve_config(config))):
         if g.planner.name != "dexopt":
             continue
         scene, context, observation = planning_inputs(g)
@@ -180,12 +180,10 @@ def closes(config: str, only: list[str], override: dict | None = None) -> None:
     """How many of each group's candidates close well in the simulation (module docstring, --closes)."""
     from manigrasp.bench.config import load_config
     from manigrasp.bench.trials import groups
-    from manigrasp.paths import configs_dir
 
     print(f"{'hand':<14} {'object':<20} {'protocol':<13} {'candidates':>10} {'passed':>6} {'gripped':>7} "
           f"{'eps>=0.15':>9} {'eps>=0.1':>8} {'cpu s':>6}")
-    path = Path(config) if Path(config).is_file() else configs_dir() / f"{config}.yaml"  # a path or a shipped name
-    for g in groups(load_config(path)):
+    for g in groups(load_config(resolve_config(config))):
         label = f"{g.hand}/{g.object_source.name}"
         if g.planner.name != "dexopt" or (only and not any(text in label for text in only)):
             continue
@@ -211,7 +209,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--trials", action="store_true", help="run each grasp through the standard protocol")
     parser.add_argument("--run", help="a stored run of dexopt: its trials' hold margins against their outcomes")
-    parser.add_argument("--config", help="the run's config (with --run), the config planned (with --closes)")
+    parser.add_argument("--config", help="the run's config (with --run), the config planned (with --closes): a path "
+                        "or a shipped config's name")
     parser.add_argument("--closes", action="store_true",
                         help="with --config: how many of each group's candidates close well (module docstring)")
     parser.add_argument("--only", nargs="*", default=[], help="with --closes: groups whose hand/object contains these")

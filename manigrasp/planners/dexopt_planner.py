@@ -681,11 +681,11 @@ class DexOptPlanner:
         sim = CloseSimulation(hk.hand, observation, context)
         external = loads(observation.object_mass(self.density), context.perturbation)
         mu = self.contact_friction(context)
+        margin = self.min_hold_margin if self.close_min_margin is None else self.close_min_margin
         good = 0
         for s in ranked[:self.close_check]:
             if good >= n:
                 break
-            margin = self.min_hold_margin if self.close_min_margin is None else self.close_min_margin
             s.close = sim.check(s, hk, external, mu, self.torsion, margin, self.failing_defects,
                                 self.close_min_epsilon)
             good += s.close.passed
@@ -870,9 +870,9 @@ class CloseSimulation:
         margin = (hold_margin(np.array(points), np.array(normals), np.array(caps), center, external, mu, torsion)
                   if caps else 0.0)
         fingers = tuple(int(f) for f in np.unique(c.finger[fn > 0]) if fn[c.finger == f].sum() >= TOUCH_N)
-        defects = tuple(name for name, bad in (("pushed", pushed > PUSHED_MAX), ("off-plan", gap > GAP_MAX),
-                                               ("thumb-off-pad", thumb_on_pad < 0.5),
-                                               ("friction-used", used > FRICTION_USED_MAX)) if bad)
+        bad = {"pushed": pushed > PUSHED_MAX, "off-plan": gap > GAP_MAX, "thumb-off-pad": thumb_on_pad < 0.5,
+               "friction-used": used > FRICTION_USED_MAX}
+        defects = tuple(name for name in CLOSE_DEFECTS if bad[name])
         epsilon = float(epsilon) if np.isfinite(epsilon) else 0.0
         return CloseResult(status="", pushed=pushed, gap=gap, thumb_on_pad=thumb_on_pad, friction_used=used,
                            margin=float(margin), epsilon=epsilon, fingers=fingers, defects=defects,
