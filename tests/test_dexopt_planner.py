@@ -408,3 +408,30 @@ def test_the_close_check_simulates_the_close_and_ranks_a_hand_closing_on_nothing
     assert DexOptPlanner(close_defects="pushed").failing_defects == ("pushed",)
     with pytest.raises(ConfigError, match="unknown close_defects.*friction-used"):
         DexOptPlanner(close_defects=["slipped"])
+
+
+def test_finger_spheres_count_no_penetration_along_the_hands_free_close_but_do_where_the_links_collide() -> None:
+    """The Fourier's neighbouring fingers lie side by side: their link-wide spheres overlap in the open hand though
+    the links never touch. Along the open -> closed path the term is zero while MuJoCo finds the fingers clear,
+    and positive once their real geoms collide (the thumb on the index at the full close)."""
+    hk = HandKinematics(load_hand("fourier_right"))
+    planner = DexOptPlanner()
+    sdf = _sphere_grid(centre=(0.5, 0.5, 0.5))  # far from the hand: only the hand's own terms matter here
+    full = hk.sphere_radius[:, None] + hk.sphere_radius[None]
+    cross = hk.sphere_finger[:, None] != hk.sphere_finger[None]
+    assert np.all(hk.sphere_reach[~cross] == 0) and np.all(hk.sphere_reach[cross] <= full[cross])
+    pos, quat = np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0, 0.0]])
+    xpos, xmat, *_ = hk.evaluate(pos, quat, hk.q_open[None])
+    c = hk.world(hk.spheres, xpos, xmat)[0]
+    dist = np.linalg.norm(c[:, None] - c[None], axis=2)
+    assert 0.5 * np.where(cross & (dist < full), full - dist, 0.0).sum() > 0.01  # the spheres' own overlap
+    for t in np.linspace(0.0, 1.0, 11):
+        q = hk.q_open + t * (hk.q_closed - hk.q_open)
+        overlap = hk.finger_overlap(hk.full_qpos(pos[0], quat[0], q))
+        _, terms, _ = planner.energy(hk, sdf, np.array([0.5, 0.5, 0.5]), 0.04, -1.0, pos, quat, q[None],
+                                     gradient=False)
+        if overlap == 0.0:
+            assert terms["self_penetration"][0] == 0.0, t
+        else:
+            assert terms["self_penetration"][0] > 0.001, t
+    assert hk.finger_overlap(hk.full_qpos(pos[0], quat[0], hk.q_closed)) > 0.005  # the test reaches a collision

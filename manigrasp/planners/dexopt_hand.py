@@ -16,7 +16,13 @@
   object, re-chosen as it goes, as DexGraspNet switches contact points); with `wrap`, every moving link of
   every finger is a contact of its own (a wrap, not a fingertip grasp); with `palm`, the palm's front (its
   surface samples farthest along the TCP approach) is one more contact (`pad_finger` numbers the contacts);
-- spheres along each finger's collision geoms (for the fingers' mutual penetration).
+- spheres along each finger's collision geoms (for the fingers' mutual penetration), and for each pair on
+  different fingers the distance below which they count as penetrating (`sphere_reach`): the sum of their radii,
+  or less where the hand's own closing motion brings them closer while MuJoCo finds the fingers' real geoms clear
+  of each other (`REST_FRACTIONS` of the open -> closed path). A sphere is as wide as its link, so neighbouring
+  fingers' spheres overlap where the links lie side by side (the Fourier's four fingers: 16 mm of summed overlap
+  in the open hand, 1000 energy units per metre; the Inspire's 3 mm) although the links never touch: counted, that
+  overlap dominated the Fourier's energy (10 of its 10-15) and pushed neighbouring fingers to curl apart.
 
 `evaluate` places a batch of configurations and returns every point in the world with the Jacobians of their
 bodies (`mj_jacBody`); `backprop` takes a gradient over points to the reduced coordinates (free-joint tangent
@@ -40,6 +46,7 @@ SHARP_EDGE = 0.5  # [rad] a geom's edges where its faces meet at more than this 
 PAD_FRACTION = 0.4  # the part of a finger link's surface samples farthest along its closing motion are its pads
 PALM_BAND = 0.003  # [m] palm samples within this of its front (along the TCP approach) are its pads
 PAD_LINKS = 1  # pads on this many links of each finger, from the tip
+REST_FRACTIONS = np.linspace(0.0, 1.0, 21)  # points of the open -> closed path checked for `sphere_reach`
 SAMPLE_SEED = 0  # the hand's surface samples are a property of the hand: fixed, not drawn from the planner's rng
 _ONE_DOF = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
@@ -94,6 +101,7 @@ class HandKinematics:
         self.contacts = self._pads()
         self.spheres, self.sphere_radius = self._spheres()
         self.sphere_finger = self.body_finger[self.spheres.bodies]
+        self.sphere_reach = self._sphere_reach()
 
     # ------------------------------------------------------------------ joints and commands
     def full_qpos(self, root_pos: np.ndarray, root_quat: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -363,6 +371,35 @@ class HandKinematics:
             b = int(self.model.body_parentid[b])
             depth += 1
         return depth
+
+    def finger_overlap(self, qpos: np.ndarray) -> float:
+        """Deepest penetration [m] (>= 0) between the real collision geoms of different fingers at `qpos` (MuJoCo's
+        collision, the model's own contact filters)."""
+        m, d = self.model, self.data
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        depth = 0.0
+        for c in range(d.ncon):
+            f1, f2 = self.body_finger[m.geom_bodyid[d.contact.geom[c]]]
+            if f1 != f2 and f1 >= 0 and f2 >= 0:
+                depth = max(depth, -float(d.contact.dist[c]))
+        return depth
+
+    def _sphere_reach(self) -> np.ndarray:
+        """(s, s) distances [m] below which two spheres of different fingers penetrate (module docstring): r_i + r_j,
+        lowered to the least distance the pair has at the configurations of the open -> closed path where the
+        fingers' real geoms are clear of each other (`finger_overlap` 0); 0 for spheres of one finger."""
+        reach = self.sphere_radius[:, None] + self.sphere_radius[None]
+        origin, unit = np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0, 0.0]])
+        for t in REST_FRACTIONS:
+            q = self.q_open + t * (self.q_closed - self.q_open)
+            if self.finger_overlap(self.full_qpos(origin[0], unit[0], q)) > 0.0:
+                continue
+            xpos, xmat, *_ = self.evaluate(origin, unit, q[None])
+            c = self.world(self.spheres, xpos, xmat)[0]
+            reach = np.minimum(reach, np.linalg.norm(c[:, None] - c[None], axis=2))
+        return np.where(self.sphere_finger[:, None] != self.sphere_finger[None], reach, 0.0)
 
     def _spheres(self) -> tuple[Points, np.ndarray]:
         """Spheres along each finger collision geom (its own surface's samples, not its hull's): centres on its longest

@@ -19,7 +19,8 @@
      that balance best (`force_shares`; 1 for all is Liu et al.'s estimate);
    - the pads' distance to the surface sum |d_i| (L1, as DexGraspNet: a constant pull);
    - the depth of the hand's surface samples inside the object and below the table top + `table_clearance`;
-   - the fingers' mutual penetration (spheres along their links); joint limits;
+   - the fingers' mutual penetration (spheres along their links, each pair counted from the least distance the
+     hand's own closing motion brings it to with the real links clear, `HandKinematics.sphere_reach`); joint limits;
    - the pads' centroid away from the centre of mass, |mean_i (x_i - c) / r|^2, meant to let the weight
      hang between the fingers rather than twist out of them. Its weight 10 instead of 1 (`CENTROID_WEIGHT`;
      standard 10 N, 04ffbb2, paired seeds, `manigrasp bench`): Allegro seed 0 sugar box 2 -> 4, mustard 1 -> 4,
@@ -540,8 +541,8 @@ class DexOptPlanner:
         c = hk.world(hk.spheres, xpos, xmat)  # (R, s, 3)
         diff = c[:, :, None] - c[:, None]
         dist = np.linalg.norm(diff, axis=3)
-        reach = hk.sphere_radius[:, None] + hk.sphere_radius[None]
-        pairs = (hk.sphere_finger[:, None] != hk.sphere_finger[None]) & (dist < reach)
+        reach = hk.sphere_reach
+        pairs = dist < reach  # pairs on different fingers only (reach 0 on one finger)
         e_self = 0.5 * np.where(pairs, reach - dist, 0.0).sum(axis=(1, 2))
         unit = diff / np.maximum(dist, 1e-9)[..., None]
         g_spheres = -w.self_penetration * np.where(pairs[..., None], unit, 0.0).sum(axis=2)
@@ -629,7 +630,7 @@ class DexOptPlanner:
             if depth > self.max_penetration:
                 rejected["penetration"] = rejected.get("penetration", 0) + 1
                 continue
-            if _self_depth(hk, qpos) > self.max_penetration:
+            if hk.finger_overlap(qpos) > self.max_penetration:
                 rejected["self_penetration"] = rejected.get("self_penetration", 0) + 1
                 continue
             normal = -g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
@@ -1001,20 +1002,6 @@ def _probe_contacts(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float])
             push += -dist * data.contact.frame[c, :3] * (1.0 if hand_second else -1.0)
     probe.restore()
     return depth, push
-
-
-def _self_depth(hk: HandKinematics, qpos: np.ndarray) -> float:
-    """Deepest penetration [m] (>= 0) between geoms of different fingers of the hand at `qpos`."""
-    m, d = hk.model, hk.data
-    d.qpos[:] = qpos
-    mujoco.mj_kinematics(m, d)
-    mujoco.mj_collision(m, d)
-    depth = 0.0
-    for c in range(d.ncon):
-        f1, f2 = hk.body_finger[m.geom_bodyid[d.contact.geom[c]]]
-        if f1 != f2 and f1 >= 0 and f2 >= 0:
-            depth = max(depth, -float(d.contact.dist[c]))
-    return depth
 
 
 def _ray_to_surface(sdf: GridSdf, start: np.ndarray, direction: np.ndarray, far: float = 1.0) -> float:
