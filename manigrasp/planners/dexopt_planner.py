@@ -20,7 +20,11 @@
    - the pads' distance to the surface sum |d_i| (L1, as DexGraspNet: a constant pull);
    - the depth of the hand's surface samples inside the object and below the table top + `table_clearance`;
    - the fingers' mutual penetration (spheres along their links, each pair counted from the least distance the
-     hand's own closing motion brings it to with the real links clear, `HandKinematics.sphere_reach`); joint limits;
+     hand's own closing motion brings it to with the real links clear, `HandKinematics.sphere_reach`: spheres as
+     wide as the link overlapped by 16 mm on the Fourier's side-by-side fingers in the open hand, 10 of its final
+     energies of 10-15, its score's AUC 0.31 in trials; counted so no longer: standard 10 N, 7 objects x 10, Fourier
+     seed 0 37 -> 59/70, seed 1 40 -> 55/70, Inspire (3 mm) 44 -> 44, 40 -> 42; the Allegro has no such pair);
+     joint limits;
    - the pads' centroid away from the centre of mass, |mean_i (x_i - c) / r|^2, meant to let the weight
      hang between the fingers rather than twist out of them. Its weight 10 instead of 1 (`CENTROID_WEIGHT`;
      standard 10 N, 04ffbb2, paired seeds, `manigrasp bench`): Allegro seed 0 sugar box 2 -> 4, mustard 1 -> 4,
