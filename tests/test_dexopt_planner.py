@@ -17,7 +17,10 @@ from manigrasp.planners.dexopt_hand import HandKinematics
 from manigrasp.planners.dexopt_planner import (
     CLOSE_DEFECTS,
     DexOptPlanner,
+    _hand_q,
+    _penetrations,
     _probe_contacts,
+    _retract_fingers,
     choose_pads,
     force_shares,
 )
@@ -435,3 +438,46 @@ def test_finger_spheres_count_no_penetration_along_the_hands_free_close_but_do_w
         else:
             assert terms["self_penetration"][0] > 0.001, t
     assert hk.finger_overlap(hk.full_qpos(pos[0], quat[0], hk.q_closed)) > 0.005  # the test reaches a collision
+
+
+@pytest.mark.slow
+def test_fingers_pressed_into_the_object_are_retracted_out_of_it_by_opening(tmp_path) -> None:
+    """A planned grasp's fingers closed further, into the can from every side (the hand's back-off cannot take
+    them out: it moves the whole hand): `_retract_fingers` opens them until the deepest penetration is within the
+    tolerance, moving the joints toward the open hand only as far as needed."""
+    from manigrasp.objects import build_object
+
+    asset = build_object(trimesh.creation.cylinder(0.033, 0.10, sections=48), name="dexopt_test_can", mass=0.35,
+                         cache_root=tmp_path).asset
+    observation = Observation.from_asset(asset)
+    hand = load_hand("inspire_right")
+    planner = DexOptPlanner(restarts=8, iterations=60)
+    grasp = planner.synthesise(observation, hand, 1, np.random.default_rng(5))[0]
+    hk = planner.kinematics(hand)
+    probe = HandProbe(hand, observation, clearance=0.0)
+    addresses = probe.hand_qpos_addresses()
+    names = [hk.model.joint(j).name for j in hk.joints]
+    root = grasp.pose @ hk.root_in_tcp
+
+    def depth(q: np.ndarray) -> tuple[float, list]:
+        qpos = hk.full_qpos(root[:3, 3], np.array(mujoco_quat(root[:3, :3])), q)
+        return _penetrations(probe, grasp.pose, _hand_q(hk, qpos, addresses, names))
+
+    assert depth(grasp.q)[0] <= 0.001
+    closing = hk.q_closed - hk.q_open
+    pressed = np.clip(grasp.q + 0.15 * closing, hk.low, hk.high)
+    deep, contacts = depth(pressed)
+    assert deep > 0.003 and any(hk.body_finger[hk.body_id(body)] >= 0 for body, *_ in contacts)  # finger links
+    q, left = _retract_fingers(hk, probe, grasp.pose, pressed, addresses, names, 0.001)
+    assert left <= 0.001 and depth(q)[0] == pytest.approx(left)
+    assert np.dot(q - pressed, closing) < 0  # opened
+    assert np.all(np.abs(q - pressed) <= np.abs(pressed - grasp.q) + 0.05)  # not much past where it was planned
+    # Nothing to do: the planned grasp is returned as it is.
+    same, _ = _retract_fingers(hk, probe, grasp.pose, grasp.q, addresses, names, 0.001)
+    np.testing.assert_array_equal(same, grasp.q)
+
+
+def mujoco_quat(mat: np.ndarray) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(mat).ravel())
+    return quat

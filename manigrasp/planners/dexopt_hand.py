@@ -372,6 +372,10 @@ class HandKinematics:
             depth += 1
         return depth
 
+    def body_id(self, name: str) -> int:
+        """The id of the hand body `name` in this model, -1 if there is none."""
+        return int(mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name))
+
     def finger_overlap(self, qpos: np.ndarray) -> float:
         """Deepest penetration [m] (>= 0) between the real collision geoms of different fingers at `qpos` (MuJoCo's
         collision, the model's own contact filters)."""

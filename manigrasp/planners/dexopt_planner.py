@@ -37,7 +37,9 @@
 4. Selection, lowest energy first: at least `min_contacts` pads within `contact_tolerance` of the surface;
    a MuJoCo check at the planned configuration in the real scene (hand geoms vs object parts and table,
    `mj_collision`, no margin): a hand that penetrates is first moved out along the contact normals (a few
-   mm at most: the surface samples miss what lies between them), then its deepest contact must be at most
+   mm at most: the surface samples miss what lies between them); fingers that still press in (from opposite
+   sides, where moving the hand cannot help) are opened out along their contact normals (`_retract_fingers`; the
+   pads are then re-found on the moved hand); then its deepest contact must be at most
    `max_penetration`, and so must the hand's own (geoms of different fingers); then non-maximum
    suppression (`nms_distance`, `nms_angle`) for diversity. (The hand's surface samples cover what MuJoCo
    collides, a mesh's convex hull and a box's edges and corners, `dexopt_hand`; with those and the pre-shape's
@@ -611,6 +613,7 @@ class DexOptPlanner:
         passed: list[Synthesis] = []
         rejected = self.last.setdefault("rejected", {})
         rejected.clear()
+        self.last["retracted"] = 0
         for i in np.argsort(energy, kind="stable"):
             if not np.isfinite(energy[i]):
                 continue
@@ -628,9 +631,25 @@ class DexOptPlanner:
             root[:3, :3] = _quat_mat(quat[i])
             root[:3, 3] = pos[i]
             tcp = root @ np.linalg.inv(hk.root_in_tcp)
-            hand_q = {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]]) for nm, j in zip(names, hk.joints,
-                                                                                             strict=True)}
-            tcp, depth = _back_off(probe, tcp, hand_q, self.max_penetration)
+            qi = q[i]
+            tcp, depth = _back_off(probe, tcp, _hand_q(hk, qpos, addresses, names), self.max_penetration)
+            if depth > self.max_penetration:
+                # Fingers pinching from opposite sides: moving the hand cannot take both out; open them instead.
+                qi, depth = _retract_fingers(hk, probe, tcp, qi, addresses, names, self.max_penetration)
+                if depth <= self.max_penetration:  # the pads where they now are, on the backed-off hand
+                    root = tcp @ hk.root_in_tcp
+                    root_pos, root_quat = root[None, :3, 3], _mat_quats(root[None, :3, :3])
+                    qpos = hk.full_qpos(root_pos[0], root_quat[0], qi)
+                    xpos, xmat, jp, jr, _ = hk.evaluate(root_pos, root_quat, qi[None])
+                    pads = hk.world(hk.contacts, xpos, xmat)
+                    chosen = choose_pads(sdf, pads, hk.pad_finger)[0]
+                    x = pads[0, chosen]
+                    d, g = sdf.distance(x)
+                    touching = np.abs(d) <= self.contact_tolerance
+                    if touching.sum() < need:
+                        rejected["contacts"] = rejected.get("contacts", 0) + 1
+                        continue
+                    self.last["retracted"] = self.last.get("retracted", 0) + 1
             if depth > self.max_penetration:
                 rejected["penetration"] = rejected.get("penetration", 0) + 1
                 continue
@@ -638,7 +657,7 @@ class DexOptPlanner:
                 rejected["self_penetration"] = rejected.get("self_penetration", 0) + 1
                 continue
             normal = -g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
-            path = self.hand_path(hk, probe, tcp, q[i], x, hk.contacts.bodies[chosen], normal, d, jp[0],
+            path = self.hand_path(hk, probe, tcp, qi, x, hk.contacts.bodies[chosen], normal, d, jp[0],
                                   jr[0], xpos[0], addresses, names, offset)
             if path is None:
                 rejected["preshape"] = rejected.get("preshape", 0) + 1
@@ -651,10 +670,10 @@ class DexOptPlanner:
             used = squeeze_friction(x[touching], normal[touching], jac[touching], torque,
                                     observation.center_of_mass) / mu if mu > 0 else float("inf")
             stiffness = grasp_stiffness(x[touching], normal[touching], jac[touching],
-                                        held_joint_stiffness(hk, q[i], joints[1] - joints[0]),
+                                        held_joint_stiffness(hk, qi, joints[1] - joints[0]),
                                         observation.center_of_mass, CONTACT_STIFFNESS)
             rotation = float(load_rotation(stiffness, external)[0].max())
-            passed.append(Synthesis(pose=tcp, q=q[i].copy(), joints=joints, energy=float(energy[i]),
+            passed.append(Synthesis(pose=tcp, q=qi.copy(), joints=joints, energy=float(energy[i]),
                                     terms={key: float(v[i]) for key, v in terms.items()},
                                     contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold,
                                     rotation=rotation, opened=opened, friction_used=used,
@@ -987,25 +1006,72 @@ def _back_off(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float], toler
     return pose, _probe_contacts(probe, pose, hand_q)[0]
 
 
-def _probe_contacts(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float]) -> tuple[float, np.ndarray]:
-    """Deepest penetration [m] (>= 0) of the hand at `tcp` with joints `hand_q` into object or table, and the
-    depth-weighted sum of the contact normals pointing out of them into the hand (3,)."""
+def _hand_q(hk: HandKinematics, qpos: np.ndarray, addresses: dict[str, int], names: list[str]) -> dict[int, float]:
+    """The hand's joints of `qpos` (a `HandKinematics` qpos) as the probe's qpos address -> value."""
+    return {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]]) for nm, j in zip(names, hk.joints, strict=True)}
+
+
+def _retract_fingers(hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray,
+                     addresses: dict[str, int], names: list[str], tolerance: float) -> tuple[np.ndarray, float]:
+    """Joints `q` (n_q,) moved so that the fingers come out of the object and table at the hand pose `tcp`, and
+    the deepest penetration left [m]. Where `_back_off` cannot help (fingers pressing into the object from
+    opposite sides: the hand's samples miss 1-2 mm between them, the Inspire's fingertips most), each
+    penetrating finger link's contact point is moved out along its contact normal by its depth +
+    `BACK_OFF_EXTRA` (the least-norm joint motion, damped least squares over every such contact at once; the
+    palm cannot move), at most `BACK_OFF_STEPS` times. The pads then stand a millimetre or two off the surface,
+    which the hand path closes (`hand_path`)."""
+    root = tcp @ hk.root_in_tcp
+    root_pos, root_quat = root[None, :3, 3], _mat_quats(root[None, :3, :3])
+    q = q.copy()
+    depth = np.inf
+    for step in range(BACK_OFF_STEPS + 1):
+        qpos = hk.full_qpos(root_pos[0], root_quat[0], q)
+        depth, contacts = _penetrations(probe, tcp, _hand_q(hk, qpos, addresses, names))
+        if depth <= tolerance:
+            break
+        keep = [(hk.body_id(body), p, n, dep) for body, p, n, dep in contacts]
+        keep = [(b, p, n, dep) for b, p, n, dep in keep if b >= 0 and hk.body_finger[b] >= 0]
+        if not keep or step == BACK_OFF_STEPS:
+            break
+        xpos, _xmat, jp, jr, _q = hk.evaluate(root_pos, root_quat, q[None])
+        slot = hk._slot[np.array([b for b, *_ in keep])]
+        points = np.array([p for _b, p, *_ in keep])
+        jac = pad_jacobians(points, slot, jp[0], jr[0], xpos[0])  # (k, 3, n_q)
+        rows = np.einsum("ki,kij->kj", np.array([n for *_, n, _d in keep]), jac)
+        rhs = np.array([dep for *_, dep in keep]) + BACK_OFF_EXTRA
+        q = np.clip(q + rows.T @ np.linalg.solve(rows @ rows.T + GAP_DAMPING * np.eye(len(rows)), rhs),
+                    hk.low, hk.high)
+    return q, depth
+
+
+def _penetrations(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float]
+                  ) -> tuple[float, list[tuple[str, np.ndarray, np.ndarray, float]]]:
+    """Deepest penetration [m] (>= 0) of the hand at `tcp` with joints `hand_q` into object or table, and each
+    penetrating contact: the hand body's (unprefixed) name, the point in the observation's world (3,), the unit
+    normal out of the object or table into the hand (3,) and the depth [m]."""
     probe.set_hand_qpos(hand_q)
     pos, quat = probe.roots(tcp[None])
     probe.place(pos[0], quat[0])
-    data = probe.scene.data
-    depth, push = 0.0, np.zeros(3)
+    model, data = probe.scene.model, probe.scene.data
+    out = []
     for c in range(data.ncon):
         g1, g2 = data.contact.geom[c]
         hand_second = probe.is_hand[g2] and probe.is_other[g1]
-        if not (hand_second or (probe.is_hand[g1] and probe.is_other[g2])):
+        if not (hand_second or (probe.is_hand[g1] and probe.is_other[g2])) or data.contact.dist[c] >= 0:
             continue
-        dist = float(data.contact.dist[c])
-        if dist < 0:
-            depth = max(depth, -dist)
-            push += -dist * data.contact.frame[c, :3] * (1.0 if hand_second else -1.0)
+        hand_geom = g2 if hand_second else g1
+        body = model.body(model.geom_bodyid[hand_geom]).name.removeprefix("hand/")
+        normal = data.contact.frame[c, :3] * (1.0 if hand_second else -1.0)
+        out.append((body, data.contact.pos[c] - probe.shift[:3, 3], normal.copy(), -float(data.contact.dist[c])))
     probe.restore()
-    return depth, push
+    return max((dep for *_, dep in out), default=0.0), out
+
+
+def _probe_contacts(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float]) -> tuple[float, np.ndarray]:
+    """Deepest penetration [m] (>= 0) of the hand at `tcp` with joints `hand_q` into object or table, and the
+    depth-weighted sum of the contact normals pointing out of them into the hand (3,)."""
+    depth, contacts = _penetrations(probe, tcp, hand_q)
+    return depth, sum((dep * n for *_, n, dep in contacts), np.zeros(3))
 
 
 def _ray_to_surface(sdf: GridSdf, start: np.ndarray, direction: np.ndarray, far: float = 1.0) -> float:
