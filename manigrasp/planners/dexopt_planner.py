@@ -622,12 +622,7 @@ class DexOptPlanner:
         for i in np.argsort(energy, kind="stable"):
             if not np.isfinite(energy[i]):
                 continue
-            qpos = hk.full_qpos(pos[i], quat[i], q[i])
-            xpos, xmat, jp, jr, _ = hk.evaluate(pos[i:i + 1], quat[i:i + 1], q[i:i + 1])
-            pads = hk.world(hk.contacts, xpos, xmat)
-            chosen = choose_pads(sdf, pads, hk.pad_finger)[0]
-            x = pads[0, chosen]
-            d, g = sdf.distance(x)
+            qpos, xpos, jp, jr, chosen, x, d, g = _placed_pads(hk, sdf, pos[i:i + 1], quat[i:i + 1], q[i])
             touching = np.abs(d) <= self.contact_tolerance
             if touching.sum() < need:
                 rejected["contacts"] = rejected.get("contacts", 0) + 1
@@ -643,18 +638,13 @@ class DexOptPlanner:
                 qi, depth = _retract_fingers(hk, probe, tcp, qi, addresses, names, self.max_penetration)
                 if depth <= self.max_penetration:  # the pads where they now are, on the backed-off hand
                     root = tcp @ hk.root_in_tcp
-                    root_pos, root_quat = root[None, :3, 3], _mat_quats(root[None, :3, :3])
-                    qpos = hk.full_qpos(root_pos[0], root_quat[0], qi)
-                    xpos, xmat, jp, jr, _ = hk.evaluate(root_pos, root_quat, qi[None])
-                    pads = hk.world(hk.contacts, xpos, xmat)
-                    chosen = choose_pads(sdf, pads, hk.pad_finger)[0]
-                    x = pads[0, chosen]
-                    d, g = sdf.distance(x)
+                    qpos, xpos, jp, jr, chosen, x, d, g = _placed_pads(hk, sdf, root[None, :3, 3],
+                                                                       _mat_quats(root[None, :3, :3]), qi)
                     touching = np.abs(d) <= self.contact_tolerance
                     if touching.sum() < need:
                         rejected["contacts"] = rejected.get("contacts", 0) + 1
                         continue
-                    self.last["retracted"] = self.last.get("retracted", 0) + 1
+                    self.last["retracted"] += 1
             if depth > self.max_penetration:
                 rejected["penetration"] = rejected.get("penetration", 0) + 1
                 continue
@@ -1009,6 +999,18 @@ def _back_off(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float], toler
         pose = pose.copy()
         pose[:3, 3] += (depth + BACK_OFF_EXTRA) * push / np.linalg.norm(push)
     return pose, _probe_contacts(probe, pose, hand_q)[0]
+
+
+def _placed_pads(hk: HandKinematics, sdf: GridSdf, pos: np.ndarray, quat: np.ndarray, q: np.ndarray) -> tuple:
+    """One configuration (root position (1, 3), quaternion (1, 4), joints (n_q,)) placed: its qpos, the bodies'
+    positions and Jacobians (`HandKinematics.evaluate`, R = 1), each finger's pad nearest the object (indices into
+    `hk.contacts`), their positions (k, 3) and the object's signed distances (k,) and gradients (k, 3) there."""
+    xpos, xmat, jp, jr, qpos = hk.evaluate(pos, quat, q[None])
+    pads = hk.world(hk.contacts, xpos, xmat)
+    chosen = choose_pads(sdf, pads, hk.pad_finger)[0]
+    x = pads[0, chosen]
+    d, g = sdf.distance(x)
+    return qpos[0], xpos, jp, jr, chosen, x, d, g
 
 
 def _hand_q(hk: HandKinematics, qpos: np.ndarray, addresses: dict[str, int], names: list[str]) -> dict[int, float]:
