@@ -59,7 +59,7 @@ from manigrasp.objects import catalog  # noqa: E402
 from manigrasp.planners.base import Observation  # noqa: E402
 from manigrasp.planners.collision import HandProbe  # noqa: E402
 from manigrasp.planners.context import PlanContext  # noqa: E402
-from manigrasp.planners.dexopt_planner import DexOptPlanner, _probe_contacts, choose_pads  # noqa: E402
+from manigrasp.planners.dexopt_planner import DexOptPlanner, _hand_q, _probe_contacts, choose_pads  # noqa: E402
 from manigrasp.protocol import PROTOCOLS, settle_object  # noqa: E402
 from manigrasp.protocol.grasp import as_grasp  # noqa: E402
 from manigrasp.sim import SceneConfig, build_scene  # noqa: E402
@@ -98,8 +98,7 @@ def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
     depths, pads = [], []
     for s in found:
         qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), s.q)
-        hand_q = {addresses[hk.model.joint(j).name]: float(qpos[hk.model.jnt_qposadr[j]]) for j in hk.joints}
-        depths.append(_probe_contacts(probe, s.pose, hand_q)[0])
+        depths.append(_probe_contacts(probe, s.pose, _hand_q(hk, qpos, addresses))[0])
         root = s.pose @ hk.root_in_tcp
         quat = np.zeros(4)
         mujoco.mju_mat2Quat(quat, root[:3, :3].ravel())

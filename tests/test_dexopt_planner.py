@@ -18,6 +18,7 @@ from manigrasp.planners.dexopt_planner import (
     CLOSE_DEFECTS,
     DexOptPlanner,
     _hand_q,
+    _mat_quats,
     _penetrations,
     _probe_contacts,
     _retract_fingers,
@@ -192,8 +193,7 @@ def test_planner_returns_deterministic_valid_grasps_that_do_not_penetrate(tmp_pa
         assert np.any((s.joints[1] - s.joints[0]) * closing > 0.1)
         # Independently re-measured in MuJoCo: the planned configuration penetrates at most 1 mm.
         qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0, 0, 0]), s.q)
-        hand_q = {addresses[hk.model.joint(j).name]: float(qpos[hk.model.jnt_qposadr[j]]) for j in hk.joints}
-        assert _probe_contacts(probe, s.pose, hand_q)[0] <= 0.001
+        assert _probe_contacts(probe, s.pose, _hand_q(hk, qpos, addresses))[0] <= 0.001
         assert s.penetration <= 0.001
     # The hold test: grasps that hold the standard protocol's loads at its squeeze come first.
     holds = [s.hold >= planner.min_hold_margin for s in first]
@@ -456,28 +456,21 @@ def test_fingers_pressed_into_the_object_are_retracted_out_of_it_by_opening(tmp_
     hk = planner.kinematics(hand)
     probe = HandProbe(hand, observation, clearance=0.0)
     addresses = probe.hand_qpos_addresses()
-    names = [hk.model.joint(j).name for j in hk.joints]
     root = grasp.pose @ hk.root_in_tcp
 
     def depth(q: np.ndarray) -> tuple[float, list]:
-        qpos = hk.full_qpos(root[:3, 3], np.array(mujoco_quat(root[:3, :3])), q)
-        return _penetrations(probe, grasp.pose, _hand_q(hk, qpos, addresses, names))
+        qpos = hk.full_qpos(root[:3, 3], _mat_quats(root[None, :3, :3])[0], q)
+        return _penetrations(probe, grasp.pose, _hand_q(hk, qpos, addresses))
 
     assert depth(grasp.q)[0] <= 0.001
     closing = hk.q_closed - hk.q_open
     pressed = np.clip(grasp.q + 0.15 * closing, hk.low, hk.high)
     deep, contacts = depth(pressed)
     assert deep > 0.003 and any(hk.body_finger[hk.body_id(body)] >= 0 for body, *_ in contacts)  # finger links
-    q, left = _retract_fingers(hk, probe, grasp.pose, pressed, addresses, names, 0.001)
+    q, left = _retract_fingers(hk, probe, grasp.pose, pressed, addresses, 0.001)
     assert left <= 0.001 and depth(q)[0] == pytest.approx(left)
     assert np.dot(q - pressed, closing) < 0  # opened
     assert np.all(np.abs(q - pressed) <= np.abs(pressed - grasp.q) + 0.05)  # not much past where it was planned
     # Nothing to do: the planned grasp is returned as it is.
-    same, _ = _retract_fingers(hk, probe, grasp.pose, grasp.q, addresses, names, 0.001)
+    same, _ = _retract_fingers(hk, probe, grasp.pose, grasp.q, addresses, 0.001)
     np.testing.assert_array_equal(same, grasp.q)
-
-
-def mujoco_quat(mat: np.ndarray) -> np.ndarray:
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(mat).ravel())
-    return quat

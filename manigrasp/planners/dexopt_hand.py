@@ -79,6 +79,7 @@ class HandKinematics:
             if int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_JOINT) and m.eq_obj2id[e] >= 0:
                 coupled[int(m.eq_obj1id[e])] = (int(m.eq_obj2id[e]), m.eq_data[e, :5].copy())
         self.joints = np.array(joints, int)
+        self.joint_names = [m.joint(j).name for j in joints]  # of `joints`, as the hand model names them
         self.independent = np.array([j for j in joints if j not in coupled], int)
         self.coupled = coupled
         self.low = m.jnt_range[self.independent, 0].copy()

@@ -271,7 +271,8 @@ class Synthesis:
 class DexOptPlanner:
     """Optimisation-based dexterous grasp synthesis (module docstring).
 
-    After each call, `last["rejected"]` counts the restarts each check of step 4-5 turned down.
+    After each call, `last["rejected"]` counts the restarts each check of step 4-5 turned down, and
+    `last["retracted"]` those whose fingers `_retract_fingers` opened out of the object (step 4).
 
     Attributes:
         restarts: random initial configurations optimised together (80 with 300 `iterations`: 1.66 s CPU per
@@ -613,7 +614,6 @@ class DexOptPlanner:
         mu = self.contact_friction(context)
         probe = HandProbe(hk.hand, observation, clearance=0.0, config=context.scene)
         addresses = probe.hand_qpos_addresses()
-        names = [hk.model.joint(j).name for j in hk.joints]
         need = min(self.min_contacts, len(np.unique(hk.pad_finger)))
         passed: list[Synthesis] = []
         rejected = self.last.setdefault("rejected", {})
@@ -632,10 +632,10 @@ class DexOptPlanner:
             root[:3, 3] = pos[i]
             tcp = root @ np.linalg.inv(hk.root_in_tcp)
             qi = q[i]
-            tcp, depth = _back_off(probe, tcp, _hand_q(hk, qpos, addresses, names), self.max_penetration)
+            tcp, depth = _back_off(probe, tcp, _hand_q(hk, qpos, addresses), self.max_penetration)
             if depth > self.max_penetration:
                 # Fingers pinching from opposite sides: moving the hand cannot take both out; open them instead.
-                qi, depth = _retract_fingers(hk, probe, tcp, qi, addresses, names, self.max_penetration)
+                qi, depth = _retract_fingers(hk, probe, tcp, qi, addresses, self.max_penetration)
                 if depth <= self.max_penetration:  # the pads where they now are, on the backed-off hand
                     root = tcp @ hk.root_in_tcp
                     qpos, xpos, jp, jr, chosen, x, d, g = _placed_pads(hk, sdf, root[None, :3, 3],
@@ -653,7 +653,7 @@ class DexOptPlanner:
                 continue
             normal = -g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
             path = self.hand_path(hk, probe, tcp, qi, x, hk.contacts.bodies[chosen], normal, d, jp[0],
-                                  jr[0], xpos[0], addresses, names, offset)
+                                  jr[0], xpos[0], addresses, offset)
             if path is None:
                 rejected["preshape"] = rejected.get("preshape", 0) + 1
                 continue
@@ -720,8 +720,8 @@ class DexOptPlanner:
 
     def hand_path(self, hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray, x: np.ndarray,
                   bodies: np.ndarray, normal: np.ndarray, dist: np.ndarray, jp: np.ndarray, jr: np.ndarray,
-                  xpos: np.ndarray, addresses: dict[str, int], names: list[str],
-                  offset: float = PREGRASP_OFFSET) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray] | None:
+                  xpos: np.ndarray, addresses: dict[str, int], offset: float = PREGRASP_OFFSET
+                  ) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray] | None:
         """(2, n_act) pre-shape and squeeze commands (module docstring, step 5), the normal forces (k,) the
         squeeze presses the pads with (relative), whether the pre-shape is one of the `OPEN_TRIES` and the
         squeeze's joint torques (n_q,) (relative, A^T f); or None if
@@ -753,8 +753,7 @@ class DexOptPlanner:
         for attempt, pre in enumerate(backed + toward_open):
             pre_q = hk.q_from_ctrl(pre)
             qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0, 0, 0]), pre_q)
-            hand_q = {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]])
-                      for nm, j in zip(names, hk.joints, strict=True)}
+            hand_q = _hand_q(hk, qpos, addresses)
             if all(_probe_contacts(probe, pose, hand_q)[0] <= self.max_penetration
                    for pose in _approach_poses(tcp, offset)):
                 torque = a.T @ force
@@ -844,8 +843,8 @@ class CloseSimulation:
         mount = self.shift @ s.pose
         phases.reset(run, mount, self.shift @ self.object_pose, 0.0)
         qpos = hk.full_qpos(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), hk.q_from_ctrl(s.joints[0]))
-        for j in hk.joints:  # the fingers at the pre-shape, as at the end of the approach
-            scene.data.qpos[self.addresses[hk.model.joint(j).name]] = qpos[hk.model.jnt_qposadr[j]]
+        for adr, value in _hand_q(hk, qpos, self.addresses).items():  # the fingers at the pre-shape, as at the
+            scene.data.qpos[adr] = value  # end of the approach
         mujoco.mj_forward(scene.model, scene.data)
         start = scene.data.xipos[scene.object_body].copy()
         try:
@@ -1013,13 +1012,15 @@ def _placed_pads(hk: HandKinematics, sdf: GridSdf, pos: np.ndarray, quat: np.nda
     return qpos[0], xpos, jp, jr, chosen, x, d, g
 
 
-def _hand_q(hk: HandKinematics, qpos: np.ndarray, addresses: dict[str, int], names: list[str]) -> dict[int, float]:
-    """The hand's joints of `qpos` (a `HandKinematics` qpos) as the probe's qpos address -> value."""
-    return {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]]) for nm, j in zip(names, hk.joints, strict=True)}
+def _hand_q(hk: HandKinematics, qpos: np.ndarray, addresses: dict[str, int]) -> dict[int, float]:
+    """The hand's joints of `qpos` (a `HandKinematics` qpos) as another model's qpos address -> value (`addresses`:
+    joint name -> address, `HandProbe.hand_qpos_addresses`)."""
+    return {addresses[nm]: float(qpos[hk.model.jnt_qposadr[j]])
+            for nm, j in zip(hk.joint_names, hk.joints, strict=True)}
 
 
 def _retract_fingers(hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray,
-                     addresses: dict[str, int], names: list[str], tolerance: float) -> tuple[np.ndarray, float]:
+                     addresses: dict[str, int], tolerance: float) -> tuple[np.ndarray, float]:
     """Joints `q` (n_q,) moved so that the fingers come out of the object and table at the hand pose `tcp`, and
     the deepest penetration left [m]. Where `_back_off` cannot help (fingers pressing into the object from
     opposite sides: the hand's samples miss 1-2 mm between them, the Inspire's fingertips most), each
@@ -1033,7 +1034,7 @@ def _retract_fingers(hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: n
     depth = np.inf
     for step in range(BACK_OFF_STEPS + 1):
         qpos = hk.full_qpos(root_pos[0], root_quat[0], q)
-        depth, contacts = _penetrations(probe, tcp, _hand_q(hk, qpos, addresses, names))
+        depth, contacts = _penetrations(probe, tcp, _hand_q(hk, qpos, addresses))
         if depth <= tolerance:
             break
         keep = [(hk.body_id(body), p, n, dep) for body, p, n, dep in contacts]
