@@ -35,6 +35,18 @@ the check as configured, how many closes grip, and how many end at a simulated e
 `sim_epsilon_l1`) of at least 0.15 and 0.1, with the CPU time of the call. `--set` changes planner parameters.
 
     .venv/bin/python benchmarks/bench_dexopt.py --closes --config dexterous --only fourier_right/010_potted
+
+With --closes --per-candidate, also per group the restarts each check rejected (`last["rejected"]`) and those whose
+fingers were opened out of the object (`last["retracted"]`), then one line per candidate in the planner's order: its
+energy and unweighted terms (`Synthesis.terms`), hold margin, pads in contact, the simulated close's status, epsilon
+and whether it passed, the friction the planned squeeze uses and the close's; last, each term's Spearman correlation
+with the simulated epsilon (which of the energy's terms rank well-closing grasps first).
+
+With --spheres HAND ...: along each hand's open -> closed path (21 points), the deepest penetration between the real
+collision geoms of different fingers (MuJoCo), and the summed overlap of the fingers' spheres (the self-penetration
+term) counted from the sum of their radii and from `HandKinematics.sphere_reach` [mm].
+
+    .venv/bin/python benchmarks/bench_dexopt.py --spheres fourier_right inspire_right allegro_right
 """
 
 from __future__ import annotations
@@ -59,7 +71,7 @@ from manigrasp.objects import catalog  # noqa: E402
 from manigrasp.planners.base import Observation  # noqa: E402
 from manigrasp.planners.collision import HandProbe  # noqa: E402
 from manigrasp.planners.context import PlanContext  # noqa: E402
-from manigrasp.planners.dexopt_planner import DexOptPlanner, _hand_q, _probe_contacts, choose_pads  # noqa: E402
+from manigrasp.planners.dexopt_planner import DexOptPlanner, _probe_contacts, choose_pads  # noqa: E402
 from manigrasp.protocol import PROTOCOLS, settle_object  # noqa: E402
 from manigrasp.protocol.grasp import as_grasp  # noqa: E402
 from manigrasp.sim import SceneConfig, build_scene  # noqa: E402
@@ -80,6 +92,8 @@ def pairwise_diversity(poses: np.ndarray) -> tuple[float, float]:
 
 
 def run(hand_name: str, obj: str, args: argparse.Namespace) -> dict:
+    from manigrasp.planners.dexopt_planner import _hand_q  # here: --closes and --run also run on older checkouts
+
     hand = load_hand(hand_name)
     asset = catalog.build(catalog.shipped(obj)).asset
     scene = build_scene(hand, asset, SceneConfig())
@@ -175,8 +189,9 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
         print(f"{hand}: passing the load test {s1}/{n1} succeeded, failing it {s0}/{n0}")
 
 
-def closes(config: str, only: list[str], override: dict | None = None) -> None:
-    """How many of each group's candidates close well in the simulation (module docstring, --closes)."""
+def closes(config: str, only: list[str], override: dict | None = None, per_candidate: bool = False) -> None:
+    """How many of each group's candidates close well in the simulation (module docstring, --closes), with
+    `per_candidate` each candidate's terms, margin and close."""
     from manigrasp.bench.config import load_config
     from manigrasp.bench.trials import groups
 
@@ -196,6 +211,50 @@ def closes(config: str, only: list[str], override: dict | None = None) -> None:
         print(f"{g.hand:<14} {g.object_source.name:<20} {g.protocol.name:<13} {len(found):>10} "
               f"{sum(c.passed for c in checked):>6} {sum(not c.status for c in checked):>7} "
               f"{int(np.sum(eps >= 0.15)):>9} {int(np.sum(eps >= 0.1)):>8} {cpu:>6.1f}", flush=True)
+        if per_candidate and found:
+            candidate_lines(planner, found)
+
+
+def candidate_lines(planner: DexOptPlanner, found: list) -> None:
+    """--per-candidate: the rejections, one line per closed candidate, each term's rank correlation with the
+    simulated epsilon."""
+    from scipy.stats import spearmanr
+
+    print(f"  rejected {planner.last.get('rejected')}, retracted {planner.last.get('retracted')}")
+    keys = sorted(found[0].terms)
+    print("  rank  energy " + " ".join(f"{k[:8]:>8}" for k in keys)
+          + "   hold pads status     eps pass used close-used")
+    for i, s in enumerate(found):
+        c = s.close
+        print(f"  {i:4d} {s.energy:7.3f} " + " ".join(f"{s.terms[k]:8.4f}" for k in keys)
+              + f" {s.hold:6.2f} {len(s.contacts):4d} {c.status or 'gripped':<10} {c.epsilon:5.3f} {int(c.passed):4d}"
+              + f" {s.friction_used:4.2f} {c.friction_used:10.2f}")
+    eps = np.array([s.close.epsilon for s in found])
+    for k in keys + ["energy", "hold"]:
+        v = np.array([s.terms[k] if k in s.terms else getattr(s, k) for s in found])
+        rho = spearmanr(v, eps)[0] if np.ptp(v) > 0 and np.ptp(eps) > 0 else float("nan")
+        print(f"  {k:<16} Spearman vs simulated epsilon {rho:+.2f}")
+
+
+def spheres(hands: list[str]) -> None:
+    """--spheres: the fingers' real and sphere overlaps along each hand's closing path (module docstring)."""
+    from manigrasp.planners.dexopt_hand import HandKinematics
+
+    origin, unit = np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0, 0.0]])
+    print(f"{'hand':<14} {'close':>5} {'MuJoCo mm':>9} {'radii mm':>8} {'reach mm':>8}")
+    for name in hands:
+        hk = HandKinematics(load_hand(name))
+        radii = hk.sphere_radius[:, None] + hk.sphere_radius[None]
+        cross = hk.sphere_finger[:, None] != hk.sphere_finger[None]
+        for t in np.linspace(0.0, 1.0, 21):
+            q = hk.q_open + t * (hk.q_closed - hk.q_open)
+            xpos, xmat, *_ = hk.evaluate(origin, unit, q[None])
+            c = hk.world(hk.spheres, xpos, xmat)[0]
+            dist = np.linalg.norm(c[:, None] - c[None], axis=2)
+            by_radii = 0.5 * np.where(cross & (dist < radii), radii - dist, 0.0).sum()
+            by_reach = 0.5 * np.where(dist < hk.sphere_reach, hk.sphere_reach - dist, 0.0).sum()
+            real = hk.finger_overlap(hk.full_qpos(origin[0], unit[0], q))
+            print(f"{name:<14} {t:>5.2f} {1000 * real:>9.1f} {1000 * by_radii:>8.1f} {1000 * by_reach:>8.1f}")
 
 
 def main() -> None:
@@ -213,14 +272,21 @@ def main() -> None:
     parser.add_argument("--closes", action="store_true",
                         help="with --config: how many of each group's candidates close well (module docstring)")
     parser.add_argument("--only", nargs="*", default=[], help="with --closes: groups whose hand/object contains these")
+    parser.add_argument("--per-candidate", action="store_true",
+                        help="with --closes: each candidate's energy terms, margin and simulated close")
+    parser.add_argument("--spheres", nargs="+", metavar="HAND",
+                        help="the fingers' real and sphere overlaps along these hands' closing paths")
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                         help="with --run or --closes: planner parameters changed (values read as YAML, "
                              "as `manigrasp bench` overrides: restarts=40 min_hold_margin=1.5)")
     args = parser.parse_args()
+    if args.spheres:
+        spheres(args.spheres)
+        return
     if args.closes:
         if not args.config:
             parser.error("--closes needs --config")
-        closes(args.config, args.only, apply_overrides({}, args.set))
+        closes(args.config, args.only, apply_overrides({}, args.set), args.per_candidate)
         return
     if args.run:
         if not args.config:
