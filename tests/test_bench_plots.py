@@ -156,3 +156,25 @@ def test_the_saved_image_holds_every_title_label_and_legend_whole(tmp_path, monk
     monkeypatch.undo()
     plt.close(fig)
     assert width >= drawn.width * plots.DPI - 1 and height >= drawn.height * plots.DPI - 1
+
+
+@pytest.mark.parametrize("plot", ["success_by_object", "metric_auc"])
+def test_twelve_methods_get_twelve_colours_and_the_legend_hides_no_bar(figures, tmp_path, plot):
+    """The dexterous config's 12 hand x planner x protocol methods: matplotlib's default cycle repeats after 10,
+    which drew two pairs of methods in one colour; the legend sat on the tallest bars' k/n labels."""
+    results = []
+    for hand in ("allegro_right", "fourier_right", "inspire_right"):
+        for planner in ("dexopt", "power"):
+            for protocol in ("standard", "six_direction"):
+                for key, r in _trials(planner, {"success": 4, "no_contact": 2}, objects=("025_mug",)):
+                    results.append((replace(key, hand=hand, protocol=protocol), r))
+    report = summarize(results)
+    assert len(report.by_method) == 12
+    getattr(plots, plot)(report, tmp_path / "p.png")
+    ax = figures[0].axes[0]
+    bars = [c for c in ax.containers if isinstance(c, BarContainer)]
+    colours = {mcolors.to_hex(c.patches[0].get_facecolor()) for c in bars}
+    assert len(bars) == 12 and len(colours) == 12
+    renderer = figures[0].canvas.get_renderer()
+    legend, axes = ax.get_legend().get_window_extent(renderer), ax.get_window_extent(renderer)
+    assert legend.x0 >= axes.x1  # beside the axes, not over them

@@ -84,6 +84,25 @@ def _several_protocols(report: Report) -> bool:
     return len(report.protocols) > 1
 
 
+def method_colours(n: int) -> list:
+    """`n` distinct colours, one per method of a grouped-bar plot: matplotlib's 10-colour cycle up to 10 (the
+    default, so smaller runs keep their look), its 20-colour table (dark and light pairs: a run's methods are
+    sorted, so a hand x planner's protocols sit side by side in one hue) up to 20, else evenly spaced hues.
+    (The default cycle repeats after 10: the dexterous config's 12 methods drew two pairs in one colour.)"""
+    import matplotlib
+
+    if n <= 10:
+        return [matplotlib.colormaps["tab10"](i) for i in range(n)]
+    if n <= 20:
+        return [matplotlib.colormaps["tab20"](i) for i in range(n)]
+    return [matplotlib.colormaps["hsv"](i / n) for i in range(n)]
+
+
+def _legend_outside(ax) -> None:
+    """The legend right of the axes, where it hides no bar, interval or label."""
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+
+
 def _errorbars(rates: list[Rate]) -> np.ndarray:
     rate = np.array([r.success_rate for r in rates])
     return np.vstack([rate - [r.ci_low for r in rates], [r.ci_high for r in rates] - rate])
@@ -98,13 +117,14 @@ def success_by_object(report: Report, path: Path) -> Path:
     width = 0.8 / max(1, len(methods))
     fig, ax = plt.subplots(figsize=(max(6.0, min(32.0, 0.4 * len(objects) * max(1, len(methods)) + 4)), 4.8))
     x = np.arange(len(objects))
+    colours = method_colours(len(methods))
     for i, method in enumerate(methods):
         present = [(j, report.groups[(*method, obj)]) for j, obj in enumerate(objects)
                    if (*method, obj) in report.groups]
         xs = x[[j for j, _ in present]] + (i - (len(methods) - 1) / 2) * width
         rates = [r for _, r in present]
         ax.bar(xs, [r.success_rate for r in rates], width, yerr=_errorbars(rates), capsize=2,
-               label=method_label(method, protocols))
+               color=colours[i], label=method_label(method, protocols))
         for xi, r in zip(xs, rates, strict=True):
             ax.text(xi, r.ci_high + 0.02, f"{r.successes}/{r.trials}", ha="center", va="bottom", fontsize=7,
                     rotation=90 if len(methods) > 2 else 0)
@@ -113,7 +133,7 @@ def success_by_object(report: Report, path: Path) -> Path:
     ax.set_yticks(np.linspace(0, 1, 6))
     ax.set_ylabel("success rate (95 % Wilson interval)")
     ax.set_title("Success per object (successes/trials over each bar)", fontsize=10)
-    ax.legend(fontsize=8, loc="upper right", ncol=min(3, max(1, len(methods))))
+    _legend_outside(ax)
     return _save(fig, path)
 
 
@@ -187,12 +207,22 @@ def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path, meth
         for i, values in enumerate(by_method.values(), start=1):
             ax.plot(values, np.full(len(values), i), "o", color="black", markersize=3, alpha=0.6)
         ax.set_xscale("log")
+        _log_ticks(ax.xaxis)
         ax.invert_yaxis()
         ax.set_xlabel("planning time [s]\nwall time of one planning call (it plans every candidate of one object)")
     else:
         ax.axis("off")
         ax.text(0.5, 0.5, "no planning call was timed in this run", ha="center", va="center")
     return _save(fig, path)
+
+
+def _log_ticks(axis) -> None:
+    """Label a log axis at 1, 2 and 5 times each power of ten, as plain numbers (not only at the decades)."""
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+
+    axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FormatStrFormatter("%g"))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def metric_auc(report: Report, path: Path) -> Path:
@@ -214,6 +244,7 @@ def metric_auc(report: Report, path: Path) -> Path:
     width = 0.8 / len(methods)
     fig, ax = plt.subplots(figsize=(max(8.0, min(14.0, 0.35 * len(metrics) * len(methods) + 3)), 4.5))
     x = np.arange(len(metrics))
+    colours = method_colours(len(methods))
     for i, method in enumerate(methods):
         xs = x + (i - (len(methods) - 1) / 2) * width
         estimates = [report.auc[method].get(k) for k in metrics]
@@ -221,7 +252,7 @@ def metric_auc(report: Report, path: Path) -> Path:
         low = np.array([e.low if e is not None and e.defined else np.nan for e in estimates])
         high = np.array([e.high if e is not None and e.defined else np.nan for e in estimates])
         bars = ax.bar(xs, np.nan_to_num(auc), width, yerr=np.vstack([auc - low, high - auc]), capsize=2,
-                      label=method_label(method, _several_protocols(report)))
+                      color=colours[i], label=method_label(method, _several_protocols(report)))
         for xi, e in zip(xs, estimates, strict=True):
             if e is not None and e.defined:
                 ax.text(xi, e.high + 0.01, f"n={e.n}", ha="center", va="bottom", fontsize=6,
@@ -234,5 +265,5 @@ def metric_auc(report: Report, path: Path) -> Path:
     ax.set_ylim(0, 1.15)
     ax.set_ylabel("ROC AUC for success (95 % bootstrap interval)")
     ax.set_title("Each metric's power to predict success (n: trials with a value)", fontsize=10)
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    _legend_outside(ax)
     return _save(fig, path)
