@@ -104,6 +104,31 @@ def test_hand_kinematics_maps_joints_to_commands_and_back(inspire: HandKinematic
     assert np.all(wrap.body_finger[wrap.contacts.bodies[palm]] < 0) and np.all(wrap.body_finger[links] >= 0)
 
 
+def test_batched_body_jacobians_equal_mujocos_per_body_jacobians(inspire: HandKinematics) -> None:
+    """`evaluate` builds every body's Jacobian from MuJoCo's dof axes at once; they must be what `mj_jacBody`
+    gives body by body (through the free joint and the tendon couplings), and the placement must not depend on
+    whether Jacobians are asked for."""
+    rng = np.random.default_rng(5)
+    pos = rng.normal(scale=0.1, size=(3, 3))
+    quat = rng.normal(size=(3, 4))
+    quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+    q = inspire.low + rng.random((3, inspire.n_q)) * (inspire.high - inspire.low)
+    xpos, xmat, jp, jr, qpos = inspire.evaluate(pos, quat, q)
+    m, d = inspire.model, mujoco.MjData(inspire.model)
+    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    for i in range(3):
+        d.qpos[:] = qpos[i]
+        mujoco.mj_forward(m, d)
+        reduce = inspire.reduce_matrix(qpos[i])
+        for k, b in enumerate(inspire.bodies):
+            mujoco.mj_jacBody(m, d, jacp, jacr, int(b))
+            np.testing.assert_allclose(jp[i, k], jacp @ reduce, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(jr[i, k], jacr @ reduce, rtol=0, atol=1e-12)
+    assert np.abs(jp).max() > 0.05 and np.abs(jr).max() > 0.5  # not trivially zero
+    bare = inspire.evaluate(pos, quat, q, jacobians=False)
+    assert np.array_equal(bare[0], xpos) and np.array_equal(bare[1], xmat) and not bare[2].any()
+
+
 def test_backprop_matches_finite_differences_through_the_free_joint_and_couplings(inspire: HandKinematics) -> None:
     """E = sum_j a_j . p_j over the hand's surface samples: the chain rule over (root twist, joints)."""
     rng = np.random.default_rng(2)

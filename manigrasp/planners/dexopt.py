@@ -185,8 +185,13 @@ class GridSdf:
         Only points in the `solid` box are interpolated (the rest cannot be inside).
         """
         p = np.atleast_2d(np.asarray(points, float))
-        near = np.arange(len(p)) if self.solid is None else np.flatnonzero(
-            np.all((p >= self.solid[0]) & (p <= self.solid[1]), axis=1))
+        if self.solid is None:
+            near = np.arange(len(p))
+        else:  # per coordinate: np.all over a length-3 axis costs more than the six comparisons
+            lo, hi = self.solid
+            x, y, z = p[:, 0], p[:, 1], p[:, 2]
+            near = np.flatnonzero((x >= lo[0]) & (x <= hi[0]) & (y >= lo[1]) & (y <= hi[1])
+                                  & (z >= lo[2]) & (z <= hi[2]))
         dist, grad = self.distance(p[near])
         inside = dist < 0
         return near[inside], dist[inside], grad[inside]

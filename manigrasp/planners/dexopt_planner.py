@@ -275,8 +275,10 @@ class DexOptPlanner:
     `last["retracted"]` those whose fingers `_retract_fingers` opened out of the object (step 4).
 
     Attributes:
-        restarts: random initial configurations optimised together (80 with 300 `iterations`: 1.66 s CPU per
-            Allegro grasp, `bench_dexopt.py --hands allegro_right --grasps 10`; against 96 x 150, 1.09 s, on the
+        restarts: random initial configurations optimised together (80 with 300 `iterations`: 1.43-1.54 s CPU
+            per Allegro grasp (2.02-2.05 s before the batched Jacobians of `HandKinematics.evaluate`, the same
+            grasps bit for bit, measured side by side on one shared machine), `bench_dexopt.py --hands
+            allegro_right --objects 005_tomato_soup_can 025_mug --grasps 10`; against 96 x 150, 1.09 s, on the
             dexterous config (standard only, 10 N, compliant pads, same seeds) at cd46f5e: Allegro 30 -> 37/80
             (sugar box 1 -> 5, mug 6 -> 7, potted meat 5 -> 6, banana 2 -> 3, can 9 -> 10, tennis ball 7 -> 5:
             fewer than 10 diverse grasps passed, 5 `no_grasp`), Fourier 36 -> 36, Inspire 43 -> 44; at fd0aae5
@@ -476,7 +478,7 @@ class DexOptPlanner:
         """Root positions (R, 3), quaternions (R, 4) and joints (R, n_q) of the restarts (module docstring):
         `INIT_DRAWS` x R drawn, those clear of the table (+ clearance) kept first, in the order drawn."""
         pos, quat, q = self._draw(hk, sdf, center, width, rng, INIT_DRAWS * self.restarts)
-        xpos, xmat, *_ = hk.evaluate(pos, quat, q)
+        xpos, xmat, *_ = hk.evaluate(pos, quat, q, jacobians=False)
         lowest = hk.world(hk.samples, xpos, xmat)[..., 2].min(axis=1)
         order = np.argsort(lowest < table_z + self.table_clearance, kind="stable")[:self.restarts]
         return pos[order], quat[order], q[order]
@@ -491,7 +493,7 @@ class DexOptPlanner:
         u, v = perpendicular_basis(approach)
         roll = rng.uniform(0.0, 2.0 * np.pi, r)
         closing = np.cos(roll)[:, None] * u + np.sin(roll)[:, None] * v
-        surface = np.array([_ray_to_surface(sdf, center, -a) for a in approach])  # distance centre -> surface
+        surface = _ray_to_surface(sdf, center, -approach)  # distance centre -> surface, per restart
         depth = rng.uniform(0.0, 0.5, r) * 0.5 * width
         lateral = rng.normal(scale=0.005, size=(r, 2))
         tcp_pos = (center - approach * (surface - depth)[:, None] + lateral[:, :1] * u + lateral[:, 1:] * v)
@@ -509,7 +511,7 @@ class DexOptPlanner:
         `chosen` (R, fingers): the pad candidate of each finger (default: the one nearest the object now).
         """
         w = self.weights
-        xpos, xmat, jp, jr, _ = hk.evaluate(pos, quat, q)
+        xpos, xmat, jp, jr, _ = hk.evaluate(pos, quat, q, jacobians=gradient)
         r = len(pos)
         # Pads: force closure and distance.
         if chosen is None:
@@ -587,7 +589,7 @@ class DexOptPlanner:
         chosen = None
         for it in range(self.iterations):
             if it % SWITCH_EVERY == 0:
-                xpos, xmat, *_ = hk.evaluate(pos, quat, q)
+                xpos, xmat, *_ = hk.evaluate(pos, quat, q, jacobians=False)
                 chosen = choose_pads(sdf, hk.world(hk.contacts, xpos, xmat), hk.pad_finger)
             _, _, grad = self.energy(hk, sdf, center, scale, table_z, pos, quat, q, chosen=chosen)
             m1 = b1 * m1 + (1 - b1) * grad
@@ -1082,12 +1084,14 @@ def _probe_contacts(probe: HandProbe, tcp: np.ndarray, hand_q: dict[int, float])
     return depth, sum((dep * n for *_, n, dep in contacts), np.zeros(3))
 
 
-def _ray_to_surface(sdf: GridSdf, start: np.ndarray, direction: np.ndarray, far: float = 1.0) -> float:
-    """Distance [m] along the unit `direction` from `start` (inside the object) to its surface (bisection)."""
-    lo, hi = 0.0, far
+def _ray_to_surface(sdf: GridSdf, start: np.ndarray, directions: np.ndarray, far: float = 1.0) -> np.ndarray:
+    """(n,) distances [m] along the unit `directions` (n, 3) from `start` (3,) (inside the object) to its surface
+    (bisection, all rays at once)."""
+    lo, hi = np.zeros(len(directions)), np.full(len(directions), far)
     for _ in range(30):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if sdf.distance((start + mid * direction)[None])[0][0] < 0 else (lo, mid)
+        inside = sdf.distance(start + mid[:, None] * directions)[0] < 0
+        lo, hi = np.where(inside, mid, lo), np.where(inside, hi, mid)
     return hi
 
 
