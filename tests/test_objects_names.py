@@ -101,6 +101,15 @@ def test_a_user_mesh_may_not_take_a_shipped_name(tmp_path, cube, isolated_cache,
     assert not isolated_cache.exists() or not _files(isolated_cache)
 
 
+@pytest.mark.parametrize("option", [["--mass", "0"], ["--density", "-5"], ["--mass", "nan"], ["--scale", "-1"]])
+def test_a_mass_density_or_scale_that_is_not_positive_is_a_one_line_error(cube, isolated_cache, capsys, option):
+    """Mass 0 raised a ValueError traceback from the mass properties; a negative scale mirrored the mesh."""
+    assert main(["objects", "build", "--mesh", str(cube), "--name", "part", *option]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "must be a finite number > 0" in err and option[0][2:] in err
+    assert not isolated_cache.exists() or not _files(isolated_cache)
+
+
 def test_shipped_sources_still_build_their_names():
     assert catalog.shipped("mug").name == "025_mug"
     scan = catalog.shipped("003_cracker_box_scan")

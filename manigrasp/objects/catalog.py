@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -73,6 +74,10 @@ class ObjectSource:
 
     def __post_init__(self) -> None:
         check_name(self.name)
+        # A scale <= 0 would mirror or collapse the mesh; a mass or density <= 0 gives no physical body.
+        for key, value in (("scale", self.scale), ("mass", self.mass), ("density", self.density)):
+            if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"object {self.name}: {key} must be a finite number > 0, got {value!r}")
         if self.mesh is not None and is_shipped_name(self.name) and not (
                 scans.is_scan(self.name) and Path(self.mesh) == scans.get(self.name).path):
             raise ConfigError(f"mesh {self.mesh}: the name {self.name!r} is a shipped object's; give the mesh a name "
