@@ -171,7 +171,10 @@ def apply_overrides(data: dict[str, Any], overrides: Sequence[str]) -> dict[str,
         try:
             value = yaml.safe_load(raw)
         except yaml.YAMLError as exc:
-            raise ConfigError(f"override {item!r}: cannot parse value: {exc}") from exc
+            problem = " ".join(str(getattr(exc, "problem", None) or exc).split())
+            hint = (" (a list or mapping with spaces is split by the shell: write it without spaces, "
+                    f"{key}=[a,b], or quote it, '{key}=[a, b]')" if raw.lstrip()[:1] in "[{" else "")
+            raise ConfigError(f"override {item!r}: cannot parse value: {problem}{hint}") from exc
         node = data
         parts = key.split(".")
         for part in parts[:-1]:

@@ -27,6 +27,8 @@ def test_short_forms_and_overrides():
     ({"objects": []}, [], "no objects"),
     ({"objects": ["mug"]}, ["grasps_per_object"], "key=value"),
     ({"objects": ["mug"], "scene": {"integrator": "verlet"}}, [], "unknown integrator"),
+    # `hands=[panda, parallel_jaw]` unquoted: the shell passes `hands=[panda,` (once a multi-line YAML error)
+    ({"objects": ["mug"]}, ["hands=[panda,"], r"split by the shell: write it without spaces, hands=\[a,b\]"),
 ])
 def test_bad_configs_are_refused_with_a_clear_message(data, overrides, phrase):
     with pytest.raises(ConfigError, match=phrase):

@@ -7,7 +7,7 @@ for its type and range (`manigrasp.config.from_mapping`, then each class's
 refused; a list field takes a single value as a one-element list (and ``camera:``
 a single mapping as one setup). One protocol is ``protocol:``; several, run side by
 side, are ``protocols:`` (a list of names or {name, params}); giving both is an
-error, but an override of one replaces the other (``protocols=[standard, lift]`` on a
+error, but an override of one replaces the other (``protocols=[standard,lift]`` on a
 config with ``protocol:``, ``protocol=lift`` on one with ``protocols:``). An object entry may leave out
 hands that cannot hold it, each with the reason (``exclude: {allegro_right: "reason"}``, `ObjectEntry.exclude`);
 every key must be a hand of the config, and an override ``hands=[...]`` drops the exclusions of the hands it
@@ -430,7 +430,7 @@ def parse_config(data: Mapping[str, Any], overrides: Sequence[str] = (), where: 
 
 
 PROTOCOL_KEYS = ("protocol", "protocols")
-"""The two ways of naming the protocol(s): an override of one (``protocols=[standard, lift]``) replaces the other."""
+"""The two ways of naming the protocol(s): an override of one (``protocols=[standard,lift]``) replaces the other."""
 
 
 def _protocol_replaced(data: dict[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
@@ -443,7 +443,7 @@ def _protocol_replaced(data: dict[str, Any], overrides: Sequence[str]) -> dict[s
     """
     given = {item.partition("=")[0].strip() for item in overrides if "=" in item} & set(PROTOCOL_KEYS)
     if len(given) > 1:
-        raise ConfigError("overrides give both protocol= and protocols=; give one (protocols=[standard, lift] "
+        raise ConfigError("overrides give both protocol= and protocols=; give one (protocols=[standard,lift] "
                           "runs several side by side)")
     for key in given:
         data.pop(PROTOCOL_KEYS[1 - PROTOCOL_KEYS.index(key)], None)

@@ -43,7 +43,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("overrides", nargs="*", metavar="key=value",
                    help="config overrides, anywhere on the line, dotted for nested keys (grasps_per_object=5 "
                         "scene.timestep=0.001); a list field takes one value or a list (objects=mug, "
-                        "hands=[panda, parallel_jaw]); protocols=[standard, lift] runs several protocols side by "
+                        "hands=[panda,parallel_jaw]); protocols=[standard,lift] runs several protocols side by "
                         "side and replaces the config's protocol: (protocol=NAME replaces its protocols:); "
                         "hands=[...] names the hands of the run and drops the config's exclusions (an object's "
                         "exclude:) of the others")
