@@ -82,3 +82,17 @@ def test_auc_of_a_constant_metric_or_one_outcome_is_undefined_not_chance():
     # NaN values are dropped and counted out of n.
     partial = auc_with_interval(np.array([0.9, np.nan, 0.1, 0.2, 0.3]), labels)
     assert (partial.auc, partial.n, partial.successes) == (1.0, 4, 1)
+
+
+def test_auc_of_too_few_of_an_outcome_has_no_interval_rather_than_a_certain_one():
+    """One success and one failure split perfectly: the bootstrap read [1.00, 1.00], certainty from n = 2."""
+    from manigrasp.bench.report import format_auc
+    from manigrasp.bench.stats import AUC_INTERVAL_MIN_CLASS
+
+    two = auc_with_interval(np.array([0.9, 0.1]), np.array([True, False]))
+    assert two.auc == 1.0 and two.defined and not two.bounded and np.isnan(two.low) and np.isnan(two.high)
+    assert format_auc(two) == f"1.00 [no interval: under {AUC_INTERVAL_MIN_CLASS} of an outcome]"
+    k = AUC_INTERVAL_MIN_CLASS
+    scores = np.r_[np.linspace(0.5, 1.0, k), np.linspace(0.0, 0.6, k)]
+    enough = auc_with_interval(scores, np.r_[[True] * k, [False] * k])
+    assert enough.bounded and enough.low < enough.auc <= enough.high

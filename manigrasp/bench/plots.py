@@ -249,14 +249,14 @@ def metric_auc(report: Report, path: Path) -> Path:
         xs = x + (i - (len(methods) - 1) / 2) * width
         estimates = [report.auc[method].get(k) for k in metrics]
         auc = np.array([e.auc if e is not None and e.defined else np.nan for e in estimates])
-        low = np.array([e.low if e is not None and e.defined else np.nan for e in estimates])
-        high = np.array([e.high if e is not None and e.defined else np.nan for e in estimates])
+        low = np.array([e.low if e is not None and e.bounded else np.nan for e in estimates])
+        high = np.array([e.high if e is not None and e.bounded else np.nan for e in estimates])
         bars = ax.bar(xs, np.nan_to_num(auc), width, yerr=np.vstack([auc - low, high - auc]), capsize=2,
                       color=colours[i], label=method_label(method, _several_protocols(report)))
         for xi, e in zip(xs, estimates, strict=True):
-            if e is not None and e.defined:
-                ax.text(xi, e.high + 0.01, f"n={e.n}", ha="center", va="bottom", fontsize=6,
-                        rotation=90 if len(methods) > 3 else 0)
+            if e is not None and e.defined:  # without an interval (too few of an outcome): "n=2, no CI"
+                ax.text(xi, (e.high if e.bounded else e.auc) + 0.01, f"n={e.n}" + ("" if e.bounded else ", no CI"),
+                        ha="center", va="bottom", fontsize=6, rotation=90 if len(methods) > 3 else 0)
             elif e is not None:
                 ax.text(xi, 0.02, f"undefined: {e.undefined}", rotation=90, ha="center", va="bottom", fontsize=7,
                         color=bars.patches[0].get_facecolor())

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from manigrasp.bench.stats import AucEstimate, auc_with_interval, wilson_interval
+from manigrasp.bench.stats import AUC_INTERVAL_MIN_CLASS, AucEstimate, auc_with_interval, wilson_interval
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import PLANNER_FAILURES, Status, TrialResult
@@ -321,9 +321,12 @@ def format_rate(rate: Rate) -> str:
 
 
 def format_auc(estimate: AucEstimate) -> str:
-    """"0.81 [0.72, 0.89]", or "undefined (metric constant)"."""
+    """"0.81 [0.72, 0.89]", "1.00 [no interval: ...]" (too few of an outcome), or "undefined (metric
+    constant)"."""
     if not estimate.defined:
         return f"undefined ({estimate.undefined})"
+    if not estimate.bounded:
+        return f"{estimate.auc:.2f} [no interval: under {AUC_INTERVAL_MIN_CLASS} of an outcome]"
     return f"{estimate.auc:.2f} [{estimate.low:.2f}, {estimate.high:.2f}]"
 
 

@@ -67,6 +67,9 @@ def roc_auc(scores: np.ndarray, labels: np.ndarray) -> float:
 # Bootstrap of the AUC interval: resamples and seed are fixed, so a report is reproducible byte for byte.
 AUC_BOOTSTRAP_RESAMPLES = 2000
 AUC_BOOTSTRAP_SEED = 0
+# Fewest trials of each outcome for an AUC interval: with fewer, the resamples take a handful of values and a
+# perfect split reads [1.00, 1.00] from one success and one failure (certainty from n = 2); the AUC is still given.
+AUC_INTERVAL_MIN_CLASS = 5
 
 
 @dataclass(frozen=True)
@@ -75,7 +78,8 @@ class AucEstimate:
 
     Attributes:
         auc: the area (NaN when undefined).
-        low, high: 95 % percentile interval of a bootstrap stratified by outcome (fixed seed); NaN when undefined.
+        low, high: 95 % percentile interval of a bootstrap stratified by outcome (fixed seed); NaN when undefined
+            or when either outcome has fewer than `AUC_INTERVAL_MIN_CLASS` trials (`bounded`).
         n: trials with a value of the metric (NaN values dropped).
         successes: of those, the successful ones.
         undefined: why the AUC is undefined ("" when it is defined): "no successes", "no failures",
@@ -95,6 +99,11 @@ class AucEstimate:
         """Whether the AUC is a number."""
         return not self.undefined
 
+    @property
+    def bounded(self) -> bool:
+        """Whether the AUC has an interval (defined, with `AUC_INTERVAL_MIN_CLASS` trials of each outcome)."""
+        return self.defined and np.isfinite(self.low) and np.isfinite(self.high)
+
 
 def auc_with_interval(scores: np.ndarray, labels: np.ndarray, confidence: float = 0.95,
                       resamples: int = AUC_BOOTSTRAP_RESAMPLES, seed: int = AUC_BOOTSTRAP_SEED) -> AucEstimate:
@@ -102,7 +111,8 @@ def auc_with_interval(scores: np.ndarray, labels: np.ndarray, confidence: float 
 
     NaN scores are dropped. Successes and failures are resampled separately (each resample keeps both
     classes, so every resample has an AUC); the interval is the central `confidence` share of the resampled
-    AUCs, from a `numpy.random.Generator` seeded with `seed`.
+    AUCs, from a `numpy.random.Generator` seeded with `seed`. With fewer than `AUC_INTERVAL_MIN_CLASS` trials of
+    either outcome there is no interval (NaN bounds).
     """
     scores = np.asarray(scores, float)
     labels = np.asarray(labels, bool)
@@ -114,6 +124,8 @@ def auc_with_interval(scores: np.ndarray, labels: np.ndarray, confidence: float 
     if reason:
         return AucEstimate(float("nan"), float("nan"), float("nan"), n, k, reason)
     pos, neg = scores[labels], scores[~labels]
+    if min(len(pos), len(neg)) < AUC_INTERVAL_MIN_CLASS:
+        return AucEstimate(roc_auc(scores, labels), float("nan"), float("nan"), n, k)
     rng = np.random.default_rng(seed)
     boot_pos = pos[rng.integers(0, len(pos), (resamples, len(pos)))]
     boot_neg = neg[rng.integers(0, len(neg), (resamples, len(neg)))]

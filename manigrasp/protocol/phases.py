@@ -146,8 +146,11 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
     contacts = read_hand_contacts(run.scene)
     if grip.mode == "position" or len(contacts.fingers_touching) == 0:
         if grip.mode == "force" and grip.peak_force > 0.0:  # it gripped, then lost the object on the way
-            raise Abort(Status.NO_CONTACT, f"the object left the grip while closing (squeezed out after a grip "
-                                           f"of {grip.peak_force:.1f} N)")
+            # The peak is of the instantaneous contact force: an impact can drive it past the hand's own force.
+            impact = (f", above the hand's {hand.max_grip_force:.0f} N: an impact's instantaneous contact force"
+                      if grip.peak_force > hand.max_grip_force else "")
+            raise Abort(Status.NO_CONTACT, f"the object left the grip while closing (squeezed out; the grip force "
+                                           f"peaked at {grip.peak_force:.1f} N{impact})")
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
     if hand.kind == "dexterous" and run.grip is None and p.finger_hold_gain > 0:
         closing = np.diff(run.scene.hand_path, axis=0)[0]
