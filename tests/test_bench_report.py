@@ -382,6 +382,22 @@ def test_a_run_resumed_by_other_code_says_so_in_the_report(tmp_path):
     assert "**Warning: resumed at 2026-01-02T00:00:00 by other code (mujoco 3.3 -> 4.0)" in text
 
 
+def test_header_says_which_hands_close_below_an_absolute_grip_force(tmp_path):
+    """`grip_force: 500` on the parallel jaw (70.6 N) is capped by the close: the header said grip_force=500 alone."""
+    from manigrasp.hands.registry import load
+
+    results = [(TrialKey("025_mug", "parallel_jaw", "antipodal", "ground_truth", "standard", i),
+                TrialResult(Status.SUCCESS)) for i in range(2)]
+    strongest = load("parallel_jaw").max_grip_force
+    for force, capped in ((500.0, True), (10.0, False)):
+        meta = {"config": {"name": "t", "hands": ["parallel_jaw"],
+                           "protocol": {"name": "standard", "params": {"grip_force": force}}}}
+        text = write_markdown(summarize(results), results, tmp_path, meta).read_text()
+        assert f"Protocol `standard` (grip_force={force})" in text
+        assert (f"(grip_force={force:g} N is above a hand's force: parallel_jaw closes at its {strongest:.1f} N)"
+                in text) == capped
+
+
 def test_header_names_each_protocols_and_planners_parameters_and_leads_in_config_order(tmp_path):
     """A run of `standard` at a 10 N grip is labelled `standard` in every table: the header says the 10 N. With
     several protocols the lead lines follow the config's order (standard, then lift), as the side-by-side table

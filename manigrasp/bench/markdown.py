@@ -308,14 +308,39 @@ def _entry(entry: object) -> str:
     return f"`{entry.get('name')}`" + (f" ({', '.join(f'{k}={v}' for k, v in params.items())})" if params else "")
 
 
+def _capped_grips(config: dict, entries: list) -> str:
+    """" (grip_force=500 is above a hand's force: parallel_jaw closes at its 70.6 N)" for the hands of `config`
+    weaker than a protocol's absolute `grip_force` (the close caps the target at `Hand.max_grip_force`, so the
+    parameter alone would state a force no trial applied); "" when none is, or a hand cannot be loaded here."""
+    from manigrasp.hands.registry import load
+
+    asked = [float(p["params"]["grip_force"]) for p in entries
+             if isinstance(p, dict) and isinstance(p.get("params"), dict)
+             and isinstance(p["params"].get("grip_force"), int | float)]
+    if not asked:
+        return ""
+    weaker = []
+    for name in config.get("hands") or []:
+        try:
+            force = float(load(str(name)).max_grip_force)
+        except Exception:  # noqa: BLE001 (a user hand not importable where the report is made: say nothing)
+            continue
+        if force < max(asked):
+            weaker.append(f"{name} closes at its {force:.1f} N")
+    if not weaker:
+        return ""
+    return f" (grip_force={max(asked):g} N is above a hand's force: {', '.join(weaker)})"
+
+
 def _protocol_line(config: dict) -> str:
     """"Protocol `standard`", "Protocols `standard` (grip_force=10.0), `six_direction` (...)", then the planners
-    with their parameters."""
+    with their parameters; a grip force above a hand's maximum says which hands close at their maximum."""
     protocols = config.get("protocols")
     if isinstance(protocols, list) and protocols:
-        line = "Protocols " + ", ".join(_entry(p) for p in protocols)
+        line = "Protocols " + ", ".join(_entry(p) for p in protocols) + _capped_grips(config, protocols)
     else:
-        line = f"Protocol {_entry(config.get('protocol') or {'name': 'standard'})}"
+        entry = config.get("protocol") or {"name": "standard"}
+        line = f"Protocol {_entry(entry)}{_capped_grips(config, [entry])}"
     planners = config.get("planners")
     if isinstance(planners, list) and planners:
         line += f"; planner{'s' * (len(planners) != 1)} " + ", ".join(_entry(p) for p in planners)
