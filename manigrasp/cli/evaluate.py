@@ -9,7 +9,7 @@ from pathlib import Path
 FORMATS_HELP = """\
 grasp files:
   native (.json, .npz): per grasp the TCP pose in the object's frame (origin at the centre of mass),
-    as "pose" (4x4) or "position" + "quaternion" (w, x, y, z) [m]; optional "width" (jaw opening [m]),
+    as "pose" (4x4) or "position" + "quaternion" (w, x, y, z) [m]; optional "width" (jaw opening [m]; NaN: invalid),
     "preshape" (synergy in [0, 1]), "joints" (dexterous hands: the grasp's own hand path
     [[pre-shape...], [squeeze target...]], actuator commands in the hand's actuator order, e.g. joint
     angles [rad]), "score" (higher first); the file may name "hand", "hand_kind" and "object"
@@ -38,6 +38,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("grasps", type=Path, metavar="GRASPS", help="the grasp file")
     p.add_argument("--out", required=True, type=Path, metavar="RUN_DIR", help="run directory")
     p.add_argument("--object", help="a shipped object name or a mesh file (default: the object the file names)")
+    p.add_argument("--name", help="name of a mesh --object (default: the object name the file gives, else the "
+                                  "mesh file's stem); one of its own when the file names a shipped object")
+    p.add_argument("--any-object", action="store_true",
+                   help="run the grasps on --object even if the file names another object (default: refused, "
+                        "as their poses are in that object's frame)")
     p.add_argument("--scale", type=float, help="scale of a mesh --object (default: the file's, else 1)")
     p.add_argument("--mass", type=float, help="object mass [kg] (default: the file's, else from density)")
     p.add_argument("--hand", help="hand name (default: the file's hand, else parallel_jaw)")
@@ -50,47 +55,94 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from manigrasp.bench.config import parse_config
-    from manigrasp.bench.runner import run_benchmark
-    from manigrasp.cli.report import print_report
+    from manigrasp.bench import runner
+    from manigrasp.bench.config import MAX_GRASPS_PER_OBJECT, parse_config
+    from manigrasp.cli import report
+    from manigrasp.errors import ConfigError
     from manigrasp.graspsets import read
 
+    if args.jobs < 1:
+        raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
     grasps = read(args.grasps)
+    # Every grasp of the file is one trial (grasps_per_object = the file's count): an empty file has nothing
+    # to run (not one made-up trial), and the config's bound on trials per object is the file's grasp count.
+    if len(grasps) == 0:
+        raise ConfigError(f"{args.grasps} holds no grasps: nothing to evaluate")
+    if len(grasps) > MAX_GRASPS_PER_OBJECT:
+        raise ConfigError(f"{args.grasps} holds {len(grasps)} grasps; evaluate runs at most {MAX_GRASPS_PER_OBJECT} "
+                          "(one trial each): split the file")
+    entry = _object_entry(args, grasps)
+    params = {"path": str(args.grasps.resolve()), "transfer": args.transfer}
+    if _other_object(args, grasps, entry):
+        params["check_object"] = False  # checked here (left out otherwise: the run's identity stays as it was)
     config = parse_config({
         "name": f"evaluate {args.grasps.name}",
-        "objects": [_object_entry(args, grasps)],
+        "objects": [entry],
         "hands": [args.hand or grasps.hand or "parallel_jaw"],
-        "planners": [{"name": "file", "params": {"path": str(args.grasps.resolve()), "transfer": args.transfer}}],
-        "grasps_per_object": max(1, len(grasps)),
+        "planners": [{"name": "file", "params": params}],
+        "grasps_per_object": len(grasps),
         "protocol": args.protocol,
     }, where="evaluate")
-    summary = run_benchmark(config, args.out, jobs=max(1, args.jobs), progress=not args.quiet)
+    summary = runner.run_benchmark(config, args.out, jobs=args.jobs, progress=not args.quiet)
     print(f"{summary.ran} grasps run, {summary.already_done} already stored ({summary.seconds:.0f} s)",
           file=sys.stderr)
-    return print_report(args.out, as_json=False)
+    return report.print_report(args.out, as_json=False)
 
 
 def _object_entry(args: argparse.Namespace, grasps) -> dict:
-    """The config's object: --object (a mesh file or a shipped name), else the one the file names."""
+    """The config's object: --object (a mesh file or a shipped name), else the one the file names. A mesh is
+    named --name, else as the file names its object, else by its file's stem."""
+    from manigrasp.errors import ConfigError
+    from manigrasp.objects import catalog, scans
+
     ref = grasps.object
     entry: dict = {}
     if args.object:
         given = Path(args.object)
-        entry = {"mesh": str(given.resolve()), "name": ref.name or given.stem} if given.is_file() \
+        entry = {"mesh": str(given.resolve()), "name": args.name or ref.name or given.stem} if given.is_file() \
             else {"name": args.object}
     elif ref.mesh:
         from manigrasp.graspsets import mesh_path
 
         mesh = mesh_path(grasps)
-        entry = {"mesh": str(mesh.resolve()), "name": ref.name or mesh.stem}
+        entry = {"mesh": str(mesh.resolve()), "name": args.name or ref.name or mesh.stem}
     elif ref.name:
         entry = {"name": ref.name}
     else:
-        from manigrasp.errors import ConfigError
-
         raise ConfigError(f"{args.grasps} names no object: give --object NAME or --object MESH")
+    if args.name and "mesh" not in entry:
+        raise ConfigError(f"--name is the name of a mesh --object; {entry['name']!r} is a shipped object")
+    if "mesh" in entry and not args.name and catalog.is_shipped_name(entry["name"]) \
+            and not scans.is_scan(entry["name"]):  # a scan's own mesh is its; another is refused by the catalog
+        raise ConfigError(f"{args.grasps} names the shipped object {entry['name']!r}, not the mesh {entry['mesh']}: "
+                          "give the mesh a name of its own with --name (and --any-object to run the file's grasps "
+                          "on it)")
     if "mesh" in entry and (args.scale or ref.scale != 1.0):
         entry["scale"] = args.scale or ref.scale
     if args.mass or ref.mass:
         entry["mass"] = args.mass or ref.mass
     return entry
+
+
+def _other_object(args: argparse.Namespace, grasps, entry: dict) -> bool:
+    """Whether the file names its object otherwise than the object `entry` is built as, so that the file
+    planner's check (by name) must be left off: another name of the same shipped object ("mug" for
+    "025_mug"), or another object with --any-object (refused without it: the grasps' poses are in the frame
+    of the object the file names). Grasps in the mesh's frame are not checked (as by the planner)."""
+    from manigrasp.errors import ConfigError
+
+    named = grasps.object.name
+    built = entry["name"] if "mesh" in entry else _canonical(entry["name"])
+    if not named or named == built or grasps.frame != "object":
+        return False
+    if not args.any_object and _canonical(named) != built:
+        raise ConfigError(f"{args.grasps} holds grasps of object {named!r}, not {entry['name']!r}: their poses are "
+                          f"in the frame of {named!r} (--any-object runs them on {entry['name']!r} anyway)")
+    return True
+
+
+def _canonical(name: str) -> str:
+    """A shipped object's full name ("025_mug" for "mug"), else `name`."""
+    from manigrasp.objects import catalog
+
+    return catalog.shipped(name).name if catalog.is_shipped_name(name) else name

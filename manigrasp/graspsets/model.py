@@ -49,7 +49,8 @@ class GraspSet:
     Attributes:
         poses: (n, 4, 4) TCP poses (z approach, y closing) in the object's frame [m]; may hold
             NaN or non-rotations (then that grasp is `invalid_grasp`, see `placement_defect`).
-        widths: (n,) jaw opening at contact [m]; NaN: not given.
+        widths: (n,) jaw opening at contact [m]; NaN: not given; +-inf: given but not a finite number (a JSON
+            width of NaN or +-Infinity): that grasp is `invalid_grasp` (see `placement_defect`).
         preshapes: (n,) the hand's pre-shape synergy in [0, 1] (0 = open): a dexterous hand's
             joint configuration as manigrasp drives it.
         scores: (n,) finite ranking scores (higher first).
@@ -154,6 +155,8 @@ def placement_defect(grasps: GraspSet, index: int, hand_name: str, hand_kind: st
     preshape, width = grasps.preshapes[index], grasps.widths[index]
     if not (np.isfinite(preshape) and 0.0 <= preshape <= 1.0):
         return f"{prefix}: pre-shape {preshape} is outside [0, 1]"
+    if np.isinf(width):  # NaN: not given
+        return f"{prefix}: width is given but not a finite number"
     if np.isfinite(width) and not 0.0 <= width <= max_width + 1e-9:
         return f"{prefix}: width {width:.4g} m is outside [0, {max_width:.4g}] m, the opening of {hand_name!r}"
     joints = grasps.grasp_joints(index)

@@ -26,7 +26,10 @@ grasp uses the hand's own path); optional scalars ``hand``, ``hand_kind``, ``fra
 
 The object frame is manigrasp's (origin at the object's centre of mass, axes of its mesh); "mesh"
 means the frame of the object's mesh file scaled by ``object.scale``. TCP: z = approach (hand
-toward object), y = closing (finger 1 toward finger 2), x = y cross z. NaN widths mean "not given".
+toward object), y = closing (finger 1 toward finger 2), x = y cross z. A JSON grasp without a width (or with
+``"width": null``) and an NPZ NaN width mean "not given"; a JSON width of NaN or +-Infinity (and an infinite NPZ
+width) is a width that is not a number: that grasp is `invalid_grasp`, like a NaN pose (the set keeps it as
++-inf, as NaN means "not given" there).
 A quaternion must be a unit quaternion within `manigrasp.geometry.RIGID_TOLERANCE` (a non-unit one is a
 file error naming the grasp: it is not silently normalised, nor read as the identity).
 """
@@ -81,7 +84,7 @@ def _read_json(path: Path) -> GraspSet:
             raise GraspFileError(f"{where} must be an object")
         _unknown(grasp, _GRASP_KEYS, where)
         poses.append(_pose(grasp, where))
-        widths.append(_number(grasp.get("width"), f"{where}: width", math.nan))
+        widths.append(_width(grasp.get("width"), f"{where}: width"))
         preshapes.append(_number(grasp.get("preshape"), f"{where}: preshape", 0.0))
         scores.append(_number(grasp.get("score"), f"{where}: score", 0.0))
         labels.append(grasp.get("label") or {})
@@ -152,6 +155,15 @@ def _number(value: Any, where: str, default: float) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise GraspFileError(f"{where} must be a number, got {value!r}")
     return float(value)
+
+
+def _width(value: Any, where: str) -> float:
+    """A grasp's width [m]: NaN ("not given") when absent or null. One given as NaN or +-inf is kept as +-inf,
+    not NaN, so that `placement_defect` makes the grasp `invalid_grasp` instead of reading it as not given."""
+    width = _number(value, where, math.nan)
+    if value is not None and not math.isfinite(width):
+        return -math.inf if width < 0 else math.inf
+    return width
 
 
 def _object(data: Any, where: str) -> ObjectRef:
@@ -241,7 +253,7 @@ def _json_payload(grasps: GraspSet) -> dict[str, Any]:
     for i in range(len(grasps)):
         row: dict[str, Any] = {"pose": grasps.poses[i].tolist(), "score": float(grasps.scores[i]),
                                "preshape": float(grasps.preshapes[i])}
-        if np.isfinite(grasps.widths[i]):
+        if not np.isnan(grasps.widths[i]):  # NaN: not given; +-inf (not a number) written as +-Infinity
             row["width"] = float(grasps.widths[i])
         joints = grasps.grasp_joints(i)
         if joints is not None:
