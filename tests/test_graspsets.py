@@ -270,3 +270,24 @@ def test_evaluate_an_acronym_file_end_to_end(tmp_path, shifted_box):
     with ResultsStore(tmp_path / "run" / "results.sqlite") as store:
         statuses = [r.status for _, r in sorted(store.results(), key=lambda kr: kr[0].grasp_index)]
     assert statuses == [Status.SUCCESS, Status.NO_CONTACT]
+
+
+def test_a_file_naming_a_shipped_object_by_its_short_name_is_that_object(shifted_box, tmp_path):
+    """A bench config's file of grasps of "mug" runs on the object built as "025_mug" (every trial was a
+    planner_error, 'not the same object'); another object is still refused."""
+    import dataclasses
+
+    from manigrasp.errors import PlannerError
+
+    asset = dataclasses.replace(shifted_box[0], name="025_mug")
+    observation = Observation.from_asset(asset, np.eye(4))
+    hand = hands.load("parallel_jaw")
+    for named, same in (("mug", True), ("025_mug", True), ("048_hammer", False)):
+        data = {"object": {"name": named}, "grasps": [{"pose": TOP_DOWN.tolist()}]}
+        path = _write_json(tmp_path / f"{named}.json", data)
+        if same:
+            (candidate,) = FilePlanner(str(path)).plan(observation, hand, 1, np.random.default_rng(0))
+            assert not candidate.invalid
+        else:
+            with pytest.raises(PlannerError, match="holds grasps of object '048_hammer', not '025_mug'"):
+                FilePlanner(str(path)).plan(observation, hand, 1, np.random.default_rng(0))

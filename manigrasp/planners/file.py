@@ -100,8 +100,8 @@ class FilePlanner:
         asset = observation.asset
         object_name = asset.name if asset is not None else None
         grasps = load_grasps(grasp_file_for(self.path, object_name, hand.name))
-        if self.check_object and object_name and grasps.object.name and grasps.object.name != object_name \
-                and grasps.frame == "object":
+        if self.check_object and object_name and grasps.object.name \
+                and _full_name(grasps.object.name) != object_name and grasps.frame == "object":
             raise PlannerError(f"file planner: {grasps.source} holds grasps of object {grasps.object.name!r}, "
                                f"not {object_name!r} (planner param check_object: false runs them anyway)")
         base = observation.object_pose @ mesh_to_object(grasps, asset)
@@ -143,3 +143,11 @@ def mesh_to_object(grasps: GraspSet, asset: object | None) -> np.ndarray:
         raise PlannerError(f"file planner: {grasps.source} is for the mesh at scale {grasps.object.scale:g}; "
                            f"object {asset.name!r} was built at scale {scale:g}")
     return translation(-np.asarray(metadata["com_offset_m"], float))
+
+
+def _full_name(name: str) -> str:
+    """A shipped object's full name ("025_mug" for a file naming "mug": the object is built as "025_mug"), else
+    `name` as it is."""
+    from manigrasp.objects import catalog
+
+    return catalog.shipped(name).name if catalog.is_shipped_name(name) else name
