@@ -39,16 +39,19 @@ def _label(args: argparse.Namespace) -> int:
     from manigrasp.bench.label import label
     from manigrasp.cli.bench import resolve_config
     from manigrasp.cli.output import format_table
+    from manigrasp.errors import ConfigError
 
     path = resolve_config(args.config)
     config = load_config(path, args.overrides)
-    summary = label(config, args.out, jobs=max(1, args.jobs), executor=args.executor, address=args.address,
+    if args.jobs < 1:  # as bench and evaluate refuse it
+        raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
+    summary = label(config, args.out, jobs=args.jobs, executor=args.executor, address=args.address,
                     base=path.parent, progress=not args.quiet, native_suffix=".npz" if args.npz else ".json")
     rows = [(name, f"{ok}/{n}", f"{ok / n:.1%}" if n else "-")
             for name, (ok, n) in sorted(summary.success_share().items())]
     print(format_table(("object", "success", "share"), rows))
     print(f"{summary.ran} grasps labelled now, {summary.already_done} already stored; "
-          f"{summary.labelled_per_second:.2f} labelled/s ({summary.seconds:.0f} s, {max(1, args.jobs)} job(s)); "
+          f"{summary.labelled_per_second:.2f} labelled/s ({summary.seconds:.0f} s, {args.jobs} job(s)); "
           f"{summary.skipped} trials without a grasp (planner errors) not written", file=sys.stderr)
     for item in summary.exported:
         note = f" ({item.note})" if item.note else ""

@@ -166,7 +166,9 @@ def _build(args: argparse.Namespace) -> int:
         else:
             bar.write(catalog.summary(outcome))
 
-    outcomes = catalog.build_many(sources, jobs=max(1, args.jobs), on_done=done)
+    if args.jobs < 1:  # as bench and evaluate refuse it
+        raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
+    outcomes = catalog.build_many(sources, jobs=args.jobs, on_done=done)
     bar.close()
     failed = [o for o in outcomes if o.error]
     print(f"{len(outcomes) - len(failed)} built, {len(failed)} failed")

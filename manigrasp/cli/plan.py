@@ -42,6 +42,10 @@ def _asset(args: argparse.Namespace):  # noqa: ANN202 (ObjectAsset; imported laz
     from manigrasp.objects import catalog
 
     if args.object:
+        if args.scale != 1.0:  # a shipped object has its real size; --scale is for a mesh file's units
+            from manigrasp.errors import ConfigError
+
+            raise ConfigError(f"--scale applies to a --mesh file, not to the shipped object {args.object!r}")
         return catalog.build(catalog.shipped(args.object)).asset
     source = catalog.ObjectSource(name=catalog.default_mesh_name(args.mesh), mesh=args.mesh, scale=args.scale)
     return catalog.build(source).asset

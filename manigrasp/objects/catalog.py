@@ -28,6 +28,7 @@ from manigrasp.objects.decompose import DecompositionParams, coacd_version
 from manigrasp.objects.meshio import ycb_mesh_file
 from manigrasp.objects.pipeline import DEFAULT_DENSITY, BuildResult, build_object, entry_is_intact
 from manigrasp.paths import cache_dir
+from manigrasp.registry import unknown_name_message
 
 
 def default_mesh_name(path: str | Path) -> str:
@@ -92,8 +93,9 @@ def shipped(name: str) -> ObjectSource:
         return ObjectSource(name=scan.name, mesh=str(scan.path), mass=scan.mass_kg)
     try:
         recipe = recipes.get(name)
-    except UnknownNameError as exc:
-        raise UnknownNameError(f"{exc}{_user_mesh_hint(name)}") from None
+    except UnknownNameError:  # the shipped names are the recipes' and the scans' (a misspelled scan's nearest too)
+        message = unknown_name_message("object", name, (*recipes.names(), *scans.names()))
+        raise UnknownNameError(f"{message}{_user_mesh_hint(name)}") from None
     return ObjectSource(name=recipe.name, recipe=recipe.name, mass=recipe.mass_kg)
 
 

@@ -59,6 +59,15 @@ class CameraConfig:
     target_height: float = 0.05
     backend: str = "raycast"
 
+    def __post_init__(self) -> None:
+        if not (self.width >= 1 and self.height >= 1 and 0.0 < self.fovy_deg < 180.0):
+            raise ConfigError(f"camera: width and height must be >= 1 px and fovy_deg in (0, 180), got "
+                              f"{self.width} x {self.height}, {self.fovy_deg}")
+        if not (np.isfinite(self.distance) and self.distance > 0):  # 0 or less: the camera at or behind its target
+            raise ConfigError(f"camera: distance must be > 0 m, got {self.distance}")
+        if not (np.isfinite(self.azimuth_deg) and np.isfinite(self.elevation_deg) and np.isfinite(self.target_height)):
+            raise ConfigError("camera: azimuth_deg, elevation_deg and target_height must be finite numbers")
+
     def camera(self, target_xy: np.ndarray, table_height: float = 0.0) -> Camera:
         """The camera looking at (`target_xy`, table_height + target_height)."""
         target = np.array([target_xy[0], target_xy[1], table_height + self.target_height])

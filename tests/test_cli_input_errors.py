@@ -1,0 +1,44 @@
+"""One-line errors for inputs a newcomer gets wrong (found by a CLI audit): nothing runs, nothing is written."""
+
+from __future__ import annotations
+
+import pytest
+
+from manigrasp.cli import main
+from manigrasp.errors import ConfigError
+from manigrasp.perception.pipeline import CameraConfig
+
+
+def _one_line_error(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    return err
+
+
+@pytest.mark.parametrize("argv", [["label", "quick", "--jobs", "-2"], ["objects", "build", "mug", "--jobs", "0"]])
+def test_jobs_below_one_is_refused_as_bench_refuses_it(argv, tmp_path, capsys):
+    """label and objects build ran one job for --jobs -2 (max(1, jobs)), where bench and evaluate refuse it."""
+    out = ["--out", str(tmp_path / "run")] if argv[0] == "label" else []
+    assert main([*argv, *out]) == 2
+    assert "--jobs must be >= 1" in _one_line_error(capsys)
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_misspelled_scan_is_suggested_by_its_own_name(capsys):
+    """The list of shipped names left the scans out: '003_cracker_box_scna' suggested the recipe twin."""
+    assert main(["plan", "--object", "003_cracker_box_scna", "--hand", "parallel_jaw", "--planner", "random"]) == 2
+    assert "did you mean '003_cracker_box_scan'?" in _one_line_error(capsys)
+
+
+def test_scale_is_refused_for_a_shipped_object(capsys):
+    """plan --object mug --scale 2 planned on the real-size mug, ignoring --scale."""
+    assert main(["plan", "--object", "mug", "--scale", "2", "--hand", "parallel_jaw", "--planner", "random"]) == 2
+    assert "--scale applies to a --mesh file" in _one_line_error(capsys)
+
+
+@pytest.mark.parametrize("fields", [{"distance": -1.0}, {"distance": 0.0}, {"fovy_deg": 0.0}, {"width": 0},
+                                    {"elevation_deg": float("nan")}])
+def test_a_camera_that_cannot_see_is_a_config_error(fields):
+    """perceive --camera 30,45,-1 put the camera behind its target and reported 'object not in view'."""
+    with pytest.raises(ConfigError, match="camera:"):
+        CameraConfig(**fields)
