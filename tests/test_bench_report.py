@@ -380,6 +380,13 @@ def test_a_run_resumed_by_other_code_says_so_in_the_report(tmp_path):
     meta = {**RUN_META, "resumed_with_other_code": [{"at": "2026-01-02T00:00:00", "changes": ["mujoco 3.3 -> 4.0"]}]}
     text = write_markdown(summarize(results), results, tmp_path, meta).read_text()
     assert "**Warning: resumed at 2026-01-02T00:00:00 by other code (mujoco 3.3 -> 4.0)" in text
+    # Entries count the trials the other code stored: 3 say so; 0 (a resumption that ran none) is no warning.
+    for trials, warned in ((3, True), (0, False)):
+        entry = {"at": "2026-01-03T00:00:00", "changes": ["manigrasp 0.1 -> 0.2"], "trials": trials}
+        text = write_markdown(summarize(results), results, tmp_path, {**RUN_META, "resumed_with_other_code": [entry]}
+                              ).read_text()
+        assert ("by other code (manigrasp 0.1 -> 0.2): 3 trial(s) stored then" in text) == warned
+        assert ("2026-01-03" in text) == warned
 
 
 def test_header_says_which_hands_close_below_an_absolute_grip_force(tmp_path):

@@ -201,11 +201,12 @@ def test_an_edited_mesh_file_is_refused_on_resume(tmp_path):
 
 
 def test_resuming_with_other_code_warns_and_is_recorded(tmp_path):
-    """A default or the physics may change between code versions: a run resumed by other code says so (a warning
-    naming what changed) and run.json keeps the record; the same code resumes silently."""
+    """A default or the physics may change between code versions: a run resumed by other code that runs trials
+    says so (a warning naming what changed) and run.json keeps the record with how many trials that code stored;
+    the same code resumes silently."""
     import warnings
 
-    config = parse_config(ONE)
+    config = parse_config(dict(ONE, grasps_per_object=2))
     rundir.prepare(tmp_path / "run", config)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -216,9 +217,10 @@ def test_resuming_with_other_code_warns_and_is_recorded(tmp_path):
     meta["git_commit"] = "0123456789abcdef0123"
     meta_path.write_text(json.dumps(meta))
     with pytest.warns(RuntimeWarning, match=r"started by other code \(.*manigrasp 0\.0\.1 -> "):
-        rundir.prepare(tmp_path / "run", config)
+        run_benchmark(config, tmp_path / "run", progress=False, in_process=True)
     record = json.loads(meta_path.read_text())["resumed_with_other_code"]
     assert len(record) == 1 and any(c.startswith("manigrasp 0.0.1 -> ") for c in record[0]["changes"])
+    assert record[0]["trials"] == 2
     if rundir.git_commit():
         assert any(c.startswith("git commit 0123456789ab -> ") for c in record[0]["changes"])
 

@@ -257,10 +257,13 @@ def warning_lines(meta: dict, done: Completeness | None = None, report: Report |
                      f"the planner or the physics ({where}): they are left out of every rate and count (they are "
                      "not physics results); their detail in the results table says what failed")
     for entry in meta.get("resumed_with_other_code") or []:
-        if isinstance(entry, dict):
+        # An entry counts the trials stored by the other code (`rundir.record_other_code`); one without a count
+        # was written by older code, which recorded every resumption, also one that ran no trial.
+        if isinstance(entry, dict) and entry.get("trials", 1) != 0:
             changes = "; ".join(map(str, entry.get("changes") or []))
-            lines.append(f"resumed at {entry.get('at')} by other code ({changes}): the trials stored before and "
-                         "after may differ by that code")
+            count = f"{entry['trials']} trial(s) stored then" if isinstance(entry.get("trials"), int) else "the trials"
+            lines.append(f"resumed at {entry.get('at')} by other code ({changes}): {count} and the trials stored "
+                         "before may differ by that code")
     return lines
 
 

@@ -4,7 +4,11 @@ Re-running into an existing directory resumes it, but only with the same
 run identity (resolved config and the content of its mesh files): a different
 one is refused with the keys that differ, so one results file never mixes two
 experiments. A directory with results but no run.json is refused too, and
-`locked` keeps a second process out of a directory that is in use.
+`locked` keeps a second process out of a directory that is in use. `check`
+refuses without writing, so a run can validate its inputs (build its objects)
+before `prepare` writes run.json: a run refused for a broken input leaves
+nothing that blocks the corrected rerun. Trials stored by other code than
+the run's start are recorded in run.json (`record_other_code`), and only then.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from pathlib import Path
 from manigrasp import __version__
 from manigrasp.bench.config import BenchConfig
 from manigrasp.config import to_mapping
-from manigrasp.errors import ConfigError
+from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.runfiles import META_NAME, RECORDINGS_DIR, STORE_NAME
 
 KEY_PACKAGES = ("mujoco", "numpy", "scipy", "trimesh", "coacd", "manifold3d", "robosuite", "dm-env",
@@ -70,7 +74,7 @@ def identity(config: BenchConfig, base: Path | None = None) -> dict:
     Two runs with equal identities enumerate the same trials with the same inputs; a run directory
     accepts only its own identity.
     """
-    resolved = json.loads(json.dumps(to_mapping(config), default=str))
+    resolved = recorded_config(config)
     text = json.dumps(resolved, sort_keys=True, separators=(",", ":"))
     meshes = {}
     for entry in config.objects:
@@ -79,6 +83,32 @@ def identity(config: BenchConfig, base: Path | None = None) -> dict:
                 path = ((base or Path.cwd()) / getattr(entry, kind)).resolve()
                 meshes[entry.name or path.stem] = _content_hash(path)
     return {"config_sha256": hashlib.sha256(text.encode()).hexdigest(), "mesh_sha256": meshes}
+
+
+def recorded_config(config: BenchConfig) -> dict:
+    """`config` as run.json records it: plain data, each shipped object by its object's name (`shipped_names`)."""
+    return shipped_names(json.loads(json.dumps(to_mapping(config), default=str)))
+
+
+def shipped_names(recorded: dict) -> dict:
+    """A recorded config with each object entry that names a shipped object (no mesh or ycb) by that object's
+    name, as the trial ids name it: "mug" is "025_mug", so the two spellings of one object are one run (and a
+    run.json written before names were resolved still resumes). A name not shipped here stays as written."""
+    from manigrasp.objects import catalog
+
+    objects = recorded.get("objects")
+    if not isinstance(objects, list):
+        return recorded
+    out = []
+    for entry in objects:
+        name = entry.get("name") if isinstance(entry, dict) else None
+        if isinstance(name, str) and not entry.get("mesh") and not entry.get("ycb"):
+            try:
+                entry = {**entry, "name": catalog.shipped(name).name}
+            except (ManigraspError, OSError):
+                pass
+        out.append(entry)
+    return {**recorded, "objects": out}
 
 
 def _content_hash(path: Path) -> str:
@@ -124,8 +154,9 @@ def _short(value: object) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict:
-    """Create `run_dir` with run.json, or check that an existing one holds the same run.
+def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict | None:
+    """Refuse `run_dir` if it cannot take the run of `config`, writing nothing: its run.json if it holds this run,
+    None if it holds no run yet.
 
     Raises:
         ConfigError: `run_dir` is a file; it holds a run of a different config (the message names the keys
@@ -134,42 +165,50 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
     if run_dir.exists() and not run_dir.is_dir():
         raise ConfigError(f"--out {run_dir} is a file, not a run directory")
     meta_path = run_dir / META_NAME
-    resolved = json.loads(json.dumps(to_mapping(config), default=str))
-    ident = identity(config, base)
     if meta_path.exists() or meta_path.is_symlink():
         existing = read_meta(run_dir)
-        old_config = existing.get("config")
+        old_config, resolved = shipped_names(existing["config"]), recorded_config(config)
         if old_config != resolved:
             keys = differing_keys(old_config, resolved)
             raise ConfigError(f"{run_dir} holds a run with a different config ({_describe(keys, old_config, resolved)}"
                               "); use another --out to start a new run")
         old_meshes = existing.get("identity", {}).get("mesh_sha256", {})
+        ident = identity(config, base)
         changed = sorted(k for k, v in ident["mesh_sha256"].items() if k in old_meshes and old_meshes[k] != v)
         if changed:
             raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
                               "use another --out to start a new run")
-        existing.setdefault("identity", ident)
-        existing.setdefault("config_dir", str((base or Path.cwd()).resolve()))
-        now = datetime.now(UTC).isoformat()
-        existing.setdefault("resumed", []).append(now)
-        changed_code = code_changes(existing)
-        if changed_code:
-            existing.setdefault("resumed_with_other_code", []).append({"at": now, "changes": changed_code})
-            warnings.warn(f"{run_dir} was started by other code ({'; '.join(changed_code)}): the trials run now may "
-                          "differ from the stored ones if a default or the physics changed (recorded in run.json "
-                          "under 'resumed_with_other_code'); use another --out for a run of one code version",
-                          RuntimeWarning, stacklevel=2)
-        _write_json(meta_path, existing)
         return existing
     stray = [p.name for p in (run_dir / STORE_NAME, run_dir / RECORDINGS_DIR) if p.exists()]
     if stray:
         raise ConfigError(f"{run_dir} holds {' and '.join(stray)} but no run.json, so the config that made them is "
                           "unknown; use another --out (or restore run.json)")
+    return None
+
+
+def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict:
+    """Create `run_dir` with run.json, or check that an existing one holds the same run (`check`) and add the
+    time of this resumption to its ``resumed``.
+
+    Whether it is resumed by other code is not recorded here: `record_other_code` does that once trials are
+    stored by it (re-running a finished run to export or record runs none, and mixes nothing).
+
+    Raises:
+        ConfigError: as `check`.
+    """
+    existing = check(run_dir, config, base)
+    meta_path = run_dir / META_NAME
+    if existing is not None:
+        existing.setdefault("identity", identity(config, base))
+        existing.setdefault("config_dir", str((base or Path.cwd()).resolve()))
+        existing.setdefault("resumed", []).append(datetime.now(UTC).isoformat())
+        _write_json(meta_path, existing)
+        return existing
     run_dir.mkdir(parents=True, exist_ok=True)
     meta = {
-        "config": resolved,
+        "config": recorded_config(config),
         "seed": config.seed,
-        "identity": ident,
+        "identity": identity(config, base),
         "config_dir": str((base or Path.cwd()).resolve()),
         "versions": versions(),
         "git_commit": git_commit(),
@@ -179,6 +218,33 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
     }
     _write_json(meta_path, meta)
     return meta
+
+
+def warn_other_code(run_dir: Path, changes: list[str]) -> None:
+    """Warn that trials are about to run under other code (`code_changes`) than the run of `run_dir` started with."""
+    warnings.warn(f"{run_dir} was started by other code ({'; '.join(changes)}): the trials run now may "
+                  "differ from the stored ones if a default or the physics changed (recorded in run.json "
+                  "under 'resumed_with_other_code'); use another --out for a run of one code version",
+                  RuntimeWarning, stacklevel=3)
+
+
+def record_other_code(run_dir: Path, at: str, changes: list[str], trials: int) -> None:
+    """Record in run.json's ``resumed_with_other_code`` that the session resumed at `at` stored `trials` trials
+    under other code (`changes`): one entry per session, its count updated in place (the report warns of each
+    entry: the stored trials mix code versions). A run.json that cannot be written is a warning: the trials
+    are stored all the same."""
+    try:
+        meta = read_meta(run_dir)
+        entries = meta.setdefault("resumed_with_other_code", [])
+        entry = next((e for e in entries if isinstance(e, dict) and e.get("at") == at), None)
+        if entry is None:
+            entries.append({"at": at, "changes": list(changes), "trials": trials})
+        else:
+            entry["trials"] = trials
+        _write_json(run_dir / META_NAME, meta)
+    except (OSError, ConfigError) as exc:
+        warnings.warn(f"{run_dir}: could not record in run.json that {trials} trial(s) ran under other code: {exc}",
+                      RuntimeWarning, stacklevel=2)
 
 
 def code_changes(meta: dict) -> list[str]:
@@ -226,17 +292,24 @@ def read_meta(run_dir: Path) -> dict:
 def locked(run_dir: Path) -> Iterator[None]:
     """Hold an exclusive lock on `run_dir` (its `.lock` file) for the block; released when the process ends.
 
+    A block that raises in a folder this call created, before anything but the lock was written in it (a
+    run refused for a broken input), removes the folder again: an error leaves nothing behind.
+
     Raises:
         ConfigError: another process holds it (the message says which: pid, host, since when).
     """
     if run_dir.exists() and not run_dir.is_dir():
         raise ConfigError(f"--out {run_dir} is a file, not a run directory")
+    created = not run_dir.exists()
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ConfigError(f"cannot create run directory {run_dir}: {exc.strerror}") from None
     path = run_dir / ".lock"
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:  # a folder removed under us by another process's refused run
+        raise ConfigError(f"cannot create {path}: {exc.strerror}; try again") from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -246,9 +319,24 @@ def locked(run_dir: Path) -> Iterator[None]:
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()} since {datetime.now(UTC):%Y-%m-%d %H:%M:%S} UTC"
                   .encode(), 0)
-        yield
+        try:
+            yield
+        except BaseException:
+            if created:
+                _remove_if_only_lock(run_dir, path)
+            raise
     finally:
         os.close(fd)
+
+
+def _remove_if_only_lock(run_dir: Path, lock: Path) -> None:
+    """Remove `run_dir` if it holds nothing but its `lock` (still held, so no other process is inside)."""
+    try:
+        if [p.name for p in run_dir.iterdir()] == [lock.name]:
+            lock.unlink()
+            run_dir.rmdir()
+    except OSError:  # another process came in: the folder is theirs now
+        pass
 
 
 def config_dir(run_dir: Path) -> Path | None:

@@ -175,16 +175,25 @@ def run_benchmark(
     all_groups = validate(config, base)
     run_dir = Path(run_dir)
     with rundir.locked(run_dir):
-        rundir.prepare(run_dir, config, base)
+        # Objects are built (their meshes read) after the folder is checked and before run.json is written: a
+        # folder of another run is refused before minutes of building, and a broken mesh leaves no run.json
+        # (with that mesh's hash) that would refuse the corrected rerun.
+        rundir.check(run_dir, config, base)
+        _prebuild_objects(all_groups, jobs, progress)
+        meta = rundir.prepare(run_dir, config, base)
         settings = RecordSettings.for_run(run_dir, policy)
         problem = recording_problem(settings)
         if problem:
             print(f"manigrasp: {problem}; the trials run and are stored without recordings", file=sys.stderr)
             settings = None
-        _prebuild_objects(all_groups, jobs, progress)
         store, done = _open_store(run_dir)
         todo = {id(g): [i for i in range(g.n_grasps) if g.key(i).trial_id not in done] for g in all_groups}
         pending = [g for g in all_groups if todo[id(g)]]
+        # A resumed run that stores trials under other code says so, and run.json records it once the first is
+        # stored (the report warns of it); a resume that runs nothing (to export or record) mixes nothing.
+        other_code = rundir.code_changes(meta) if pending and meta.get("resumed") else []
+        if other_code:
+            rundir.warn_other_code(run_dir, other_code)
         total = sum(g.n_grasps for g in all_groups)
         already = total - sum(len(v) for v in todo.values())
         bar = _progress_bar(total, already, progress)
@@ -195,6 +204,8 @@ def run_benchmark(
                 if _add(store, key, result):
                     ran += 1
                     successes += result.success
+                    if other_code and ran == 1:
+                        rundir.record_other_code(run_dir, meta["resumed"][-1], other_code, ran)
                 if on_result is not None:
                     on_result(key, result)
                 # Set before the step that draws it; on a resumed run the bar counts the stored trials too, the
@@ -205,6 +216,8 @@ def run_benchmark(
         finally:
             bar.close()
             store.close()
+            if other_code and ran > 1:
+                rundir.record_other_code(run_dir, meta["resumed"][-1], other_code, ran)
         recorded = _record_stored(run_dir, policy, done, base) if settings is not None and done else None
     return RunSummary(run_dir, total, already, ran, successes, time.perf_counter() - start,
                       *((recorded.replays, recorded.skipped) if recorded else ()))

@@ -1,0 +1,90 @@
+"""A run directory refuses only what would mix two experiments: a run refused for a broken input leaves nothing
+that blocks the corrected rerun, two spellings of one shipped object are one run, and a re-run that stores no
+trial under other code records no mix of code versions."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import pytest
+import trimesh
+
+from manigrasp.bench import rundir
+from manigrasp.bench.config import parse_config
+from manigrasp.bench.markdown import warning_lines
+from manigrasp.bench.runner import run_benchmark
+from manigrasp.errors import ConfigError
+
+ONE = {"objects": ["004_sugar_box"], "planners": ["random"], "grasps_per_object": 1, "protocol": "lift"}
+
+
+def test_a_broken_mesh_leaves_no_run_folder_and_the_fixed_rerun_runs(tmp_path):
+    mesh = tmp_path / "text.obj"
+    mesh.write_text("# no triangles here\nv 0 0 0\n")
+    config = parse_config(dict(ONE, objects=[{"mesh": "text.obj", "name": "m_text"}]))
+    with pytest.raises(ConfigError, match="no triangles"):
+        run_benchmark(config, tmp_path / "run", progress=False, base=tmp_path)
+    assert not (tmp_path / "run").exists()
+    trimesh.creation.box((0.05, 0.05, 0.05)).export(mesh)
+    summary = run_benchmark(config, tmp_path / "run", progress=False, base=tmp_path, in_process=True)
+    assert summary.ran == 1 and (tmp_path / "run" / "run.json").exists()
+
+
+def test_a_run_of_another_config_is_refused_before_objects_are_built(tmp_path, monkeypatch):
+    from manigrasp.bench import runner
+
+    rundir.prepare(tmp_path / "run", parse_config(ONE))
+    monkeypatch.setattr(runner, "_prebuild_objects", lambda *a, **k: pytest.fail("built objects first"))
+    with pytest.raises(ConfigError, match="different config"):
+        run_benchmark(parse_config(dict(ONE, grasps_per_object=2)), tmp_path / "run", progress=False)
+
+
+def test_an_interrupted_run_still_resumes(tmp_path):
+    """A run killed after writing run.json and some trials runs only the rest when re-run."""
+    config = parse_config(dict(ONE, grasps_per_object=2))
+    run = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        run_benchmark(config, run, progress=False, in_process=True,
+                      on_result=lambda key, result: (_ for _ in ()).throw(KeyboardInterrupt))
+    summary = run_benchmark(config, run, progress=False, in_process=True)
+    assert (summary.already_done, summary.ran) == (1, 1)
+    assert len(rundir.read_meta(run)["resumed"]) == 1
+
+
+def test_a_shipped_objects_short_name_is_the_same_run(tmp_path):
+    run = tmp_path / "run"
+    rundir.prepare(run, parse_config(dict(ONE, objects=["mug"])))
+    assert rundir.read_meta(run)["config"]["objects"][0]["name"] == "025_mug"  # as the trial ids name it
+    rundir.prepare(run, parse_config(dict(ONE, objects=["025_mug"])))
+    with pytest.raises(ConfigError, match="different config"):
+        rundir.prepare(run, parse_config(dict(ONE, objects=["004_sugar_box"])))
+
+
+def test_a_run_json_with_an_unresolved_short_name_still_resumes(tmp_path):
+    """run.json written before names were resolved records "mug": it resumes under either spelling."""
+    run = tmp_path / "run"
+    rundir.prepare(run, parse_config(dict(ONE, objects=["025_mug"])))
+    meta = rundir.read_meta(run)
+    meta["config"]["objects"][0]["name"] = "mug"
+    (run / "run.json").write_text(json.dumps(meta))
+    rundir.prepare(run, parse_config(dict(ONE, objects=["025_mug"])))
+    rundir.prepare(run, parse_config(dict(ONE, objects=["mug"])))
+    with pytest.raises(ConfigError, match="different config"):
+        rundir.prepare(run, parse_config(dict(ONE, objects=["004_sugar_box"])))
+
+
+def test_rerunning_a_finished_run_under_other_code_records_no_mix(tmp_path):
+    config = parse_config(ONE)
+    run = tmp_path / "run"
+    run_benchmark(config, run, progress=False, in_process=True)
+    meta = json.loads((run / "run.json").read_text())
+    meta["versions"]["manigrasp"] = "0.0.1"
+    (run / "run.json").write_text(json.dumps(meta))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        summary = run_benchmark(config, run, progress=False, in_process=True)
+    assert summary.ran == 0
+    meta = rundir.read_meta(run)
+    assert "resumed_with_other_code" not in meta and len(meta["resumed"]) == 1
+    assert not any("other code" in line for line in warning_lines(meta))
