@@ -188,6 +188,24 @@ def test_planning_time_is_one_value_per_planning_call(tmp_path):
     assert "median planning call [s] (calls)" in text and "3.00 (2 calls)" in text
 
 
+def test_a_planning_call_that_timed_out_is_not_a_measured_time(tmp_path):
+    """Its trials store the budget (5 s) as their time: the column read "5.00 (1 call)" as if measured."""
+    from manigrasp.bench.report import PLANNING_TIME_HEADER, format_planning_time
+
+    key = lambda obj, i: TrialKey(obj, "parallel_jaw", "antipodal", "ground_truth", "standard", i)  # noqa: E731
+    late = [(key("048_hammer", i), TrialResult(Status.TIMEOUT, detail="planning took longer than 5 s",
+                                               plan_time_s=5.0)) for i in range(3)]
+    timed = [(key("025_mug", i), TrialResult(Status.SUCCESS, plan_time_s=0.5)) for i in range(3)]
+    report = summarize(late + timed)
+    groups = report.groups
+    hammer = groups[("parallel_jaw", "antipodal", "ground_truth", "standard", "048_hammer")]
+    assert format_planning_time(hammer) == "- (1 call timed out)" and hammer.planning_calls == 0
+    method = report.by_method[("parallel_jaw", "antipodal", "ground_truth", "standard")]
+    assert method.median_planning_time_s == 0.5 and format_planning_time(method) == "0.500 (1 call; 1 more timed out)"
+    text = write_markdown(report, late + timed, tmp_path, RUN_META).read_text()
+    assert PLANNING_TIME_HEADER in text and "5.00" not in text
+
+
 def test_planning_time_keeps_three_significant_digits():
     """A planner that takes 0.42 ms per call (the random planner) does not print as 0.000 s."""
     from manigrasp.bench.report import Rate, format_planning_time

@@ -399,7 +399,8 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
                  format_planning_time(r)] for m, r in report.by_method.items()]),
         "Planning time: the wall time of one planning call, which plans every candidate of one object (what "
         "`manigrasp plan` prints as `planning_time_s`; the exported table's `plan_time_s`, whose `planning_time_s` "
-        "is that call divided by its candidates); the median is over the calls.",
+        "is that call divided by its candidates); the median is over the calls. A call that ran out of its budget "
+        "has no time (its trials end `timeout`) and is counted apart (\"1 more timed out\").",
         *_protocols(report, results, meta),
         "## Per object",
         _table([*headers, "object", "trials", "successes", "rate [95% CI]", "failure modes"],

@@ -58,6 +58,8 @@ class Rate:
             time [s] (the ``planning_time_s`` that ``manigrasp plan`` prints: one call plans every candidate
             of an object x hand x planner x observation); NaN when no call was timed.
         planning_calls: how many planning calls that median is over.
+        planning_timeouts: planning calls that ran out of their budget, left out of that median (their trials
+            store the budget as their time, a bound and not a measurement: `planning_timed_out`).
     """
 
     trials: int
@@ -69,24 +71,36 @@ class Rate:
     median_planning_time_s: float = math.nan
     planning_calls: int = 0
     harness_faults: int = 0
+    planning_timeouts: int = 0
 
     @classmethod
-    def of(cls, results: list[TrialResult], plan_times: list[float] | None = None) -> Rate:
-        """The rate of a list of trial results; `plan_times`: one wall time per planning call [s]."""
+    def of(cls, results: list[TrialResult], plan_times: list[float] | None = None,
+           plan_timeouts: int | None = None) -> Rate:
+        """The rate of a list of trial results; `plan_times`: one wall time per planning call [s] (default: from
+        `results`, as of one group), `plan_timeouts`: the planning calls that timed out (default: as of one
+        group, 1 if any of `results` did)."""
         faults = sum(r.status is Status.HARNESS_FAULT for r in results)
         times = plan_times if plan_times is not None else planning_call_times(results)
+        timeouts = plan_timeouts if plan_timeouts is not None else int(any(map(planning_timed_out, results)))
         results = [r for r in results if r.status is not Status.HARNESS_FAULT]
         n = len(results)
         k = sum(r.success for r in results)
         low, high = wilson_interval(k, n)
         modes = Counter(_mode(r) for r in results if not r.success)
         return cls(n, k, k / n if n else math.nan, low, high, dict(sorted(modes.items())),
-                   float(np.median(times)) if times else math.nan, len(times), faults)
+                   float(np.median(times)) if times else math.nan, len(times), faults, timeouts)
+
+
+def planning_timed_out(result: TrialResult) -> bool:
+    """Whether the trial's planning call ran out of its budget (`timeout` in planning: the trial's
+    ``plan_time_s`` is the budget, not a measured time)."""
+    return result.status is Status.TIMEOUT and result.detail.startswith("planning")
 
 
 def planning_call_times(results: list[TrialResult]) -> list[float]:
-    """One wall time per planning call among the results of one group (trials of one call share it)."""
-    return sorted({r.plan_time_s for r in results if math.isfinite(r.plan_time_s)})
+    """One wall time per planning call among the results of one group (trials of one call share it); a call
+    that timed out is left out (its time is the budget: `planning_timed_out`)."""
+    return sorted({r.plan_time_s for r in results if math.isfinite(r.plan_time_s) and not planning_timed_out(r)})
 
 
 def _mode(result: TrialResult) -> str:
@@ -265,14 +279,17 @@ def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
         by_group[(*method, key.object)].append(result)
         by_method[method].append(result)
     plan_times = {k: planning_call_times(v) for k, v in by_group.items()}
+    timed_out = {k: int(any(map(planning_timed_out, v))) for k, v in by_group.items()}  # one call per group
     method_times: dict[Method, list[float]] = defaultdict(list)
+    method_timeouts: dict[Method, int] = defaultdict(int)
     for group, times in sorted(plan_times.items()):
         method_times[group[:4]] += times
+        method_timeouts[group[:4]] += timed_out[group]
     every = [r for _, r in results]
     return Report(
-        overall=Rate.of(every, [t for times in method_times.values() for t in times]),
-        by_method={k: Rate.of(v, method_times[k]) for k, v in sorted(by_method.items())},
-        groups={k: Rate.of(v, plan_times[k]) for k, v in sorted(by_group.items())},
+        overall=Rate.of(every, [t for times in method_times.values() for t in times], sum(timed_out.values())),
+        by_method={k: Rate.of(v, method_times[k], method_timeouts[k]) for k, v in sorted(by_method.items())},
+        groups={k: Rate.of(v, plan_times[k], timed_out[k]) for k, v in sorted(by_group.items())},
         auc={k: metric_aucs(v) for k, v in sorted(by_method.items())},
         auc_pooled=metric_aucs(every),
         pose_errors=pose_errors(by_group),
@@ -336,9 +353,13 @@ PLANNING_TIME_HEADER = "median planning call [s] (calls)"
 
 def format_planning_time(rate: Rate) -> str:
     """"0.412 (5 calls)", or "-" when no planning call was timed: three significant digits (whole seconds from
-    100 s), so a call of 0.42 ms reads 0.000420, not 0.000."""
+    100 s), so a call of 0.42 ms reads 0.000420, not 0.000; calls that ran out of their budget are not timed and
+    are said: "0.412 (5 calls; 1 more timed out)", "- (1 call timed out)"."""
+    out = f"{rate.planning_timeouts} more timed out" if rate.planning_calls else \
+        f"{rate.planning_timeouts} call{'s' * (rate.planning_timeouts != 1)} timed out"
     if not rate.planning_calls:
-        return "-"
+        return f"- ({out})" if rate.planning_timeouts else "-"
     seconds = rate.median_planning_time_s
     text = f"{seconds:.0f}" if abs(seconds) >= 100 else f"{seconds:#.3g}"
-    return f"{text} ({rate.planning_calls} call{'s' * (rate.planning_calls != 1)})"
+    calls = f"{rate.planning_calls} call{'s' * (rate.planning_calls != 1)}"
+    return f"{text} ({calls}; {out})" if rate.planning_timeouts else f"{text} ({calls})"
