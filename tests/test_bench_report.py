@@ -374,6 +374,8 @@ def test_an_interrupted_run_says_so_and_what_is_missing(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "WARNING: incomplete run: 47 of the 80 trials of its config are stored" in out
     assert "over the stored trials only" in out
+    # First, as report.md has it (it came after the tables), and counted again after them.
+    assert out.index("WARNING: incomplete run") < out.index("025_mug") < out.index("WARNING: 1 warning(s) printed")
     text = (run / "report.md").read_text()
     assert "**Warning: incomplete run: 47 of the 80 trials" in text and "(7 of 20)" in text
     assert main(["report", str(run), "--json"]) == 0

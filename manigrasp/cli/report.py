@@ -84,11 +84,14 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
         print_json({"run": run, "completeness": {**asdict(done), "complete": done.complete}, **report.to_json(),
                     **({"left_out": [asdict(p) for p in pairs]} if pairs else {})})
         return 0
+    warnings = warning_lines(meta, done, report)
+    for line in warnings:  # first, as report.md puts them: before any figure is read
+        print(f"WARNING: {line}")
     _print_tables(report, meta)
     for pair in left_out_of(meta):
         print(f"left out by the config: {pair.hand} x {pair.object} ({pair.reason})")
-    for line in warning_lines(meta, done, report):
-        print(f"WARNING: {line}")
+    if warnings:  # the tables may have scrolled them away
+        print(f"WARNING: {len(warnings)} warning(s) printed before the tables")
     target = Path(out_dir) if out_dir is not None else Path(run_dir)
     if out_dir is None and not os.access(target, os.W_OK):
         print(f"manigrasp: note: {run_dir} is read-only: report.md and plots not written (give --out DIR)",
