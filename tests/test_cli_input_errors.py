@@ -42,3 +42,19 @@ def test_a_camera_that_cannot_see_is_a_config_error(fields):
     """perceive --camera 30,45,-1 put the camera behind its target and reported 'object not in view'."""
     with pytest.raises(ConfigError, match="camera:"):
         CameraConfig(**fields)
+
+
+def test_plan_json_holds_a_dexterous_grasps_preshape_and_hand_path():
+    """`plan --json` left out the pre-shape and the planner's own hand path: a dexopt grasp could not be run
+    again from it."""
+    import json
+
+    import numpy as np
+
+    from manigrasp.cli.plan import candidate_record
+    from manigrasp.planners.base import GraspCandidate
+
+    path = np.array([[0.0, 0.1, 0.2], [0.5, 0.6, 0.7]])
+    record = json.loads(json.dumps(candidate_record(GraspCandidate(np.eye(4), 1.0, preshape=0.25, joints=path))))
+    assert record["preshape"] == 0.25 and record["joints"] == path.tolist()
+    assert "joints" not in candidate_record(GraspCandidate(np.eye(4), 1.0))  # the hand's own path: none given

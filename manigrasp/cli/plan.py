@@ -56,10 +56,15 @@ def _finite(value: float | None) -> float | None:
 
 
 def candidate_record(c: GraspCandidate) -> dict[str, Any]:
-    """The JSON record of one candidate (lengths in m)."""
-    return {"pose": c.pose.tolist(), "width_m": _finite(c.width), "score": c.score,
-            "epsilon_l1": _finite(c.epsilon_l1), "force_closure": c.force_closure,
-            "min_friction": _finite(c.min_friction), "contacts": c.contacts.tolist()}
+    """The JSON record of one candidate (lengths in m): with a dexterous hand's pre-shape synergy and, when the
+    planner gives one, its own hand path (``joints``: pre-shape and squeeze actuator commands), so the record
+    holds everything `manigrasp evaluate` needs to run the grasp again."""
+    record = {"pose": c.pose.tolist(), "width_m": _finite(c.width), "score": c.score,
+              "epsilon_l1": _finite(c.epsilon_l1), "force_closure": c.force_closure,
+              "min_friction": _finite(c.min_friction), "contacts": c.contacts.tolist(), "preshape": c.preshape}
+    if c.joints is not None:
+        record["joints"] = np.asarray(c.joints, float).tolist()
+    return record
 
 
 def _row(rank: int, c: GraspCandidate) -> list[str]:
