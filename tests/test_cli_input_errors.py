@@ -58,3 +58,15 @@ def test_plan_json_holds_a_dexterous_grasps_preshape_and_hand_path():
     record = json.loads(json.dumps(candidate_record(GraspCandidate(np.eye(4), 1.0, preshape=0.25, joints=path))))
     assert record["preshape"] == 0.25 and record["joints"] == path.tolist()
     assert "joints" not in candidate_record(GraspCandidate(np.eye(4), 1.0))  # the hand's own path: none given
+
+
+def test_a_planner_paired_with_a_hand_it_cannot_plan_for_is_told_before_the_trials(capsys):
+    """antipodal x inspire_right ran to planner_error trials without a word before them."""
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.runner import validate
+
+    validate(parse_config({"objects": ["mug"], "hands": ["parallel_jaw", "inspire_right"],
+                           "planners": ["antipodal", "power"]}))
+    err = capsys.readouterr().err
+    assert "planner 'antipodal' plans for parallel hands only: its trials with inspire_right (dexterous)" in err
+    assert "'power'" not in err and "parallel_jaw (" not in err

@@ -81,19 +81,31 @@ def validate(config: BenchConfig, base: Path | None = None) -> list[Group]:
     from manigrasp.protocol import PROTOCOLS
 
     found = groups(config, base)
+    kinds = {}
     for hand in config.hands:
         _check_kind(hand, "hand")
-        _built(f"hand {hand!r}", hands.load, hand)
+        kinds[hand] = _built(f"hand {hand!r}", hands.load, hand).kind
     for planner in config.planners:
         try:
-            planners.load(planner.name, **dict(planner.params))
+            made = planners.load(planner.name, **dict(planner.params))
         except PlannerError as exc:
             if "building it raised" not in str(exc):  # a planner whose constructor raises is its trials' status
                 raise
+            continue
+        _note_hand_kinds(planner.name, getattr(made, "hand_kinds", None), kinds)
     for protocol in config.protocol_entries:
         _check_kind(protocol.name, "protocol")
         _built(f"protocol {protocol.name!r}", PROTOCOLS.load, protocol.name, **dict(protocol.params))
     return found
+
+
+def _note_hand_kinds(planner: str, planned: tuple[str, ...] | None, kinds: dict[str, str]) -> None:
+    """Tell, before any trial, which hands of the run a planner cannot plan for (its `hand_kinds`): their
+    trials are run and recorded as `planner_error` (a config may mix hand kinds on purpose, so this is a note)."""
+    other = [f"{hand} ({kind})" for hand, kind in kinds.items() if planned and kind not in planned]
+    if other:
+        print(f"manigrasp: note: planner {planner!r} plans for {' and '.join(planned)} hands only: its trials with "
+              f"{', '.join(other)} will end planner_error", file=sys.stderr)
 
 
 def _built(what: str, load: Callable, *args: object, **params: object) -> object:

@@ -213,6 +213,7 @@ class AntipodalPlanner:
 
     name: ClassVar[str] = "antipodal"
     needs: ClassVar[tuple[ObservationKind, ...]] = ("mesh", "points")
+    hand_kinds: ClassVar[tuple[str, ...]] = ("parallel",)
 
     n_samples: int = 2048
     rays_per_sample: int = 1

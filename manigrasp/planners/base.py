@@ -241,6 +241,9 @@ class Planner(Protocol):
 
     name: str
     needs: ObservationKind | tuple[ObservationKind, ...]
+    # Optional: the `Hand.kind`s it plans for (absent: any); a run pairing it with another kind is told before
+    # its trials run (they end `planner_error`, `bench.runner.validate`).
+    # hand_kinds: tuple[str, ...]
 
     def plan(self, observation: Observation, hand: Hand, n: int,
              rng: np.random.Generator) -> Sequence[GraspCandidate]:

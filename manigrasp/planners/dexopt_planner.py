@@ -333,6 +333,7 @@ class DexOptPlanner:
 
     name: ClassVar[str] = "dexopt"
     needs: ClassVar[ObservationKind] = "mesh"
+    hand_kinds: ClassVar[tuple[str, ...]] = ("dexterous",)
 
     restarts: int = 80
     iterations: int = 300
