@@ -23,8 +23,9 @@ With --run RUN_DIR --config CONFIG (a `manigrasp bench` run of dexopt and its co
 again exactly as the run planned it (same seed, protocol context, planner parameters; the same code must be
 checked out), every candidate that passed the checks is kept, the run's trials are matched to them by TCP
 position, and the hold margin of each trial's grasp is printed with its outcome, with the rotation the grasp's
-stiffness predicts under the loads (`Synthesis.rotation`); then per hand the successes of the trials whose grasp
-passes the load test (margin >= the planner's `min_hold_margin`) and of those that do not. `--set KEY=VALUE ...`
+stiffness predicts under the loads (`Synthesis.rotation`); then per hand and protocol the successes of the trials
+whose grasp passes the load test (margin >= the planner's `min_hold_margin`) and of those that do not, and the
+successes per margin bin (`MARGIN_BINS`: what margin a hand's grasps need to hold). `--set KEY=VALUE ...`
 re-plans with those planner parameters changed (a what-if on the same trials; a grasp the changed checks reject
 is reported as not planned).
 
@@ -147,6 +148,9 @@ def planning_inputs(g) -> tuple:
     return scene, context, observation
 
 
+MARGIN_BINS = (0.0, 1.0, 1.5, 2.0, 3.0, np.inf)  # --run: successes per bin of the planned hold margin
+
+
 def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> None:
     """Hold margin of each dexopt trial's grasp in a stored run against its outcome (module docstring);
     `override`: planner parameters replaced in the re-planning (a what-if: the margins the trials' grasps would
@@ -160,7 +164,8 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
     keep_all = lambda poses, distance, angle: np.arange(len(poses))  # noqa: E731
     dexopt_planner.suppress = keep_all  # every candidate that passed the checks, to match the run's against
     db = sqlite3.connect(f"{run_dir}/results.sqlite")
-    tally: dict[str, list[int]] = {}
+    tally: dict[tuple[str, str], list[int]] = {}
+    binned: dict[tuple[str, str], np.ndarray] = {}  # successes and trials per MARGIN_BINS bin
     for g in groups(load_config(resolve_config(config))):
         if g.planner.name != "dexopt":
             continue
@@ -170,9 +175,11 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
         if not found:
             continue
         position = np.array([s.pose[:3, 3] for s in found])
+        # This group's protocol only: a run of several protocols stores each grasp once per protocol (the tally
+        # counted every trial once per protocol group before).
         rows = db.execute("select grasp_index, status, grasp_x_m, grasp_y_m, grasp_z_m from trials where object=? "
-                          "and hand=? and planner=? and grasp_x_m is not null order by grasp_index",
-                          (g.object_source.name, g.hand, g.planner_label)).fetchall()
+                          "and hand=? and planner=? and protocol=? and grasp_x_m is not null order by grasp_index",
+                          (g.object_source.name, g.hand, g.planner_label, g.protocol.name)).fetchall()
         for index, status, *xyz in rows:
             gap = np.linalg.norm(position - np.asarray(xyz, float), axis=1)
             j = int(np.argmin(gap))
@@ -180,13 +187,20 @@ def hold_vs_outcome(run_dir: str, config: str, override: dict | None = None) -> 
                 print(f"{g.hand} {g.object_source.name} {index}: no planned grasp at the trial's pose (other code?)")
                 continue
             hold = found[j].hold
-            print(f"{g.hand:<14} {g.object_source.name:<20} {index:>2} {status:<16} hold {hold:6.2f} rotation "
-                  f"{np.degrees(found[j].rotation):7.2f} deg", flush=True)
-            t = tally.setdefault(g.hand, [0, 0, 0, 0])
+            print(f"{g.hand:<14} {g.protocol.name:<13} {g.object_source.name:<20} {index:>2} {status:<16} hold "
+                  f"{hold:6.2f} rotation {np.degrees(found[j].rotation):7.2f} deg", flush=True)
+            t = tally.setdefault((g.hand, g.protocol.name), [0, 0, 0, 0])
             t[0 if hold >= planner.min_hold_margin else 2] += status == "success"
             t[1 if hold >= planner.min_hold_margin else 3] += 1
-    for hand, (s1, n1, s0, n0) in tally.items():
-        print(f"{hand}: passing the load test {s1}/{n1} succeeded, failing it {s0}/{n0}")
+            b = binned.setdefault((g.hand, g.protocol.name), np.zeros((2, len(MARGIN_BINS) - 1), int))
+            k = int(np.clip(np.searchsorted(MARGIN_BINS, hold, side="right") - 1, 0, len(MARGIN_BINS) - 2))
+            b[:, k] += (status == "success", 1)
+    for (hand, protocol), (s1, n1, s0, n0) in tally.items():
+        print(f"{hand} {protocol}: passing the load test {s1}/{n1} succeeded, failing it {s0}/{n0}")
+    labels = [f"[{lo:g}, {hi:g})" for lo, hi in zip(MARGIN_BINS[:-1], MARGIN_BINS[1:], strict=True)]
+    print("successes / trials by the grasp's hold margin: " + ", ".join(labels))
+    for (hand, protocol), (ok, n) in binned.items():
+        print(f"  {hand:<14} {protocol:<13} " + "  ".join(f"{a:>2}/{b:<2}" for a, b in zip(ok, n, strict=True)))
 
 
 def closes(config: str, only: list[str], override: dict | None = None, per_candidate: bool = False) -> None:
