@@ -40,7 +40,8 @@ the check as configured, how many closes grip, and how many end at a simulated e
 With --closes --per-candidate, also per group the restarts each check rejected (`last["rejected"]`) and those whose
 fingers were opened out of the object (`last["retracted"]`), then one line per candidate in the planner's order: its
 energy and unweighted terms (`Synthesis.terms`), hold margin, pads in contact, the simulated close's status, epsilon
-and whether it passed, the friction the planned squeeze uses and the close's; last, each term's Spearman correlation
+and whether it passed, the friction the planned squeeze uses and the close's, how far the close moved the object
+(`CloseResult.pushed`, also when the close failed: a light object knocked away); last, each term's Spearman correlation
 with the simulated epsilon (which of the energy's terms rank well-closing grasps first).
 
 With --spheres HAND ...: along each hand's open -> closed path (21 points), the deepest penetration between the real
@@ -237,12 +238,12 @@ def candidate_lines(planner: DexOptPlanner, found: list) -> None:
     print(f"  rejected {planner.last.get('rejected')}, retracted {planner.last.get('retracted')}")
     keys = sorted(found[0].terms)
     print("  rank  energy " + " ".join(f"{k[:8]:>8}" for k in keys)
-          + "   hold pads status     eps pass used close-used")
+          + "   hold pads status     eps pass used close-used pushed-mm")
     for i, s in enumerate(found):
         c = s.close
         print(f"  {i:4d} {s.energy:7.3f} " + " ".join(f"{s.terms[k]:8.4f}" for k in keys)
               + f" {s.hold:6.2f} {len(s.contacts):4d} {c.status or 'gripped':<10} {c.epsilon:5.3f} {int(c.passed):4d}"
-              + f" {s.friction_used:4.2f} {c.friction_used:10.2f}")
+              + f" {s.friction_used:4.2f} {c.friction_used:10.2f} {1000 * c.pushed:9.1f}")
     eps = np.array([s.close.epsilon for s in found])
     for k in keys + ["energy", "hold"]:
         v = np.array([s.terms[k] if k in s.terms else getattr(s, k) for s in found])

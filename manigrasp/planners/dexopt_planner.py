@@ -772,7 +772,7 @@ class CloseResult:
     Attributes:
         status: "" if the close ended gripping the object, else the protocol's failure status (`no_contact`,
             `unstable`).
-        pushed: [m] how far the close moved the object's centre of mass on the table.
+        pushed: [m] how far the close moved the object's centre of mass on the table (also of a failed close).
         gap: [m] the largest distance of a planned finger's contacts (normal-force-weighted centre) from its
             planned pad (fingers that do not touch are left out: the load test sees them missing).
         thumb_on_pad: share of the thumb's normal force on its planned pads' links [-] (1 without a thumb force).
@@ -855,8 +855,9 @@ class CloseSimulation:
             phases.close(run, 0.0, metrics=False)
             p = run.params  # the trials' simulated metrics (`phases.close`), before the hold is released
             epsilon = simulated_metrics(scene, run.torque_scale, p.metric_edges, p.metric_friction_tol).epsilon_l1
-        except Abort as abort:
-            return CloseResult(status=abort.status.value)
+        except Abort as abort:  # how far the failed close moved the object (knocked away, or not)
+            moved = float(np.linalg.norm(scene.data.xipos[scene.object_body] - start))
+            return CloseResult(status=abort.status.value, pushed=moved)
         finally:
             phases.release_hold(run)
             scene.set_hand_path()
