@@ -249,6 +249,29 @@ def test_squeeze_caps_put_the_protocols_grip_on_the_weaker_side_and_pad_forces_b
     assert np.all(forces >= 0) and forces @ [1.0, 2.0] == pytest.approx(4.0)
 
 
+def test_the_palm_pushes_back_what_the_fingers_press_into_it_and_the_load_test_credits_it() -> None:
+    """A palm pad has no joint, so the squeeze's pad forces gave it nothing, and the caps held the fingers to the
+    thumb's force: a wrap that presses the fingers' 23 N into the Allegro's palm read as a 9 N fingertip grasp."""
+    from manigrasp.planners.dexopt_planner import palm_reaction, squeeze_caps
+
+    # Thumb (+y push, 4 N) and two fingers (-y, 3 N each) press a box; the palm faces +x and takes nothing of
+    # a push along y. A finger pushing along -x (5 N) is pushed back by the palm with its 5 N.
+    normals = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    press = palm_reaction(np.array([4.0, 3.0, 3.0, 5.0, 0.0]), normals, np.array([0, 0, 0, 0, 1], bool))
+    np.testing.assert_allclose(press, [4.0, 3.0, 3.0, 5.0, 5.0])
+    thumb, palm = np.array([1, 0, 0, 0, 0], bool), np.array([0, 0, 0, 0, 1], bool)
+    # The grip loop stops when the smaller side (the thumb's 4 N) reaches the grip: at 2 N everything halves;
+    # at 10 N (more than the thumb can) the hand squeezes at its limits and the palm keeps its 5 N.
+    np.testing.assert_allclose(squeeze_caps(press, thumb, 2.0, palm), press / 2)
+    np.testing.assert_allclose(squeeze_caps(press, thumb, 10.0, palm), press)
+    # Without the palm's reaction the old rule holds: each side's total is the grip.
+    np.testing.assert_allclose(squeeze_caps(press[:4], thumb[:4], 10.0, palm[:4]), [10.0, 30 / 11, 30 / 11, 50 / 11])
+    # A palm facing away from the fingers' push takes nothing (nonnegative).
+    away = palm_reaction(np.array([0.0, 0.0, 0.0, 5.0, 0.0]), normals * [[1], [1], [1], [1], [-1]],
+                         np.array([0, 0, 0, 0, 1], bool))
+    assert away[-1] == 0.0
+
+
 def test_the_hold_test_assumes_the_scenes_contact_friction_unless_the_planner_sets_its_own(tmp_path) -> None:
     """The same grasps (same seed): their hold margins at the rubber's 1.0 exceed those at 0.5 (friction
     carries the weight), 0.5 is what a context without a friction gives, and an explicit `friction` wins."""

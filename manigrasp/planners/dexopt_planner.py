@@ -294,7 +294,10 @@ class DexOptPlanner:
         table_clearance: [m] the hand's samples are penalised below the table top + this.
         init_closure: largest fraction of the open -> closed pre-shape of the initial fingers [-].
         max_approach_z: largest z component of the initial approach direction (0: horizontal or from above).
-        palm: the palm's front is one more contact of the energy (a power grasp), besides one pad per finger.
+        palm: the palm's front is one more contact of the energy (a power grasp), besides one pad per finger;
+            the load test credits it with what the fingers press the object into it (`palm_reaction`,
+            `squeeze_caps`; before, it was credited nothing: Allegro, `palm` and `wrap`, sugar box and mustard
+            bottle x 10, standard 10 N, seed 0: 6 -> 8/20, against 3/20 for the fingertip default).
         wrap: every moving finger link is a contact of its own (the fingers wrap), not only the fingertips.
         close_only: the squeeze moves each actuator only along the hand's own closing direction (open ->
             closed command); an actuator whose best force would open it stays put. On (the default): on the
@@ -661,7 +664,8 @@ class DexOptPlanner:
                 rejected["preshape"] = rejected.get("preshape", 0) + 1
                 continue
             joints, press, opened, torque = path
-            caps = squeeze_caps(press[touching], hk.pad_finger[chosen][touching] == 0, grip)
+            caps = squeeze_caps(press[touching], hk.pad_finger[chosen][touching] == 0, grip,
+                                hk.body_finger[hk.contacts.bodies[chosen][touching]] < 0)
             hold = hold_margin(x[touching], normal[touching], caps, observation.center_of_mass, external,
                                mu, self.torsion)
             jac = pad_jacobians(x, hk._slot[hk.contacts.bodies[chosen]], jp[0], jr[0], xpos[0])
@@ -760,7 +764,11 @@ class DexOptPlanner:
             if all(_probe_contacts(probe, pose, hand_q)[0] <= self.max_penetration
                    for pose in _approach_poses(tcp, offset)):
                 torque = a.T @ force
-                return np.stack([pre, squeeze]), pad_forces(rows, torque), attempt >= PRESHAPE_TRIES, torque
+                press = pad_forces(rows, torque)
+                rigid = np.abs(rows).sum(axis=1) < 1e-12  # pads no joint moves: the palm's (`palm`)
+                if rigid.any():  # in newtons (the most loaded actuator at its limit), with the palm's reaction
+                    press = palm_reaction(pad_forces(rows, torque / load), normal, rigid)
+                return np.stack([pre, squeeze]), press, attempt >= PRESHAPE_TRIES, torque
         return None
 
 
@@ -926,16 +934,41 @@ def pad_forces(rows: np.ndarray, torque: np.ndarray) -> np.ndarray:
     return nnls(np.asarray(rows, float).T, np.asarray(torque, float))[0]
 
 
-def squeeze_caps(press: np.ndarray, thumb: np.ndarray, grip: float) -> np.ndarray:
+def palm_reaction(press: np.ndarray, normals: np.ndarray, rigid: np.ndarray) -> np.ndarray:
+    """`press` (k,) [N] with the `rigid` pads' (the palm's, which no joint moves: `pad_forces` gives them
+    nothing) normal forces set to what balances the others' net push on the object, sum_i press_i n_i, as far as
+    their inward `normals` (k, 3) can (nonnegative least squares): the palm pushes back what the fingers press
+    the object into it."""
+    from scipy.optimize import nnls
+
+    out = np.asarray(press, float).copy()
+    rigid = np.asarray(rigid, bool)
+    if rigid.any() and (~rigid).any():
+        net = out[~rigid] @ np.asarray(normals, float)[~rigid]
+        out[rigid] = nnls(np.asarray(normals, float)[rigid].T, -net)[0]
+    return out
+
+
+def squeeze_caps(press: np.ndarray, thumb: np.ndarray, grip: float, palm: np.ndarray | None = None) -> np.ndarray:
     """(k,) the largest normal force [N] of each contact at the protocol's squeeze: the pads' relative forces
     `press` (k,) scaled, the `thumb` (k,) contacts and the others each on their own, so that each side's total
     is `grip` [N], the grip force the protocol regulates (`manigrasp.sim.grip_force`: the smaller of the two
     sides' totals). The stronger side is not credited with more: it presses only as hard as the weaker side
     pushes back. (Scaling both sides by the weaker one's factor gave the Allegro's grasps caps summing to 44 N
     (median) where the simulation presses 21 N at its 9 N grip, and passed grasps that then dropped in the
-    perturbations; benchmarks/diagnose_dexterous.py.)"""
+    perturbations; benchmarks/diagnose_dexterous.py.) With `palm` (k,) contacts that press (the palm's reaction,
+    `palm_reaction`), the palm takes up the difference instead (below)."""
     press = np.clip(np.asarray(press, float), 0.0, None)
     thumb = np.asarray(thumb, bool)
+    if palm is not None and np.any(np.asarray(palm, bool) & (press > 0)):
+        # With the palm pushing back (`palm_reaction`, `press` then in newtons at the actuators' limits) the
+        # fingers are not held to what the thumb opposes: the squeeze scaled down only as far as the grip loop
+        # stops it, when the smaller of the thumb's and the rest's totals reaches `grip` (a hand whose thumb
+        # cannot reach it, the Allegro's 9 N at a 10 N grip, squeezes at its limits; so does a grasp without the
+        # thumb, whose grip reads 0).
+        rest = press[~thumb].sum()
+        weaker = min(press[thumb].sum(), rest) if thumb.any() else rest
+        return press * min(1.0, grip / weaker) if weaker > 0 else press
     out = np.zeros_like(press)
     for side in (thumb, ~thumb):
         total = press[side].sum()
