@@ -104,7 +104,7 @@ def shipped_names(recorded: dict) -> dict:
         name = entry.get("name") if isinstance(entry, dict) else None
         if isinstance(name, str) and not entry.get("mesh") and not entry.get("ycb"):
             try:
-                entry = {**entry, "name": catalog.shipped(name).name}
+                entry = {**entry, "name": catalog.full_name(name)}
             except (ManigraspError, OSError):
                 pass
         out.append(entry)

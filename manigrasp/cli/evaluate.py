@@ -130,19 +130,13 @@ def _other_object(args: argparse.Namespace, grasps, entry: dict) -> bool:
     "025_mug"), or another object with --any-object (refused without it: the grasps' poses are in the frame
     of the object the file names). Grasps in the mesh's frame are not checked (as by the planner)."""
     from manigrasp.errors import ConfigError
+    from manigrasp.objects import catalog
 
     named = grasps.object.name
-    built = entry["name"] if "mesh" in entry else _canonical(entry["name"])
+    built = entry["name"] if "mesh" in entry else catalog.full_name(entry["name"])
     if not named or named == built or grasps.frame != "object":
         return False
-    if not args.any_object and _canonical(named) != built:
+    if not args.any_object and catalog.full_name(named) != built:
         raise ConfigError(f"{args.grasps} holds grasps of object {named!r}, not {entry['name']!r}: their poses are "
                           f"in the frame of {named!r} (--any-object runs them on {entry['name']!r} anyway)")
     return True
-
-
-def _canonical(name: str) -> str:
-    """A shipped object's full name ("025_mug" for "mug"), else `name`."""
-    from manigrasp.objects import catalog
-
-    return catalog.shipped(name).name if catalog.is_shipped_name(name) else name

@@ -85,6 +85,12 @@ class ObjectSource:
                               "of its own (--name / name:)")
 
 
+def full_name(name: str) -> str:
+    """A shipped object's full name ("025_mug" for "mug", as it is built and named in trial ids), else `name` as
+    it is (a user mesh's name, or a name not shipped here)."""
+    return shipped(name).name if is_shipped_name(name) else name
+
+
 def shipped(name: str) -> ObjectSource:
     """The source of a shipped object: a recipe ("025_mug" or "mug") or a real scan
     ("003_cracker_box_scan", a mesh in assets/scans/ with its YCB mass)."""

@@ -97,11 +97,13 @@ class FilePlanner:
     def plan(self, observation: Observation, hand: Hand, n: int,
              rng: np.random.Generator) -> Sequence[GraspCandidate]:
         """The `n` best grasps of the file on `observation`'s object pose (`rng` is not used)."""
+        from manigrasp.objects import catalog  # a file may name a shipped object by its short name ("mug")
+
         asset = observation.asset
         object_name = asset.name if asset is not None else None
         grasps = load_grasps(grasp_file_for(self.path, object_name, hand.name))
         if self.check_object and object_name and grasps.object.name \
-                and _full_name(grasps.object.name) != object_name and grasps.frame == "object":
+                and catalog.full_name(grasps.object.name) != object_name and grasps.frame == "object":
             raise PlannerError(f"file planner: {grasps.source} holds grasps of object {grasps.object.name!r}, "
                                f"not {object_name!r} (planner param check_object: false runs them anyway)")
         base = observation.object_pose @ mesh_to_object(grasps, asset)
@@ -144,10 +146,3 @@ def mesh_to_object(grasps: GraspSet, asset: object | None) -> np.ndarray:
                            f"object {asset.name!r} was built at scale {scale:g}")
     return translation(-np.asarray(metadata["com_offset_m"], float))
 
-
-def _full_name(name: str) -> str:
-    """A shipped object's full name ("025_mug" for a file naming "mug": the object is built as "025_mug"), else
-    `name` as it is."""
-    from manigrasp.objects import catalog
-
-    return catalog.shipped(name).name if catalog.is_shipped_name(name) else name
