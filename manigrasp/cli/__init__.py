@@ -33,6 +33,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def check_jobs(jobs: int) -> None:
+    """Refuse a `--jobs` below 1 (bench, evaluate, label, objects build), one line, before any work."""
+    from manigrasp.errors import ConfigError
+
+    if jobs < 1:
+        raise ConfigError(f"--jobs must be >= 1, got {jobs}")
+
+
 def _one_line_warning(message: Warning | str, category: type[Warning], *_: object, **__: object) -> str:
     """A warning as the CLI prints it: one line, no source location."""
     return f"manigrasp: warning: {message}\n"

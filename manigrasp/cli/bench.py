@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from manigrasp.cli import check_jobs
 from manigrasp.errors import ConfigError
 
 
@@ -87,8 +88,7 @@ def _bench(args: argparse.Namespace) -> int:
 
     path = resolve_config(args.config)
     config = load_config(path, args.overrides)
-    if args.jobs < 1:
-        raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
+    check_jobs(args.jobs)
     from manigrasp.bench import extras
 
     extras.check(config, args.executor, args.export)  # an extra the run needs: one line before any trial

@@ -57,12 +57,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def _evaluate(args: argparse.Namespace) -> int:
     from manigrasp.bench import runner
     from manigrasp.bench.config import MAX_GRASPS_PER_OBJECT, parse_config
-    from manigrasp.cli import report
+    from manigrasp.cli import check_jobs, report
     from manigrasp.errors import ConfigError
     from manigrasp.graspsets import read
 
-    if args.jobs < 1:
-        raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
+    check_jobs(args.jobs)
     grasps = read(args.grasps)
     # Every grasp of the file is one trial (grasps_per_object = the file's count): an empty file has nothing
     # to run (not one made-up trial), and the config's bound on trials per object is the file's grasp count.

@@ -37,14 +37,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def _label(args: argparse.Namespace) -> int:
     from manigrasp.bench.config import load_config
     from manigrasp.bench.label import label
+    from manigrasp.cli import check_jobs
     from manigrasp.cli.bench import resolve_config
     from manigrasp.cli.output import format_table
-    from manigrasp.errors import ConfigError
 
     path = resolve_config(args.config)
     config = load_config(path, args.overrides)
-    if args.jobs < 1:  # as bench and evaluate refuse it
-        raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
+    check_jobs(args.jobs)
     summary = label(config, args.out, jobs=args.jobs, executor=args.executor, address=args.address,
                     base=path.parent, progress=not args.quiet, native_suffix=".npz" if args.npz else ".json")
     rows = [(name, f"{ok}/{n}", f"{ok / n:.1%}" if n else "-")

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from manigrasp.cli import check_jobs
 from manigrasp.cli.output import format_table, print_json
 from manigrasp.errors import ConfigError
 from manigrasp.objects import catalog, recipes, scans
@@ -166,8 +167,7 @@ def _build(args: argparse.Namespace) -> int:
         else:
             bar.write(catalog.summary(outcome))
 
-    if args.jobs < 1:  # as bench and evaluate refuse it
-        raise ConfigError(f"--jobs must be >= 1, got {args.jobs}")
+    check_jobs(args.jobs)
     outcomes = catalog.build_many(sources, jobs=args.jobs, on_done=done)
     bar.close()
     failed = [o for o in outcomes if o.error]
