@@ -730,7 +730,8 @@ class DexOptPlanner:
                   xpos: np.ndarray, addresses: dict[str, int], offset: float = PREGRASP_OFFSET
                   ) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray] | None:
         """(2, n_act) pre-shape and squeeze commands (module docstring, step 5), the normal forces (k,) the
-        squeeze presses the pads with (relative), whether the pre-shape is one of the `OPEN_TRIES` and the
+        squeeze presses the pads with (relative; with a palm pad, in newtons with the palm's reaction,
+        `palm_reaction`), whether the pre-shape is one of the `OPEN_TRIES` and the
         squeeze's joint torques (n_q,) (relative, A^T f); or None if
         no pre-shape of the `PRESHAPE_TRIES` back-offs and the `OPEN_TRIES` toward the open hand is collision-free
         along the approach."""
@@ -764,10 +765,10 @@ class DexOptPlanner:
             if all(_probe_contacts(probe, pose, hand_q)[0] <= self.max_penetration
                    for pose in _approach_poses(tcp, offset)):
                 torque = a.T @ force
-                press = pad_forces(rows, torque)
-                rigid = np.abs(rows).sum(axis=1) < 1e-12  # pads no joint moves: the palm's (`palm`)
-                if rigid.any():  # in newtons (the most loaded actuator at its limit), with the palm's reaction
-                    press = palm_reaction(pad_forces(rows, torque / load), normal, rigid)
+                palm = hk.body_finger[bodies] < 0  # the palm's pads (`palm`), which no joint moves
+                # With the palm: in newtons (the most loaded actuator at its limit), with the palm's reaction.
+                press = palm_reaction(pad_forces(rows, torque / load), normal, palm) if palm.any() \
+                    else pad_forces(rows, torque)
                 return np.stack([pre, squeeze]), press, attempt >= PRESHAPE_TRIES, torque
         return None
 
