@@ -199,7 +199,8 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
     existing = check(run_dir, config, base)
     meta_path = run_dir / META_NAME
     if existing is not None:
-        existing.setdefault("identity", identity(config, base))
+        if "identity" not in existing:  # (not setdefault: its argument would hash every mesh file again)
+            existing["identity"] = identity(config, base)
         existing.setdefault("config_dir", str((base or Path.cwd()).resolve()))
         existing.setdefault("resumed", []).append(datetime.now(UTC).isoformat())
         _write_json(meta_path, existing)
