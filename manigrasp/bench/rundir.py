@@ -186,9 +186,15 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
     return None
 
 
-def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict:
+def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None,
+            grip_limits: dict[str, float] | None = None) -> dict:
     """Create `run_dir` with run.json, or check that an existing one holds the same run (`check`) and add the
     time of this resumption to its ``resumed``.
+
+    `grip_limits` (each hand's `Hand.max_grip_force` [N], `runner.grip_limits`) is recorded in a new run.json as
+    ``hand_grip_limits``, so that its report says which hands closed below an asked grip force with the forces
+    of the hands that ran, not of the hand models installed when the report is made. A resumed run keeps what it
+    recorded (an older run.json without them stays without).
 
     Whether it is resumed by other code is not recorded here: `record_other_code` does that once trials are
     stored by it (re-running a finished run to export or record runs none, and mixes nothing).
@@ -217,6 +223,8 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dic
         "platform": platform.platform(),
         "started": datetime.now(UTC).isoformat(),
     }
+    if grip_limits is not None:
+        meta["hand_grip_limits"] = {hand: float(force) for hand, force in grip_limits.items()}
     _write_json(meta_path, meta)
     return meta
 

@@ -99,6 +99,14 @@ def validate(config: BenchConfig, base: Path | None = None) -> list[Group]:
     return found
 
 
+def grip_limits(config: BenchConfig) -> dict[str, float]:
+    """Each hand's largest grip force [N] (`Hand.max_grip_force`), recorded in run.json (`rundir.prepare`); the
+    hands were loaded by `validate` (built-in hands are cached)."""
+    from manigrasp import hands
+
+    return {hand: float(hands.load(hand).max_grip_force) for hand in config.hands}
+
+
 def _note_hand_kinds(planner: str, planned: tuple[str, ...] | None, kinds: dict[str, str]) -> None:
     """Tell, before any trial, which hands of the run a planner cannot plan for (its `hand_kinds`): their
     trials are run and recorded as `planner_error` (a config may mix hand kinds on purpose, so this is a note)."""
@@ -192,7 +200,7 @@ def run_benchmark(
         # (with that mesh's hash) that would refuse the corrected rerun.
         rundir.check(run_dir, config, base)
         _prebuild_objects(all_groups, jobs, progress)
-        meta = rundir.prepare(run_dir, config, base)
+        meta = rundir.prepare(run_dir, config, base, grip_limits(config))
         settings = RecordSettings.for_run(run_dir, policy)
         problem = recording_problem(settings)
         if problem:
