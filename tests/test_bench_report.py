@@ -248,6 +248,19 @@ def test_pose_errors_are_summarised_per_observation_and_shown_side_by_side(tmp_p
     assert "Observations side by side" in text and "estimated_pose" in text
 
 
+
+def test_a_group_whose_first_trial_timed_out_keeps_its_pose_estimate():
+    """Trial 0000 of object "b" timed out in the runner (a bare result, no pose errors): the group's other trials
+    store its estimate, so the object still counts (it was dropped: medians over 1 object instead of 2)."""
+    results = []
+    for obj, rot in (("a", 2.0), ("b", 30.0)):
+        for i in range(3):
+            r = TrialResult(Status.TIMEOUT) if (obj, i) == ("b", 0) else TrialResult(
+                Status.SUCCESS, pose_rotation_error_deg=rot, pose_translation_error_mm=1.0, pose_add_s_mm=1.0)
+            results.append((TrialKey(obj, "parallel_jaw", "antipodal", "estimated_pose", "standard", i), r))
+    errors = summarize(results).pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
+    assert (errors.objects, errors.median_rotation_deg) == (2, 16.0)
+
 def test_perception_table_shows_the_number_of_camera_views(tmp_path):
     """A point-cloud method seen by 2 cameras says so; ground truth has no camera ("-")."""
     results = [(TrialKey("a", "parallel_jaw", "antipodal", obs, "standard", i),
@@ -425,6 +438,28 @@ def test_header_says_which_hands_close_below_an_absolute_grip_force(tmp_path):
                 in text) == capped
 
 
+def test_header_uses_the_grip_forces_the_run_recorded(tmp_path):
+    """A run's header names the hands' forces recorded in its run.json when it started (`hand_grip_limits`), not
+    those of the hand models installed when the report is made: a hand whose model changed since is described as
+    it ran."""
+    from manigrasp.bench import rundir
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.runner import grip_limits
+    from manigrasp.hands.registry import load
+
+    results = [(TrialKey("025_mug", "parallel_jaw", "antipodal", "ground_truth", "standard", i),
+                TrialResult(Status.SUCCESS)) for i in range(2)]
+    config = {"name": "t", "hands": ["parallel_jaw"], "protocol": {"name": "standard", "params": {"grip_force": 30.0}}}
+    recorded = {"config": config, "hand_grip_limits": {"parallel_jaw": 12.5}}
+    text = write_markdown(summarize(results), results, tmp_path, recorded).read_text()
+    assert "parallel_jaw closes at its 12.5 N" in text  # the installed jaw's 70.6 N would say nothing at 30 N
+    # A new run records each hand's force from the hand it loads; resuming keeps what was recorded.
+    parsed = parse_config({"objects": ["025_mug"], "hands": ["parallel_jaw"], "planners": ["antipodal"]})
+    meta = rundir.prepare(tmp_path / "run", parsed, grip_limits=grip_limits(parsed))
+    assert meta["hand_grip_limits"] == {"parallel_jaw": load("parallel_jaw").max_grip_force}
+    again = rundir.prepare(tmp_path / "run", parsed, grip_limits={"parallel_jaw": 1.0})
+    assert again["hand_grip_limits"] == meta["hand_grip_limits"]
+
 def test_header_names_each_protocols_and_planners_parameters_and_leads_in_config_order(tmp_path):
     """A run of `standard` at a 10 N grip is labelled `standard` in every table: the header says the 10 N. With
     several protocols the lead lines follow the config's order (standard, then lift), as the side-by-side table
@@ -567,3 +602,19 @@ def test_the_header_names_the_pad_model_and_every_scene_parameter_off_its_defaul
     assert "; scene: pads=rigid (every other scene parameter at its default)" in header(pads="rigid")
     assert "; scene: pads=compliant, rest=stable_k, rest_k=3, timestep=0.001 (every other" in header(
         rest="stable_k", rest_k=3, timestep=0.001)
+
+
+def test_a_ground_truth_line_names_its_observation_in_a_run_with_perception(tmp_path):
+    """A run of ground truth beside estimated_pose: the lead line "parallel_jaw / antipodal: 5/6" read as the whole
+    hand x planner (29/30 here), while it was the ground-truth trials alone. A run of ground truth alone keeps its
+    short label."""
+    from manigrasp.bench.markdown import lead_lines
+
+    mixed = [(TrialKey("025_mug", "parallel_jaw", "antipodal", observation, "standard", i),
+              TrialResult(Status.SUCCESS if i < 5 else Status.NO_CONTACT))
+             for observation in ("ground_truth", "estimated_pose") for i in range(6)]
+    lines = lead_lines(summarize(mixed))
+    assert "parallel_jaw / antipodal / ground_truth: 5/6 successes, rate 0.83 [0.44, 0.97]" in lines
+    assert any(line.startswith("parallel_jaw / antipodal / estimated_pose: 5/6") for line in lines)
+    alone = [item for item in mixed if item[0].observation == "ground_truth"]
+    assert lead_lines(summarize(alone)) == ["parallel_jaw / antipodal: 5/6 successes, rate 0.83 [0.44, 0.97]"]

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from manigrasp.bench import plots, twins
 from manigrasp.bench.completeness import Completeness
-from manigrasp.bench.plots import method_label
+from manigrasp.bench.plots import label_of
 from manigrasp.bench.report import (
     PLANNING_TIME_HEADER,
     POOLED,
@@ -93,7 +93,7 @@ def lead_lines(report: Report, order: list[str] | None = None) -> list[str]:
     figures a reader should quote."""
     rank = {p: i for i, p in enumerate(order or report.protocols)}
     methods = sorted(report.by_method, key=lambda m: (m[:3], rank.get(m[3], len(rank)), m[3]))
-    return [f"{method_label(m, len(report.protocols) > 1)}: {report.by_method[m].successes}/"
+    return [f"{label_of(report, m)}: {report.by_method[m].successes}/"
             f"{report.by_method[m].trials} successes, rate {format_rate(report.by_method[m])}" for m in methods]
 
 
@@ -252,7 +252,7 @@ def warning_lines(meta: dict, done: Completeness | None = None, report: Report |
     lines = [done.warning()] if done is not None and done.warning() else []
     faults = {m: r.harness_faults for m, r in (report.by_method.items() if report else ())}
     if any(faults.values()):
-        where = ", ".join(f"{method_label(m, len(report.protocols) > 1)} {n}" for m, n in faults.items() if n)
+        where = ", ".join(f"{label_of(report, m)} {n}" for m, n in faults.items() if n)
         lines.append(f"{sum(faults.values())} trial(s) ended as harness_fault, a fault of manigrasp itself and not of "
                      f"the planner or the physics ({where}): they are left out of every rate and count (they are "
                      "not physics results); their detail in the results table says what failed")
@@ -311,10 +311,12 @@ def _entry(entry: object) -> str:
     return f"`{entry.get('name')}`" + (f" ({', '.join(f'{k}={v}' for k, v in params.items())})" if params else "")
 
 
-def _capped_grips(config: dict, entries: list) -> str:
+def _capped_grips(config: dict, entries: list, limits: dict | None = None) -> str:
     """" (grip_force=500 is above a hand's force: parallel_jaw closes at its 70.6 N)" for the hands of `config`
     weaker than a protocol's absolute `grip_force` (the close caps the target at `Hand.max_grip_force`, so the
-    parameter alone would state a force no trial applied); "" when none is, or a hand cannot be loaded here."""
+    parameter alone would state a force no trial applied); "" when none is. The forces are the run's own
+    (`limits`: run.json's ``hand_grip_limits``, recorded when it started); a run recorded before them reads the
+    hand models installed here, and says nothing of a hand that cannot be loaded here."""
     from manigrasp.hands.registry import load
 
     asked = [float(p["params"]["grip_force"]) for p in entries
@@ -324,10 +326,13 @@ def _capped_grips(config: dict, entries: list) -> str:
         return ""
     weaker = []
     for name in config.get("hands") or []:
-        try:
-            force = float(load(str(name)).max_grip_force)
-        except Exception:  # noqa: BLE001 (a user hand not importable where the report is made: say nothing)
-            continue
+        if isinstance(limits, dict) and isinstance(limits.get(name), int | float):
+            force = float(limits[name])
+        else:
+            try:
+                force = float(load(str(name)).max_grip_force)
+            except Exception:  # noqa: BLE001 (a user hand not importable where the report is made: say nothing)
+                continue
         if force < max(asked):
             weaker.append(f"{name} closes at its {force:.1f} N")
     if not weaker:
@@ -335,15 +340,16 @@ def _capped_grips(config: dict, entries: list) -> str:
     return f" (grip_force={max(asked):g} N is above a hand's force: {', '.join(weaker)})"
 
 
-def _protocol_line(config: dict) -> str:
+def _protocol_line(config: dict, limits: dict | None = None) -> str:
     """"Protocol `standard`", "Protocols `standard` (grip_force=10.0), `six_direction` (...)", then the planners
-    with their parameters; a grip force above a hand's maximum says which hands close at their maximum."""
+    with their parameters; a grip force above a hand's maximum says which hands close at their maximum
+    (`limits`: run.json's ``hand_grip_limits``)."""
     protocols = config.get("protocols")
     if isinstance(protocols, list) and protocols:
-        line = "Protocols " + ", ".join(_entry(p) for p in protocols) + _capped_grips(config, protocols)
+        line = "Protocols " + ", ".join(_entry(p) for p in protocols) + _capped_grips(config, protocols, limits)
     else:
         entry = config.get("protocol") or {"name": "standard"}
-        line = f"Protocol {_entry(entry)}{_capped_grips(config, [entry])}"
+        line = f"Protocol {_entry(entry)}{_capped_grips(config, [entry], limits)}"
     planners = config.get("planners")
     if isinstance(planners, list) and planners:
         line += f"; planner{'s' * (len(planners) != 1)} " + ", ".join(_entry(p) for p in planners)
@@ -386,7 +392,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
     headers = method_headers(report)
     parts = [
         f"# manigrasp report: {config.get('name', run_dir.name)}",
-        f"{_protocol_line(config)}{_scene_text(config)}, seed {meta.get('seed')}, "
+        f"{_protocol_line(config, meta.get('hand_grip_limits'))}{_scene_text(config)}, seed {meta.get('seed')}, "
         f"manigrasp {meta.get('versions', {}).get('manigrasp')}, mujoco {meta.get('versions', {}).get('mujoco')}, "
         f"commit {meta.get('git_commit') or 'unknown'}, started {meta.get('started')}.",
         *(f"**Warning: {line}.**" for line in warning_lines(meta, done, report)),

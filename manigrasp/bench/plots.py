@@ -72,12 +72,19 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def method_label(method: Method, with_protocol: bool = False) -> str:
-    """"hand / planner" (and " / observation" unless ground truth, " / protocol" if `with_protocol`: a run
-    with several protocols)."""
+def method_label(method: Method, with_protocol: bool = False, with_observation: bool = False) -> str:
+    """"hand / planner" (and " / observation" unless ground truth in a run of ground truth alone,
+    `with_observation` False; " / protocol" if `with_protocol`: a run with several protocols)."""
     hand, planner, observation, protocol = method
-    return (f"{hand} / {planner}" + ("" if observation == "ground_truth" else f" / {observation}")
+    return (f"{hand} / {planner}" + ("" if observation == "ground_truth" and not with_observation
+                                     else f" / {observation}")
             + (f" / {protocol}" if with_protocol else ""))
+
+
+def label_of(report: Report, method: Method) -> str:
+    """`method_label` of `method` as `report`'s figures name it: with its protocol and its observation where the
+    run has several of them (a ground-truth line of a run with perception says so)."""
+    return method_label(method, _several_protocols(report), len({m[2] for m in report.by_method}) > 1)
 
 
 def _several_protocols(report: Report) -> bool:
@@ -113,7 +120,6 @@ def success_by_object(report: Report, path: Path) -> Path:
     plt = _pyplot()
     objects = sorted({k[4] for k in report.groups})
     methods = list(report.by_method)
-    protocols = _several_protocols(report)
     width = 0.8 / max(1, len(methods))
     fig, ax = plt.subplots(figsize=(max(6.0, min(32.0, 0.4 * len(objects) * max(1, len(methods)) + 4)), 4.8))
     x = np.arange(len(objects))
@@ -124,7 +130,7 @@ def success_by_object(report: Report, path: Path) -> Path:
         xs = x[[j for j, _ in present]] + (i - (len(methods) - 1) / 2) * width
         rates = [r for _, r in present]
         ax.bar(xs, [r.success_rate for r in rates], width, yerr=_errorbars(rates), capsize=2,
-               color=colours[i], label=method_label(method, protocols))
+               color=colours[i], label=label_of(report, method))
         for xi, r in zip(xs, rates, strict=True):
             ax.text(xi, r.ci_high + 0.02, f"{r.successes}/{r.trials}", ha="center", va="bottom", fontsize=7,
                     rotation=90 if len(methods) > 2 else 0)
@@ -149,7 +155,7 @@ def success_by_method(report: Report, path: Path) -> Path:
             color=STATUS_COLOURS["success"])
     for yi, r in zip(y, rates, strict=True):
         ax.text(min(r.ci_high + 0.02, 1.0), yi, f"{r.successes}/{r.trials}", va="center", fontsize=8)
-    ax.set_yticks(y, [method_label(m, _several_protocols(report)) for m in methods])
+    ax.set_yticks(y, [label_of(report, m) for m in methods])
     ax.invert_yaxis()
     ax.set_xlim(0, 1.15)
     ax.set_xticks(np.linspace(0, 1, 6))
@@ -177,7 +183,7 @@ def failure_modes(report: Report, path: Path) -> Path:
                 ax.text(li + si / 2, yi, f"{si:.0%}", ha="center", va="center", fontsize=7,
                         color="white" if mode in ("success", "unstable", "pregrasp_collision") else "black")
         left = left + share
-    ax.set_yticks(y, [f"{method_label(m, _several_protocols(report))}\n(n = {report.by_method[m].trials})"
+    ax.set_yticks(y, [f"{label_of(report, m)}\n(n = {report.by_method[m].trials})"
                       for m in methods])
     ax.invert_yaxis()
     ax.set_xlim(0, 1)
@@ -195,10 +201,12 @@ def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path, meth
     for key, result in results:
         groups[(key.hand, key.planner, key.observation, key.protocol, key.object)].append(result)
     protocols = len({k[3] for k in groups}) > 1
+    observations = len({k[2] for k in groups}) > 1
     rank = {m: i for i, m in enumerate(methods or [])}
     by_method: dict[str, list[float]] = defaultdict(list)
     for group_key, group in sorted(groups.items(), key=lambda kv: (rank.get(kv[0][:4], len(rank)), kv[0])):
-        by_method[method_label(group_key[:4], protocols)] += [t for t in planning_call_times(group) if t > 0]
+        label = method_label(group_key[:4], protocols, observations)
+        by_method[label] += [t for t in planning_call_times(group) if t > 0]
     by_method = {k: v for k, v in by_method.items() if v}
     fig, ax = plt.subplots(figsize=(7, 1.4 + 0.6 * max(1, len(by_method))))
     if by_method:
@@ -252,7 +260,7 @@ def metric_auc(report: Report, path: Path) -> Path:
         low = np.array([e.low if e is not None and e.bounded else np.nan for e in estimates])
         high = np.array([e.high if e is not None and e.bounded else np.nan for e in estimates])
         bars = ax.bar(xs, np.nan_to_num(auc), width, yerr=np.vstack([auc - low, high - auc]), capsize=2,
-                      color=colours[i], label=method_label(method, _several_protocols(report)))
+                      color=colours[i], label=label_of(report, method))
         for xi, e in zip(xs, estimates, strict=True):
             if e is not None and e.defined:  # without an interval (too few of an outcome): "n=2, no CI"
                 ax.text(xi, (e.high if e.bounded else e.auc) + 0.01, f"n={e.n}" + ("" if e.bounded else ", no CI"),

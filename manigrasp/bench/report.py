@@ -298,11 +298,13 @@ def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
 
 
 def pose_errors(by_group: dict[Group, list[TrialResult]]) -> dict[Method, PoseErrors]:
-    """Pose-error statistics per method, over the objects whose pose was estimated."""
+    """Pose-error statistics per method, over the objects whose pose was estimated: one estimate per group (its
+    trials share it), read from the first of its trials that stores it (a trial that timed out or whose worker
+    died stores none, `runner._failed_trial`)."""
     per_method: dict[Method, list[tuple[float, float, float]]] = defaultdict(list)
     for group, results in sorted(by_group.items()):
-        first = results[0]
-        if not math.isnan(first.pose_rotation_error_deg):
+        first = next((r for r in results if not math.isnan(r.pose_rotation_error_deg)), None)
+        if first is not None:
             per_method[group[:4]].append(
                 (first.pose_rotation_error_deg, first.pose_translation_error_mm, first.pose_add_s_mm))
     return {k: PoseErrors.of(v) for k, v in per_method.items()}
