@@ -50,6 +50,28 @@ def test_estimated_pose_runs_once_per_distinct_first_camera():
     other_first = parse_config({**BASE, "camera": [{"views": 1}, {"views": 1, "elevation_deg": 60}]})
     labels = sorted({g.observation_label for g in groups(other_first) if g.observation == "estimated_pose"})
     assert labels == ["estimated_pose@1view[elevation_deg=45.0]", "estimated_pose@1view[elevation_deg=60.0]"]
+    # Listed 3 views first, it was labelled by that setup, "estimated_pose@3views", and stored 3 camera views for
+    # an estimate made from one camera: it is the one-view setup's, wherever that is listed.
+    three_first = parse_config({**BASE, "camera": [{"views": 3}, {"views": 1}]})
+    estimated = [g for g in groups(three_first) if g.observation == "estimated_pose"]
+    assert {g.observation_label for g in estimated} == {"estimated_pose@1view"}
+    assert {g.camera.views for g in estimated} == {1}
+
+
+def test_estimated_pose_trials_store_the_one_camera_they_used():
+    """A setup of 2 views labels the estimated_pose group (no one-view setup shares its first camera); the pose
+    estimate used its first camera alone, and the trial says 1 camera view (the report's "camera views")."""
+    from manigrasp.bench import worker
+
+    config = parse_config({**BASE, "objects": ["025_mug"], "camera": [{"views": 2}, {"views": 1, "elevation_deg": 60}]})
+    by_label = {g.observation_label: g for g in groups(config)}
+    group = by_label["estimated_pose@2views"]
+
+    def stored(g):  # a group whose perception failed still stores its setup's cameras
+        return worker.run_trial(g, 0, worker.Plan.failed(g, Status.PLANNER_ERROR, "perception failed"))[1]
+
+    assert stored(group).camera_views == 1
+    assert stored(by_label["point_cloud@2views"]).camera_views == 2
 
 
 def test_one_setup_keeps_the_trial_ids_seeds_and_identity_of_before():

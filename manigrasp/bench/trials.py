@@ -10,9 +10,11 @@ each (`BenchConfig.camera_labels`: ``point_cloud@1view``, ``point_cloud@2views``
 ground truth, which has no camera, runs once. The seed of a group does not
 depend on its setup, so the setups are a paired comparison: the first camera
 sees the same noisy frame under each, and a second camera only adds to it.
-``estimated_pose`` uses only the first camera, so a setup whose first camera
-(and noise) equals an earlier setup's adds no ``estimated_pose`` groups: they
-would repeat that setup's trials exactly.
+``estimated_pose`` uses only the first camera, so setups that share their first
+camera (and noise) add one ``estimated_pose`` group between them, labelled by the
+one of them with the fewest views (``@1view`` when a one-view setup is listed,
+wherever in the list): the others would repeat its trials exactly. Its trials store
+``camera_views`` 1, the cameras its estimate used, whichever setup labels it.
 
 A config with several protocols (``protocols: [standard, six_direction]``) runs
 every group under each, labelled by the protocol in trial ids (a config with one
@@ -231,11 +233,9 @@ def rest_pose_count(source: ObjectSource) -> int:
 def observation_setups(config: BenchConfig) -> dict[str, list[tuple[CameraSetup | None, str]]]:
     """Per observation kind, the (camera setup, label suffix) pairs it runs under (module docstring)."""
     pairs = list(zip(config.camera_setups, config.camera_labels, strict=True))
-    first_cameras: list[tuple] = []
-    estimated = []
+    by_first: dict[tuple, tuple[CameraSetup, str]] = {}  # first camera and noise -> the setup with the fewest views
     for setup, suffix in pairs:
         first = (setup.view(0), setup.noise)
-        if first not in first_cameras:
-            first_cameras.append(first)
-            estimated.append((setup, suffix))
-    return {"ground_truth": [(pairs[0][0], "")], "estimated_pose": estimated, "point_cloud": pairs}
+        if first not in by_first or setup.views < by_first[first][0].views:
+            by_first[first] = (setup, suffix)
+    return {"ground_truth": [(pairs[0][0], "")], "estimated_pose": list(by_first.values()), "point_cloud": pairs}

@@ -161,7 +161,10 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
 
         camera = group.camera or CameraSetup()
     if camera is not None:
-        result = replace(result, **camera.record())
+        fields = camera.record()
+        if group.observation == "estimated_pose":
+            fields["camera_views"] = 1  # the one camera its pose estimate used (`trials` module docstring)
+        result = replace(result, **fields)
     if index < len(plan.candidates):  # a GraspCandidate with numeric fields (planners.plan validated it)
         candidate = plan.candidates[index]
         result = replace(result, grasp=PoseRecord.of(candidate.pose), grasp_preshape=float(candidate.preshape),
