@@ -211,8 +211,9 @@ def perceive(scene: Viewed, camera: Camera, database: ModelDatabase, rng: np.ran
              true_pose: np.ndarray | None = None) -> PerceptionResult:
     """One view of `scene` (positions computed) by `camera`: depth, cloud, then the pose of `object_name`
     (a known model), or, if None, recognition among every model of `database`, as `config` (default
-    `PerceptionConfig()`) says. `true_pose` (4, 4), if given, gives the errors (of the known or the
-    recognised model; of the true object's model if recognition picked another)."""
+    `PerceptionConfig()`) says. `true_pose` (4, 4), if given, gives the errors, measured on the model the
+    estimate is of (the known one, or the recognised one: if recognition picked another object than the true one,
+    they compare two models' poses and mean little; `manigrasp perceive` then does not print them)."""
     config = config or PerceptionConfig()
     params = config.registration or RegistrationParams(voxel=database.params.voxel)
     restarts, table_height = config.restarts, config.table_height
