@@ -87,3 +87,20 @@ def test_a_recipe_never_held_gets_no_verdict() -> None:
     (_, _, table) = markdown_section(FakeReport())  # type: ignore[arg-type]
     rows = table.splitlines()[2:]
     assert rows[0].endswith("| +0.0 | n/a (recipe never held) |") and rows[1].endswith("| +50.0 | no |")
+
+
+def test_resting_poses_are_pooled_not_paired_by_rank() -> None:
+    """Under rest: stable_k the scan's rest0 (a can on its side) and the recipe's rest0 (standing on an end) are
+    different physical poses: the pair compares each object over all of its poses (1+4 of 10 against 3+4 of 10),
+    where it used to print a row per rank (0/5 vs 4/5: +80 points, "no")."""
+    groups = {("h", "random", "o", "005_tomato_soup_can_scan@rest0"): rate(0, 5),
+              ("h", "random", "o", "005_tomato_soup_can_scan@rest1"): rate(1, 5),
+              ("h", "random", "o", "005_tomato_soup_can@rest0"): rate(4, 5),
+              ("h", "random", "o", "005_tomato_soup_can@rest1"): rate(0, 5)}
+    (row,) = twin_rows(groups)
+    assert (row.scan, row.recipe) == ("005_tomato_soup_can_scan", "005_tomato_soup_can")
+    assert (row.scan_rate.successes, row.scan_rate.trials, row.recipe_rate.successes, row.recipe_rate.trials) == \
+        (1, 10, 4, 10)
+    assert row.gap_points == pytest.approx(30.0)
+    expected = rate(1, 10)
+    assert (row.scan_rate.ci_low, row.scan_rate.ci_high) == pytest.approx((expected.ci_low, expected.ci_high))
