@@ -14,9 +14,13 @@ native file, the grasp's own hand path). ACRONYM's layout holds parallel-jaw gri
 dexterous set is written in the native format alone, and its `Exported.note` says so.
 
 Grasps are written in the object's frame (``inv(object_pose) @ grasp``), best first (trial order),
-with labels: status, success, trial id, seed, the protocol's measures and the object's settled pose.
-Trials that executed no grasp (`no_grasp`: the planner returned fewer than asked; `planner_error`: it
-failed) have no grasp to write; the summary counts them.
+with labels: status, success, trial id, seed, the protocol's measures, the object's settled pose and the
+resting pose it was placed in (``rest_*``: ``rest_index`` -1 is its file's orientation). Under
+``rest: stable_k`` a file names its object by its plain name (``005_tomato_soup_can``, not the group's
+``005_tomato_soup_can@rest0``), so `manigrasp evaluate FILE` resolves it; ``rest_index`` says which pose.
+Trials that executed no grasp have no grasp to write: those without a finite grasp pose (`no_grasp`: the
+planner returned fewer than asked; `planner_error`: it failed; a `timeout` while planning; a
+`harness_fault` before the grasp). They are left out of the files and the summary counts them by status.
 """
 
 from __future__ import annotations
@@ -33,20 +37,24 @@ from manigrasp.bench.config import BenchConfig
 from manigrasp.bench.store import ResultsStore, joints_from_text
 from manigrasp.errors import ManigraspError
 from manigrasp.graspsets import GraspSet, ObjectRef, acronym, native
-from manigrasp.protocol.result import PLANNER_FAILURES, PoseRecord, Status
+from manigrasp.protocol.result import PoseRecord, Status
 from manigrasp.runfiles import META_NAME, STORE_NAME
 
-_PLANNER_FAILED = frozenset(s.value for s in PLANNER_FAILURES)  # stored statuses of trials without a grasp
 POSE_FIELDS = ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")
 LABEL_COLUMNS = ("status", "trial_id", "seed", "detail", "last_phase", "max_translation_m", "max_rotation_deg",
                  "grip_force_n", "sim_force_closure", "sim_epsilon_l1", "planned_epsilon_l1", "fingers_in_contact",
-                 *(f"object_{f}" for f in POSE_FIELDS))
+                 *(f"object_{f}" for f in POSE_FIELDS), "rest_index", "rest_probability",
+                 *(f"rest_{f}" for f in POSE_FIELDS))
 DATASET_DIR = "grasps"
 
 
 @dataclass(frozen=True)
 class Exported:
-    """One exported grasp set: its files, how many grasps, how many succeeded."""
+    """One exported grasp set: its files, how many grasps, how many succeeded.
+
+    `object` is the group's object label (``<name>@rest<i>`` under ``rest: stable_k``; the files name the
+    plain name); `trial_ids` the trials written, in file order.
+    """
 
     group: str
     object: str
@@ -55,6 +63,7 @@ class Exported:
     successes: int
     files: tuple[Path, ...]
     note: str = ""
+    trial_ids: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -63,10 +72,11 @@ class LabelSummary:
 
     Attributes:
         run_dir: the run directory (the dataset is in ``run_dir/grasps``).
-        ran: trials simulated by this call; already_done: found in the store (resumed).
+        ran: trials run by this call (with or without a grasp); already_done: found in the store (resumed).
         seconds: wall time of the run (simulation and planning) [s].
         exported: the grasp sets written.
-        skipped: trials with no grasp to write (planner errors).
+        without_grasp: per status, the trials of the run with no grasp to write (`export_dataset`).
+        labelled_now: grasps written whose trials this call ran.
     """
 
     run_dir: Path
@@ -74,12 +84,24 @@ class LabelSummary:
     already_done: int
     seconds: float
     exported: tuple[Exported, ...]
-    skipped: int
+    without_grasp: dict[str, int]
+    labelled_now: int = 0
+
+    @property
+    def written(self) -> int:
+        """Grasps written, over every exported set (this call's trials and those already stored)."""
+        return sum(item.grasps for item in self.exported)
+
+    @property
+    def skipped(self) -> int:
+        """Trials of the run without a grasp, left out of the files."""
+        return sum(self.without_grasp.values())
 
     @property
     def labelled_per_second(self) -> float:
-        """Trials simulated per second of this call's wall time."""
-        return self.ran / self.seconds if self.seconds > 0 else math.nan
+        """Grasps labelled (run by this call and written) per second of this call's wall time: trials without a
+        grasp are not counted, as they label nothing."""
+        return self.labelled_now / self.seconds if self.seconds > 0 else math.nan
 
     def success_share(self) -> dict[str, tuple[int, int]]:
         """Per object: (successes, grasps) over every exported set."""
@@ -96,16 +118,20 @@ def label(config: BenchConfig, run_dir: Path, jobs: int = 1, executor: str = "lo
     from manigrasp.bench.runner import run_benchmark
 
     start = time.perf_counter()
+    fresh: set[str] = set()  # the trials this call runs
     summary = run_benchmark(config, Path(run_dir), jobs=jobs, executor=executor, address=address, base=base,
-                            progress=progress)
+                            progress=progress, on_result=lambda key, _: fresh.add(key.trial_id))
     seconds = time.perf_counter() - start
-    exported, skipped = export_dataset(run_dir, config, base, native_suffix)
-    return LabelSummary(Path(run_dir), summary.ran, summary.already_done, seconds, tuple(exported), skipped)
+    exported, without_grasp = export_dataset(run_dir, config, base, native_suffix)
+    now = sum(trial in fresh for item in exported for trial in item.trial_ids)
+    return LabelSummary(Path(run_dir), summary.ran, summary.already_done, seconds, tuple(exported), without_grasp,
+                        now)
 
 
 def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path | None = None,
-                   native_suffix: str = ".json") -> tuple[list[Exported], int]:
-    """Write every stored trial's grasp and label under ``run_dir/grasps``; returns (sets, trials skipped).
+                   native_suffix: str = ".json") -> tuple[list[Exported], dict[str, int]]:
+    """Write every stored trial's grasp and label under ``run_dir/grasps``; returns (sets, trials without a
+    grasp per status). A trial without a finite grasp pose executed no grasp (module docstring): it is left out.
 
     `config` (default: the run's own, from run.json) names each object's source, needed for the
     ACRONYM file's ``object/file`` (the built object's visual mesh, whose frame is the object frame).
@@ -121,20 +147,25 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
     by_group: dict[str, list[dict]] = defaultdict(list)
     for row in rows:
         by_group[_group_id(row)].append(row)
-    out, skipped = [], 0
+    out: list[Exported] = []
+    without_grasp: dict[str, int] = defaultdict(int)
     names = _file_names(by_group)
     for group, members in by_group.items():
         members.sort(key=lambda r: int(r["grasp_index"]))
-        kept = [r for r in members if not (r["status"] in _PLANNER_FAILED and _nan_grasp(r))]
-        skipped += len(members) - len(kept)
-        if not kept:
+        kept = [r for r in members if not _nan_grasp(r)]
+        for row in members:
+            if _nan_grasp(row):
+                without_grasp[str(row["status"])] += 1
+        stem = run_dir / DATASET_DIR / names[group]
+        if not kept:  # no file: and none left of an earlier export (which wrote such trials as NaN grasps)
+            for stale in (stem.with_suffix(native_suffix), stem.with_suffix(".h5")):
+                stale.unlink(missing_ok=True)
             continue
         first = kept[0]
         hand = hands.load(str(first["hand"]))
         grasps = grasp_set(kept, hand.kind)
-        stem = run_dir / DATASET_DIR / names[group]
         files = [native.write(grasps, stem.with_suffix(native_suffix))]
-        source = sources.get(str(first["object"]))
+        source = sources.get(object_name(first))
         note = ""
         if hand.kind != "parallel":
             note = (f"no ACRONYM file: its layout holds parallel-jaw grasps only, {hand.name!r} is {hand.kind} "
@@ -147,8 +178,8 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
             files.append(acronym.write(_in_visual_frame(grasps, source), stem.with_suffix(".h5")))
         successes = int(np.sum(grasps.labels["success"]))
         out.append(Exported(group, str(first["object"]), str(first["hand"]), len(grasps), successes, tuple(files),
-                            note))
-    return out, skipped
+                            note, tuple(str(r["trial_id"]) for r in kept)))
+    return out, dict(without_grasp)
 
 
 def grasp_set(rows: list[dict], hand_kind: str) -> GraspSet:
@@ -160,7 +191,7 @@ def grasp_set(rows: list[dict], hand_kind: str) -> GraspSet:
     return GraspSet(poses, np.array([float(r["grasp_width_m"]) for r in rows], dtype=float),
                     np.nan_to_num(np.array([float(r["grasp_preshape"]) for r in rows], dtype=float)),
                     np.array([_finite(r["score"]) for r in rows]), frame="object", hand=str(first["hand"]),
-                    hand_kind=hand_kind, object=ObjectRef(name=str(first["object"])), labels=labels,
+                    hand_kind=hand_kind, object=ObjectRef(name=object_name(first)), labels=labels,
                     source=str(first["trial_id"]).rsplit("/", 1)[0], joints=_joints(rows))
 
 
@@ -185,7 +216,21 @@ def _object_frame(row: dict) -> np.ndarray:
 
 
 def _nan_grasp(row: dict) -> bool:
+    """Whether the trial stores no finite grasp pose: it executed no grasp (whatever its status)."""
     return not np.all(np.isfinite([float(row[f"grasp_{f}"]) for f in POSE_FIELDS]))
+
+
+def object_name(row: dict) -> str:
+    """The object's plain name of a stored row: its label without the ``@rest<i>`` of ``rest: stable_k`` groups
+    (the pose is in the row's ``rest_index``), as its source and `manigrasp evaluate` know it."""
+    from manigrasp.bench.trials import REST_LABEL
+
+    label = str(row["object"])
+    try:
+        index = int(row.get("rest_index", -1))  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return label
+    return label.removesuffix(f"{REST_LABEL}{index}") if index >= 0 else label
 
 
 def _finite(value: object) -> float:
@@ -219,7 +264,7 @@ def _in_visual_frame(grasps: GraspSet, source) -> GraspSet:
 
     asset = catalog.build(source).asset
     return replace(grasps, frame="mesh", object=ObjectRef(name=grasps.object.name, mesh=str(asset.visual_path),
-                                                          scale=1.0, mass=float(asset.mass)))
+                                                          scale=1.0, mass=float(asset.mass), built=True))
 
 
 def _sources(config: BenchConfig, base: Path | None) -> dict:

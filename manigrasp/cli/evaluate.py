@@ -21,10 +21,12 @@ grasp files:
     scaled by object/scale (a relative object/file is looked for beside the .h5 file, then in its
     parent and grandparent folders: ACRONYM's meshes/ beside grasps/). manigrasp's TCP =
     transform @ [Rz(-90 deg), 0.1034 m along z] for every parallel jaw (manigrasp/graspsets/acronym.py).
+    Its object is named by object/file's stem (a file `manigrasp label` wrote: object/manigrasp/name).
     Needs h5py (`make setup EXTRAS=dev,datasets`).
   Grasps are placed on the object's settled pose. One that cannot be placed (another hand, NaN, not a
   rotation, a width the hand cannot open to) is recorded as invalid_grasp, never dropped. A file with
-  missing keys, wrong shapes or NaN scores is refused with a one-line error."""
+  missing keys, wrong shapes or NaN scores is refused with a one-line error, and so is a file (of either
+  format) whose grasps are of another object than --object (--any-object runs them anyway)."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -90,7 +92,8 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def _object_entry(args: argparse.Namespace, grasps) -> dict:
     """The config's object: --object (a mesh file or a shipped name), else the one the file names. A mesh is
-    named --name, else as the file names its object, else by its file's stem."""
+    named --name, else as the file names its object, else by its file's stem. A `manigrasp label` ACRONYM file
+    of a shipped object (`ObjectRef.built`) names that object: it is built by its name."""
     from manigrasp.errors import ConfigError
     from manigrasp.objects import catalog, scans
 
@@ -100,6 +103,8 @@ def _object_entry(args: argparse.Namespace, grasps) -> dict:
         given = Path(args.object)
         entry = {"mesh": str(given.resolve()), "name": args.name or ref.name or given.stem} if given.is_file() \
             else {"name": args.object}
+    elif ref.mesh and ref.built and ref.name and catalog.is_shipped_name(ref.name):
+        entry = {"name": ref.name}  # `label`'s ACRONYM file of a shipped object: its mesh is that object's build
     elif ref.mesh:
         from manigrasp.graspsets import mesh_path
 
@@ -127,15 +132,20 @@ def _other_object(args: argparse.Namespace, grasps, entry: dict) -> bool:
     """Whether the file names its object otherwise than the object `entry` is built as, so that the file
     planner's check (by name) must be left off: another name of the same shipped object ("mug" for
     "025_mug"), or another object with --any-object (refused without it: the grasps' poses are in the frame
-    of the object the file names). Grasps in the mesh's frame are not checked (as by the planner)."""
+    of the object the file names; of an ACRONYM file, in the frame of its mesh, placed by the centre of mass of
+    the object built). A mesh-frame set whose mesh file is the mesh --object is that object's, whatever it is
+    named (an ACRONYM file names its object by its mesh file's stem)."""
     from manigrasp.errors import ConfigError
+    from manigrasp.graspsets import mesh_path
     from manigrasp.objects import catalog
 
     named = grasps.object.name
     built = entry["name"] if "mesh" in entry else catalog.full_name(entry["name"])
-    if not named or named == built or grasps.frame != "object":
+    if not named or named == built:
         return False
-    if not args.any_object and catalog.full_name(named) != built:
+    mesh = mesh_path(grasps) if grasps.frame == "mesh" else None
+    own_mesh = "mesh" in entry and mesh is not None and mesh.resolve() == Path(entry["mesh"]).resolve()
+    if not args.any_object and catalog.full_name(named) != built and not own_mesh:
         raise ConfigError(f"{args.grasps} holds grasps of object {named!r}, not {entry['name']!r}: their poses are "
                           f"in the frame of {named!r} (--any-object runs them on {entry['name']!r} anyway)")
     return True

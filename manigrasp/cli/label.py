@@ -49,10 +49,21 @@ def _label(args: argparse.Namespace) -> int:
     rows = [(name, f"{ok}/{n}", f"{ok / n:.1%}" if n else "-")
             for name, (ok, n) in sorted(summary.success_share().items())]
     print(format_table(("object", "success", "share"), rows))
-    print(f"{summary.ran} grasps labelled now, {summary.already_done} already stored; "
-          f"{summary.labelled_per_second:.2f} labelled/s ({summary.seconds:.0f} s, {args.jobs} job(s)); "
-          f"{summary.skipped} trials without a grasp (planner errors) not written", file=sys.stderr)
+    print(f"{summary.written} grasps written, {summary.labelled_now} of them labelled now ({summary.ran} trials run, "
+          f"{summary.already_done} already stored); {summary.labelled_per_second:.2f} labelled/s "
+          f"({summary.seconds:.0f} s, {args.jobs} job(s)); {without_grasp_note(summary.without_grasp)}",
+          file=sys.stderr)
     for item in summary.exported:
         note = f" ({item.note})" if item.note else ""
         print("  " + ", ".join(str(f) for f in item.files) + note, file=sys.stderr)
     return 0
+
+
+def without_grasp_note(counts: dict[str, int]) -> str:
+    """"3 trials without a grasp not written (no_grasp 2, timeout 1)": the trials that executed no grasp, by
+    status (a planner that found too few, failed or overran its budget; a harness fault before the grasp)."""
+    total = sum(counts.values())
+    if not total:
+        return "every trial had a grasp"
+    by_status = ", ".join(f"{status} {n}" for status, n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])))
+    return f"{total} trial{'s' if total != 1 else ''} without a grasp not written ({by_status})"

@@ -20,10 +20,13 @@ sits between its own pads, where ACRONYM's grasp puts the object. Jaws are symme
 of the closing axis does not matter. ACRONYM grasps are parallel-jaw grasps: on a dexterous hand
 they are `invalid_grasp`.
 
-Files written by `manigrasp label` add ``grasps/qualities/manigrasp/*`` (status, success as
-``object_in_gripper``, metrics, the planner's score as ``planner_score``) and
-``grasps/manigrasp/widths``; ``object/file`` is then the object's built visual mesh, whose frame is
-manigrasp's object frame.
+Files written by manigrasp add ``grasps/qualities/manigrasp/*`` (the planner's score as ``planner_score``
+and the set's labels: from `manigrasp label` status, success (1 = the protocol's success; no ``flex/*`` key,
+which would claim ACRONYM's FleX physics), trial id, seed, measures), ``grasps/manigrasp/widths`` and
+``object/manigrasp/name``, the manigrasp object's name (ACRONYM's own keys are as above, so ACRONYM's
+tools read the file). `manigrasp label` sets ``object/file`` to the object's built visual mesh, whose
+frame is manigrasp's object frame, and ``object/manigrasp/built`` to 1: a reader then names the object by
+``object/manigrasp/name`` (`ObjectRef.built`), where a file without it is named by its mesh file's stem.
 """
 
 from __future__ import annotations
@@ -45,6 +48,8 @@ ACRONYM_TO_TCP = np.array([[0.0, 1.0, 0.0, 0.0],
 SUFFIXES = (".h5", ".hdf5")
 SCORE_KEY = "manigrasp/planner_score"
 WIDTH_KEY = "grasps/manigrasp/widths"
+NAME_KEY = "object/manigrasp/name"
+BUILT_KEY = "object/manigrasp/built"
 
 
 def tcp_from_acronym(transforms: np.ndarray) -> np.ndarray:
@@ -88,12 +93,20 @@ def read(path: str | Path) -> GraspSet:
         mass = _scalar(handle["object/mass"][()], "object/mass", path) if "object/mass" in handle else None
         labels = _qualities(handle, n, path)
         widths = handle[WIDTH_KEY][()].astype(float) if WIDTH_KEY in handle else np.full(n, np.nan)
+        name = _string(handle[NAME_KEY][()]) if NAME_KEY in handle else None
+        built = bool(np.asarray(handle[BUILT_KEY][()]).item()) if BUILT_KEY in handle else False
     scores = labels.get(SCORE_KEY, np.zeros(n)).astype(float)
-    mesh_path = mesh.item().decode() if isinstance(mesh.item(), bytes) else str(mesh.item())
+    mesh_path = _string(mesh)
     return GraspSet(tcp_from_acronym(transforms.astype(float)), widths, np.zeros(n), scores, frame="mesh",
-                    hand_kind="parallel", object=ObjectRef(name=Path(mesh_path).stem, mesh=mesh_path, scale=scale,
-                                                           mass=mass),
+                    hand_kind="parallel", object=ObjectRef(name=name or Path(mesh_path).stem, mesh=mesh_path,
+                                                           scale=scale, mass=mass, built=built and bool(name)),
                     labels=labels, source=str(path))
+
+
+def _string(value: Any) -> str:
+    """A scalar string dataset's text (h5py gives bytes)."""
+    item = np.asarray(value).item()
+    return item.decode() if isinstance(item, bytes) else str(item)
 
 
 def _dataset(handle: Any, key: str, path: Path) -> np.ndarray:
@@ -138,7 +151,8 @@ def _text(value: np.ndarray) -> np.ndarray:
 
 def write(grasps: GraspSet, path: str | Path) -> Path:
     """Write a parallel-jaw `grasps` set in ACRONYM's layout. Its poses must be in the frame of
-    ``grasps.object.mesh`` (scaled by ``object.scale``); labels go to ``grasps/qualities/manigrasp/``."""
+    ``grasps.object.mesh`` (scaled by ``object.scale``); labels go to ``grasps/qualities/manigrasp/``, the
+    object's name (and `ObjectRef.built`) to ``object/manigrasp/``."""
     h5py = _h5py()
     path = Path(path)
     if grasps.object.mesh is None:
@@ -157,6 +171,10 @@ def write(grasps: GraspSet, path: str | Path) -> Path:
             else:
                 handle[f"grasps/qualities/{name}"] = value
         handle["object/file"] = str(grasps.object.mesh)
+        if grasps.object.name is not None:
+            handle[NAME_KEY] = str(grasps.object.name)
+            if grasps.object.built:
+                handle[BUILT_KEY] = 1
         handle["object/scale"] = float(grasps.object.scale)
         if grasps.object.mass is not None:
             handle["object/mass"] = float(grasps.object.mass)

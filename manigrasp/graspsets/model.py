@@ -34,12 +34,16 @@ class ObjectRef:
         mesh: path of its mesh file (relative paths are relative to the grasp file), or None.
         scale: factor applied to the mesh file's vertices (ACRONYM's ``object/scale``).
         mass: [kg], or None.
+        built: `mesh` is the built visual mesh of the manigrasp object `name` (an ACRONYM file written by
+            `manigrasp label`): its frame is manigrasp's object frame, and the object is resolved by `name`
+            (a shipped object is built by its name, not from the cached mesh, which is named for the cache).
     """
 
     name: str | None = None
     mesh: str | None = None
     scale: float = 1.0
     mass: float | None = None
+    built: bool = False
 
 
 @dataclass(frozen=True, eq=False)

@@ -30,6 +30,8 @@ toward object), y = closing (finger 1 toward finger 2), x = y cross z. A JSON gr
 ``"width": null``) and an NPZ NaN width mean "not given"; a JSON width of NaN or +-Infinity (and an infinite NPZ
 width) is a width that is not a number: that grasp is `invalid_grasp`, like a NaN pose (the set keeps it as
 +-inf, as NaN means "not given" there).
+`write` stores a NaN in a pose, joints or label as null (standard JSON has no NaN; JSON.parse refuses it), read
+back as NaN; older files with bare NaN tokens read the same.
 A quaternion must be a unit quaternion within `manigrasp.geometry.RIGID_TOLERANCE` (a non-unit one is a
 file error naming the grasp: it is not silently normalised, nor read as the identity).
 """
@@ -190,7 +192,8 @@ def _label_columns(labels: list[dict], where: str) -> dict[str, np.ndarray]:
     if missing:
         raise GraspFileError(f"{where}: grasp {missing[0]} has labels {sorted(labels[missing[0]])}, "
                              f"others have {names} (label every grasp alike, or none)")
-    return {name: np.array([label[name] for label in labels]) for name in names}
+    # null is how `write` stores NaN (standard JSON has no NaN); older files hold bare NaN, which reads the same.
+    return {name: np.array([math.nan if label[name] is None else label[name] for label in labels]) for name in names}
 
 
 def _read_npz(path: Path) -> GraspSet:
@@ -241,6 +244,7 @@ def write(grasps: GraspSet, path: str | Path) -> Path:
     if suffix == ".npz":
         _write_npz(grasps, path)
     else:
+        # allow_nan: a width or pre-shape that is not a number (read from such a file) is written back as it came.
         path.write_text(json.dumps(_json_payload(grasps), indent=1, allow_nan=True))
     return path
 
@@ -251,19 +255,27 @@ def _json_payload(grasps: GraspSet) -> dict[str, Any]:
            if v is not None}
     rows = []
     for i in range(len(grasps)):
-        row: dict[str, Any] = {"pose": grasps.poses[i].tolist(), "score": float(grasps.scores[i]),
+        row: dict[str, Any] = {"pose": _nulls(grasps.poses[i].tolist()), "score": float(grasps.scores[i]),
                                "preshape": float(grasps.preshapes[i])}
         if not np.isnan(grasps.widths[i]):  # NaN: not given; +-inf (not a number) written as +-Infinity
             row["width"] = float(grasps.widths[i])
         joints = grasps.grasp_joints(i)
         if joints is not None:
-            row["joints"] = joints.tolist()
+            row["joints"] = _nulls(joints.tolist())
         if grasps.labels:
-            row["label"] = {k: v[i].item() for k, v in grasps.labels.items()}
+            row["label"] = {k: _nulls(v[i].item()) for k, v in grasps.labels.items()}
         rows.append(row)
     head = {"format": FORMAT, "version": VERSION, "hand": grasps.hand, "hand_kind": grasps.hand_kind,
             "frame": grasps.frame, "object": obj}
     return {**{k: v for k, v in head.items() if v is not None}, "grasps": rows}
+
+
+def _nulls(value: Any) -> Any:
+    """`value` (a number, or nested lists of them) with NaN as None: JSON null, which every JSON parser reads
+    (a bare NaN is not standard JSON), and which the reader reads back as NaN."""
+    if isinstance(value, list):
+        return [_nulls(v) for v in value]
+    return None if isinstance(value, float) and math.isnan(value) else value
 
 
 def _write_npz(grasps: GraspSet, path: Path) -> None:

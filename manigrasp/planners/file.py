@@ -84,7 +84,9 @@ class FilePlanner:
             directory of them named ``<object>__<hand>...``. Relative paths are relative to the
             working directory.
         transfer: run a set made for another hand of the same kind (default: such grasps are `invalid_grasp`).
-        check_object: refuse a file that names a different object than the one observed.
+        check_object: refuse a file that names a different object than the one observed (in either frame: a
+            mesh-frame set of another object would be placed by the observed object's centre of mass), unless
+            it is a mesh-frame set of the observed object's own mesh file (`same_mesh`).
     """
 
     path: str
@@ -103,7 +105,7 @@ class FilePlanner:
         object_name = asset.name if asset is not None else None
         grasps = load_grasps(grasp_file_for(self.path, object_name, hand.name))
         if self.check_object and object_name and grasps.object.name \
-                and catalog.full_name(grasps.object.name) != object_name and grasps.frame == "object":
+                and catalog.full_name(grasps.object.name) != object_name and not same_mesh(grasps, asset):
             raise PlannerError(f"file planner: {grasps.source} holds grasps of object {grasps.object.name!r}, "
                                f"not {object_name!r} (planner param check_object: false runs them anyway)")
         base = observation.object_pose @ mesh_to_object(grasps, asset)
@@ -127,9 +129,10 @@ def mesh_to_object(grasps: GraspSet, asset: object | None) -> np.ndarray:
 
     "object" frame: the identity. "mesh" frame (ACRONYM): the object's mesh file scaled by
     ``object.scale``, whose centre of mass the built object records (``com_offset_m``); a set whose
-    mesh is the built object's own visual mesh (as `manigrasp label` writes) is already in the object frame.
+    mesh is the built object's own visual mesh (as `manigrasp label` writes, `ObjectRef.built`) is already in
+    the object frame.
     """
-    if grasps.frame == "object":
+    if grasps.frame == "object" or grasps.object.built:
         return np.eye(4)
     if asset is None:
         raise PlannerError(f"file planner: {grasps.source} is in its mesh's frame; placing it needs the built object")
@@ -146,3 +149,13 @@ def mesh_to_object(grasps: GraspSet, asset: object | None) -> np.ndarray:
                            f"object {asset.name!r} was built at scale {scale:g}")
     return translation(-np.asarray(metadata["com_offset_m"], float))
 
+
+def same_mesh(grasps: GraspSet, asset: object | None) -> bool:
+    """Whether `grasps` is a mesh-frame set whose mesh file is the built object's source or visual mesh: then it
+    is that object's set whatever name the file gives it (an ACRONYM file names its object by its mesh's stem)."""
+    mesh = mesh_path(grasps) if grasps.frame == "mesh" else None
+    if mesh is None or asset is None:
+        return False
+    metadata = getattr(asset, "metadata", {}) or {}
+    own = [str(p) for p in (getattr(asset, "visual_path", None), metadata.get("source")) if p]
+    return any(Path(p).resolve() == mesh.resolve() for p in own)

@@ -1,0 +1,252 @@
+"""`label`'s exporter on stored trials (no simulation): which trials become grasps, the summary, the object's
+name under resting poses, and the files `evaluate` reads back (the object check, the object of an .h5)."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+from types import SimpleNamespace
+
+import h5py
+import numpy as np
+import pytest
+
+from manigrasp.bench.config import parse_config
+from manigrasp.bench.label import export_dataset
+from manigrasp.bench.store import ResultsStore, TrialKey
+from manigrasp.cli import main
+from manigrasp.graspsets import GraspSet, ObjectRef, acronym, native, read
+from manigrasp.protocol.result import PoseRecord, Status, TrialResult
+
+CAN = "005_tomato_soup_can"
+CONFIG = {"objects": [CAN], "planners": ["random"], "grasps_per_object": 4, "protocol": "lift"}
+
+
+def _top_down(height: float) -> np.ndarray:
+    pose = np.eye(4)
+    pose[:3, :3] = np.diag([-1.0, 1.0, -1.0])
+    pose[:3, 3] = [0.0, 0.0, height]
+    return pose
+
+
+def _store(run_dir: Path, statuses: list[Status], label: str = CAN, rest_index: int = -1) -> list[str]:
+    """A results store of one group of `label`: a trial per status, those in PLANNED with a grasp; its trial ids."""
+    planned = {Status.SUCCESS, Status.SLIPPED_LIFT, Status.NO_CONTACT}
+    obj = np.eye(4)
+    obj[:3, 3] = [0.1, 0.0, 0.05]
+    ids = []
+    with ResultsStore(run_dir / "results.sqlite") as store:
+        for i, status in enumerate(statuses):
+            key = TrialKey(label, "parallel_jaw", "random", "ground_truth", "lift", i)
+            grasp = PoseRecord.of(obj @ _top_down(0.02 + 0.01 * i)) if status in planned else PoseRecord()
+            store.add(key, TrialResult(status=status, grasp=grasp, object_pose=PoseRecord.of(obj), seed=i,
+                                       rest_index=rest_index, rest_probability=0.5 if rest_index >= 0 else math.nan))
+            ids.append(key.trial_id)
+    return ids
+
+
+def test_trials_without_a_grasp_are_left_out_and_counted_by_status(tmp_path):
+    """A planning timeout or a harness fault before the grasp was written as an all-NaN grasp labelled
+    `timeout` (only planner_error and no_grasp were left out)."""
+    statuses = [Status.SUCCESS, Status.TIMEOUT, Status.NO_GRASP, Status.HARNESS_FAULT, Status.SLIPPED_LIFT,
+                Status.PLANNER_ERROR, Status.TIMEOUT]
+    ids = _store(tmp_path, statuses)
+    (item,), without = export_dataset(tmp_path, parse_config(CONFIG))
+    assert without == {"timeout": 2, "no_grasp": 1, "harness_fault": 1, "planner_error": 1}
+    assert item.grasps == 2 and item.trial_ids == (ids[0], ids[4])
+    for path in item.files:
+        grasps = read(path)
+        assert len(grasps) == 2 and np.all(np.isfinite(grasps.poses))
+    assert list(read(item.files[0]).labels["status"]) == ["success", "slipped_lift"]
+
+
+def test_a_group_without_any_grasp_writes_no_file_and_removes_an_earlier_one(tmp_path):
+    _store(tmp_path, [Status.TIMEOUT, Status.TIMEOUT])
+    stale = tmp_path / "grasps" / f"{CAN}__parallel_jaw__random.json"
+    stale.parent.mkdir()
+    stale.write_text("{}")  # what an earlier export wrote of these trials (NaN grasps)
+    assert export_dataset(tmp_path, parse_config(CONFIG)) == ([], {"timeout": 2})
+    assert not stale.exists()
+
+
+def test_the_cli_summary_counts_grasps_written_and_trials_without_one_by_status(tmp_path, capsys, monkeypatch):
+    """It printed "4 grasps labelled now ... 2 trials without a grasp (planner errors)" for 2 grasps written and
+    2 trials that were no_grasp and timeout; its rate counted the trials without a grasp too."""
+    import manigrasp.bench.runner
+
+    def run_benchmark(config, run_dir, on_result=None, **_):
+        ids = _store(Path(run_dir), [Status.SUCCESS, Status.NO_GRASP, Status.NO_CONTACT, Status.TIMEOUT])
+        for trial in ids:
+            on_result(SimpleNamespace(trial_id=trial), None)
+        return SimpleNamespace(ran=4, already_done=0)
+
+    monkeypatch.setattr(manigrasp.bench.runner, "run_benchmark", run_benchmark)
+    config = tmp_path / "c.yaml"
+    config.write_text(json.dumps(CONFIG))
+    assert main(["label", str(config), "--out", str(tmp_path / "run"), "--quiet", "--jobs", "1"]) == 0
+    err = capsys.readouterr().err
+    assert "2 grasps written, 2 of them labelled now (4 trials run, 0 already stored)" in err, err
+    assert "2 trials without a grasp not written (no_grasp 1, timeout 1)" in err and "planner errors" not in err
+
+
+def test_label_summary_rate_counts_grasps_labelled_now():
+    from manigrasp.bench.label import Exported, LabelSummary
+
+    item = Exported("g", CAN, "parallel_jaw", 6, 2, (), trial_ids=tuple(f"t{i}" for i in range(6)))
+    summary = LabelSummary(Path("run"), 12, 0, 2.0, (item,), {"no_grasp": 6}, labelled_now=6)
+    assert summary.written == 6 and summary.skipped == 6 and summary.labelled_per_second == 3.0
+
+
+def test_a_resting_pose_group_names_its_object_plainly_and_records_the_pose(tmp_path, capsys, monkeypatch):
+    """Under rest: stable_k the object's source was looked up by its label (no ACRONYM file: 'mesh not found'),
+    and the native file named the object '...@rest0', which evaluate could not resolve."""
+    import manigrasp.bench.runner
+    import manigrasp.cli.report
+
+    config = parse_config(dict(CONFIG, scene={"rest": "stable_k", "rest_k": 1}))
+    _store(tmp_path, [Status.SUCCESS, Status.NO_CONTACT], label=f"{CAN}@rest0", rest_index=0)
+    (item,), _ = export_dataset(tmp_path, config)
+    assert item.note == "" and [Path(f).suffix for f in item.files] == [".json", ".h5"]
+    assert item.object == f"{CAN}@rest0"  # the summary's table still tells the poses apart
+    for path in item.files:
+        grasps = read(path)
+        assert grasps.object.name == CAN
+        rest = grasps.labels["rest_index" if path.suffix == ".json" else "manigrasp/rest_index"]
+        assert list(rest) == [0, 0]
+    configs = []
+    monkeypatch.setattr(manigrasp.bench.runner, "run_benchmark",
+                        lambda config, *_, **__: configs.append(config) or SimpleNamespace(ran=0, already_done=0,
+                                                                                           seconds=0.0))
+    monkeypatch.setattr(manigrasp.cli.report, "print_report", lambda *_, **__: 0)
+    for path in item.files:
+        assert main(["evaluate", str(path), "--out", str(tmp_path / f"ev{path.suffix}"), "--quiet"]) == 0
+        assert configs[-1].objects[0].name == CAN, capsys.readouterr().err
+
+
+@pytest.fixture
+def captured(monkeypatch) -> list:
+    """Stand-ins for the run and the report: `evaluate`'s config is captured, no trial is simulated."""
+    import manigrasp.bench.runner
+    import manigrasp.cli.report
+
+    configs: list = []
+    monkeypatch.setattr(manigrasp.bench.runner, "run_benchmark",
+                        lambda config, *_, **__: configs.append(config) or SimpleNamespace(ran=0, already_done=0,
+                                                                                           seconds=0.0))
+    monkeypatch.setattr(manigrasp.cli.report, "print_report", lambda *_, **__: 0)
+    return configs
+
+
+def _label_h5(tmp_path: Path) -> Path:
+    _store(tmp_path, [Status.SUCCESS, Status.NO_CONTACT])
+    (item,), _ = export_dataset(tmp_path, parse_config(CONFIG))
+    return Path(item.files[1])
+
+
+def test_a_label_h5_names_its_object_and_evaluate_builds_that_object(tmp_path, captured):
+    """evaluate of a label-written .h5 built a new object named "visual" from the cached visual mesh."""
+    path = _label_h5(tmp_path)
+    with h5py.File(path) as handle:
+        assert handle[acronym.NAME_KEY][()].decode() == CAN and "object/file" in handle
+    grasps = read(path)
+    assert grasps.object.name == CAN and grasps.object.built
+    assert main(["evaluate", str(path), "--out", str(tmp_path / "ev"), "--quiet"]) == 0
+    (config,) = captured
+    assert config.objects[0].name == CAN and config.objects[0].mesh is None  # the shipped object, by its name
+
+
+def test_an_h5_of_another_object_is_refused_unless_any_object(tmp_path, captured, capsys):
+    """An .h5 of one object ran silently on --object OTHER, its grasps shifted by OTHER's centre of mass."""
+    path = _label_h5(tmp_path)
+    capsys.readouterr()
+    assert main(["evaluate", str(path), "--object", "025_mug", "--out", str(tmp_path / "ev"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"holds grasps of object {CAN!r}, not '025_mug'" in err and "--any-object" in err and not captured
+    assert main(["evaluate", str(path), "--object", "025_mug", "--any-object", "--out", str(tmp_path / "ev"),
+                 "--quiet"]) == 0
+    assert captured[0].objects[0].name == "025_mug"
+
+
+def test_the_file_planner_refuses_a_mesh_frame_set_of_another_object(tmp_path):
+    from manigrasp import hands
+    from manigrasp.errors import PlannerError
+    from manigrasp.objects import catalog
+    from manigrasp.planners import Observation
+    from manigrasp.planners.file import FilePlanner
+
+    path = _label_h5(tmp_path)
+    hand = hands.load("parallel_jaw")
+    mug = Observation.from_asset(catalog.build(catalog.shipped("025_mug")).asset, np.eye(4))
+    with pytest.raises(PlannerError, match=f"holds grasps of object {CAN!r}, not '025_mug'"):
+        FilePlanner(str(path)).plan(mug, hand, 1, np.random.default_rng(0))
+    assert len(FilePlanner(str(path), check_object=False).plan(mug, hand, 1, np.random.default_rng(0))) == 1
+    can = Observation.from_asset(catalog.build(catalog.shipped(CAN)).asset, np.eye(4))
+    (candidate,) = FilePlanner(str(path)).plan(can, hand, 1, np.random.default_rng(0))
+    np.testing.assert_allclose(candidate.pose, read(path).poses[0], atol=1e-12)  # label's frame is the object's
+
+
+def test_an_acronym_file_of_a_mesh_object_is_that_object_whatever_its_name(tmp_path, captured):
+    """A real ACRONYM file names its object by its mesh's stem: --object that mesh --name other still runs."""
+    import trimesh
+
+    mesh = tmp_path / "abc123.obj"
+    trimesh.creation.box(extents=(0.04, 0.05, 0.06)).export(mesh)
+    path = tmp_path / "abc.h5"
+    with h5py.File(path, "w") as f:
+        f["grasps/transforms"] = np.eye(4)[None]
+        f["object/file"] = mesh.name
+        f["object/scale"] = 1.0
+    grasps = read(path)
+    assert grasps.object.name == "abc123" and not grasps.object.built  # no manigrasp key: as before
+    assert main(["evaluate", str(path), "--object", str(mesh), "--name", "box_b", "--out", str(tmp_path / "ev"),
+                 "--quiet"]) == 0
+    assert captured[0].objects[0].name == "box_b"
+
+
+def test_native_json_writes_nan_as_null_and_reads_it_back(tmp_path):
+    """label's .json held bare NaN tokens (not JSON: JavaScript's JSON.parse refuses them)."""
+    pose = _top_down(0.02)
+    nan_pose = np.full((4, 4), np.nan)
+    grasps = GraspSet(np.stack([pose, nan_pose]), np.array([0.03, np.nan]), np.zeros(2), np.array([1.0, 0.0]),
+                      object=ObjectRef(name=CAN), labels={"status": np.array(["success", "timeout"]),
+                                                         "grip_force_n": np.array([12.5, np.nan]),
+                                                         "fingers_in_contact": np.array([2, 0])})
+    path = native.write(grasps, tmp_path / "g.json")
+
+    def refuse(token: str) -> None:
+        raise ValueError(f"non-standard JSON token {token}")
+
+    json.loads(path.read_text(), parse_constant=refuse)  # strict JSON
+    back = read(path)
+    np.testing.assert_array_equal(back.poses, grasps.poses)
+    np.testing.assert_array_equal(back.labels["grip_force_n"], [12.5, np.nan])
+    assert list(back.labels["status"]) == ["success", "timeout"] and back.labels["grip_force_n"].dtype == float
+    # A file written before, with bare NaN tokens, reads the same.
+    old = tmp_path / "old.json"
+    old.write_text(path.read_text().replace("null", "NaN"))
+    np.testing.assert_array_equal(read(old).labels["grip_force_n"], [12.5, np.nan])
+    np.testing.assert_array_equal(read(old).poses, grasps.poses)
+
+
+def test_the_acronym_docstring_names_only_keys_label_writes():
+    """It said label-written files store success as ``object_in_gripper`` (ACRONYM's FleX key); they do not."""
+    label_part = acronym.__doc__.split("Files written by")[1]
+    assert "object_in_gripper" not in label_part
+
+
+def test_the_file_planner_knows_a_mesh_frame_set_of_the_objects_own_mesh_by_its_file(tmp_path):
+    """An ACRONYM file names its object by its mesh's stem; an object built from that very mesh file under another
+    name is its object (the planner's check by name would refuse it)."""
+    from manigrasp.planners.file import same_mesh
+
+    mesh = tmp_path / "meshes" / "abc123.obj"
+    mesh.parent.mkdir()
+    mesh.write_text("")
+    grasps = GraspSet(np.eye(4)[None], np.full(1, np.nan), np.zeros(1), np.zeros(1), frame="mesh",
+                      object=ObjectRef(name="abc123", mesh="meshes/abc123.obj"), source=str(tmp_path / "g.h5"))
+    built = SimpleNamespace(visual_path=tmp_path / "cache" / "visual.obj", metadata={"source": str(mesh)})
+    other = SimpleNamespace(visual_path=tmp_path / "cache" / "visual.obj", metadata={"source": "recipe (ycb)"})
+    assert same_mesh(grasps, built) and not same_mesh(grasps, other)
+    assert not same_mesh(replace(grasps, frame="object"), built)  # an object-frame set names its object by name
