@@ -343,3 +343,70 @@ def test_squeeze_friction_of_three_fingers_pressing_a_sphere_along_its_normals_i
     # forces of contacts 0 and 2 (b and -b, no net torque), 2 b sin(60 deg) = 1: sum |t| / sum f_n = (2 / sqrt 3) / 4.
     assert dexopt.squeeze_friction(points, normals, jac, np.array([1.0, 2.0, 1.0, 0.0]), np.zeros(3)) == \
         pytest.approx(np.sqrt(3.0) / 6.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("tilt", [0.0, 0.3])
+def test_balanced_squeeze_of_a_wedge_pinch_needs_the_tangent_of_its_tilt(tilt: float) -> None:
+    """Two contacts whose normals lean `tilt` up from their line: the only internal forces press along that line,
+    each a normal part cos and a tangential part sin of it: friction tan(tilt), equal forces, mean normal 1."""
+    points, normals, _ = _wedge_pinch(tilt)
+    forces = dexopt.balanced_squeeze(points, normals, np.zeros(3))
+    assert forces is not None
+    np.testing.assert_allclose(forces.sum(axis=0), 0.0, atol=1e-9)
+    np.testing.assert_allclose(forces[:, 1:], 0.0, atol=1e-9)  # along the line (x) only
+    normal = np.einsum("ki,ki->k", forces, normals)
+    np.testing.assert_allclose(normal, 1.0, atol=1e-9)
+    tangential = np.linalg.norm(forces - normal[:, None] * normals, axis=1)
+    assert tangential.sum() / normal.sum() == pytest.approx(np.tan(tilt), abs=1e-9)
+
+
+def test_balanced_squeeze_of_a_thumb_against_two_fingers_takes_no_friction() -> None:
+    """A thumb at -x against two fingers at +x, +-2 cm in y, all pressing along x: balanced by normal forces alone
+    (the thumb twice each finger), where equal unit pushes (the planner's first squeeze) leave a net push of 1."""
+    points = np.array([[-0.03, 0.0, 0.0], [0.03, 0.02, 0.0], [0.03, -0.02, 0.0]])
+    normals = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    forces = dexopt.balanced_squeeze(points, normals, np.zeros(3))
+    np.testing.assert_allclose(forces, [[1.5, 0, 0], [-0.75, 0, 0], [-0.75, 0, 0]], atol=1e-9)
+    assert np.linalg.norm(normals.sum(axis=0)) == pytest.approx(1.0)
+
+
+def test_balanced_squeeze_is_none_where_the_normals_cannot_oppose() -> None:
+    points = np.array([[0.0, 0.0, 0.0], [0.02, 0.0, 0.0]])
+    normals = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])  # both pushing up: no internal force presses them
+    assert dexopt.balanced_squeeze(points, normals, np.zeros(3)) is None
+    assert dexopt.balanced_squeeze(points[:1], normals[:1], np.zeros(3)) is None
+
+
+def test_the_planner_squeezes_with_whichever_forces_use_less_friction_through_its_actuators() -> None:
+    """Random grasps of three contacts on random underactuated hands (9 joints, 5 actuators through a random
+    joint -> command map): the squeeze's actuator forces are the balanced squeeze's where the friction they use
+    (`squeeze_friction` of the torques the actuators produce) is below that of unit pushes along the normals, the
+    unit pushes' otherwise; never more friction than the unit pushes, and in some grasps less. Off: unit pushes."""
+    from types import SimpleNamespace
+
+    from manigrasp.planners.dexopt_planner import DexOptPlanner
+
+    rng = np.random.default_rng(3)
+    hk = SimpleNamespace(hand=SimpleNamespace(open_ctrl=np.zeros(5), closed_ctrl=np.ones(5)))
+    on, off = DexOptPlanner(close_only=False, balanced_squeeze=True), DexOptPlanner(close_only=False)
+    lower = 0
+    for _ in range(20):
+        angles = np.array([0.0, 2.3, 3.9]) + rng.normal(0.0, 0.3, 3)
+        points = 0.03 * np.stack([np.cos(angles), np.sin(angles), rng.normal(0.0, 0.3, 3)], axis=1)
+        normals = -points + rng.normal(0.0, 0.01, (3, 3))
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        jac = rng.normal(0.0, 1.0, (3, 3, 9))
+        a = rng.normal(0.0, 1.0, (5, 9))
+        rows = np.einsum("ki,kij->kj", normals, jac)
+        chosen = on._squeeze_force(hk, a, rows, jac, points, normals, np.zeros(3))
+        unit = off._squeeze_force(hk, a, rows, jac, points, normals, np.zeros(3))
+        np.testing.assert_allclose(unit, np.linalg.lstsq(a.T, rows.sum(axis=0), rcond=None)[0], atol=1e-9)
+        forces = dexopt.balanced_squeeze(points, normals, np.zeros(3))
+        balanced = np.linalg.lstsq(a.T, np.einsum("ki,kij->j", forces, jac), rcond=None)[0]
+        used = {name: dexopt.squeeze_friction(points, normals, jac, a.T @ f, np.zeros(3))
+                for name, f in (("unit", unit), ("balanced", balanced))}
+        expected = balanced if used["balanced"] < used["unit"] else unit
+        np.testing.assert_allclose(chosen, expected, atol=1e-9)
+        assert dexopt.squeeze_friction(points, normals, jac, a.T @ chosen, np.zeros(3)) <= used["unit"] + 1e-9
+        lower += used["balanced"] < used["unit"] - 1e-6
+    assert lower >= 5

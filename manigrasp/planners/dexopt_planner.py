@@ -69,6 +69,23 @@
    (Pushing each pad with the share the force-closure term balances it with, `force_shares`, instead of the same
    force at every pad: tried on the dexterous config, standard 10 N, seed 0, with the fixes of steps 3-4: Allegro
    40 -> 43, Fourier 64 -> 64, Inspire 53 -> 48/70; not kept.)
+   With `balanced_squeeze` (opt-in) the torques may instead be those of the internal forces at the pads that need
+   the least friction (`dexopt.balanced_squeeze`: grasp force optimisation over forces that balance the object
+   among themselves, each pad pressed at least `min_force_share` of the mean), taken where the actuators turn them
+   into a squeeze using less friction than the unit pushes (`dexopt.squeeze_friction` of the torques A^T f each
+   produces; in one planning call 32-74 of 42-80 candidates, Allegro mug, Inspire mug, Fourier can; the median
+   friction used 0.62 -> 0.46, 1.80 -> 1.09, 2.98 -> 1.37). Why: a replayed Allegro banana grasp ended its close
+   with three of five contacts on their friction cones, the object held by the table, and its grip fell from 9.4
+   to 1.9 N in the first 0.2 s of the lift. Measured on the dexterous config's 7 objects x 10, standard 10 N, seeds
+   0-2, paired (the same planning and trial seeds, `manigrasp bench` with dexopt alone and the parameter set),
+   off -> on, of 210: Allegro 124 -> 131 (pairs held only with it 27, only without 20, exact McNemar p = 0.38),
+   Fourier 180 -> 190 (19 / 9, p = 0.09), Inspire 162 -> 150 (17 / 29, p = 0.10): no hand's change is beyond
+   noise, and the Inspire's goes the other way, below 0.75. With `close_only` off as well, so that the actuators
+   can press the balanced forces whole (the planned friction then equals the least, 0.02-0.44 on the Allegro
+   banana and mug): Allegro seed 0 30/70 against 40 (mug 4, can 6 against 8, 10). So it stays off.
+   (Variants of one planner in one config are not paired: the label enters the group's seed, and two draws of
+   the planning seeds moved these hands by up to 16 of 210 with the code unchanged: the same comparison run as
+   two planner entries of one config read +20, +15, +4.)
 
 6. Load feasibility (as BODex asks of a grasp, in the protocol's terms): the normal force the squeeze presses
    each pad with (`pad_forces`: lambda >= 0 with sum_i lambda_i J_i^T n_i = A^T f, the squeeze's actuator
@@ -179,6 +196,7 @@ from manigrasp.planners.context import PlanContext, resolve
 from manigrasp.planners.dexopt import (
     EnergyWeights,
     GridSdf,
+    balanced_squeeze,
     grasp_stiffness,
     hold_margin,
     load_rotation,
@@ -303,6 +321,10 @@ class DexOptPlanner:
             closed command); an actuator whose best force would open it stays put. On (the default): on the
             dexterous config it raised the successes from 22, 11, 5/80 to 26, 18, 8/80 (Inspire, Fourier,
             Allegro; fewer stalled closes), README.
+        balanced_squeeze: the squeeze may press the pads with the internal forces that need the least friction
+            (`dexopt.balanced_squeeze`) instead of equal pushes along their normals, where the actuators turn
+            them into a squeeze using less friction (module docstring, step 5). Off (the default): measured no
+            better beyond noise, and worse on the Inspire.
         min_force_share: smallest force of a pad relative to the mean in the force-closure term (1: all
             pads push equally, Liu et al.; `force_shares`).
         contact_tolerance: [m] a pad this close to the surface is in contact.
@@ -352,6 +374,7 @@ class DexOptPlanner:
     palm: bool = False
     wrap: bool = False
     close_only: bool = True
+    balanced_squeeze: bool = False
     contact_tolerance: float = 0.02
     min_contacts: int = 3
     max_penetration: float = 0.001
@@ -659,7 +682,7 @@ class DexOptPlanner:
                 continue
             normal = -g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
             path = self.hand_path(hk, probe, tcp, qi, x, hk.contacts.bodies[chosen], normal, d, jp[0],
-                                  jr[0], xpos[0], addresses, offset)
+                                  jr[0], xpos[0], addresses, offset, observation.center_of_mass)
             if path is None:
                 rejected["preshape"] = rejected.get("preshape", 0) + 1
                 continue
@@ -727,8 +750,8 @@ class DexOptPlanner:
 
     def hand_path(self, hk: HandKinematics, probe: HandProbe, tcp: np.ndarray, q: np.ndarray, x: np.ndarray,
                   bodies: np.ndarray, normal: np.ndarray, dist: np.ndarray, jp: np.ndarray, jr: np.ndarray,
-                  xpos: np.ndarray, addresses: dict[str, int], offset: float = PREGRASP_OFFSET
-                  ) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray] | None:
+                  xpos: np.ndarray, addresses: dict[str, int], offset: float = PREGRASP_OFFSET,
+                  center: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, bool, np.ndarray] | None:
         """(2, n_act) pre-shape and squeeze commands (module docstring, step 5), the normal forces (k,) the
         squeeze presses the pads with (relative; with a palm pad, in newtons with the palm's reaction,
         `palm_reaction`), whether the pre-shape is one of the `OPEN_TRIES` and the
@@ -742,11 +765,7 @@ class DexOptPlanner:
         dq_gap = rows.T @ np.linalg.solve(rows @ rows.T + GAP_DAMPING * np.eye(len(rows)), dist)
         q_touch = np.clip(q + dq_gap, hk.low, hk.high)
         ctrl_c, a = hk.ctrl(q_touch)
-        tau = rows.sum(axis=0)  # joint torques of unit inward pushes at every pad
-        force = np.linalg.lstsq(a.T, tau, rcond=None)[0]  # actuator forces f with A^T f = tau (least squares)
-        if self.close_only:  # no actuator squeezes against the hand's own closing direction
-            closing = np.sign(hk.hand.closed_ctrl - hk.hand.open_ctrl)
-            force = np.where(force * closing > 0, force, 0.0)
+        force = self._squeeze_force(hk, a, rows, jac, x, normal, center)
         load = np.max(np.abs(force) / hk.force_limit)
         if not load > 0:
             return None
@@ -772,6 +791,29 @@ class DexOptPlanner:
                 return np.stack([pre, squeeze]), press, attempt >= PRESHAPE_TRIES, torque
         return None
 
+    def _squeeze_force(self, hk: HandKinematics, a: np.ndarray, rows: np.ndarray, jac: np.ndarray, x: np.ndarray,
+                       normal: np.ndarray, center: np.ndarray | None) -> np.ndarray:
+        """(n_act,) the squeeze's actuator forces (relative; module docstring, step 5): those that best produce
+        (least squares through the joint -> command map `a`) the joint torques of unit inward pushes at every pad
+        (`rows`), or, with `balanced_squeeze` and the object's `center`, of the internal forces that need the
+        least friction (`dexopt.balanced_squeeze`, pads pressed at least `min_force_share`), whichever of the two
+        the hand's actuators turn into the squeeze using less friction (`dexopt.squeeze_friction` of the torques
+        they produce); with `close_only`, no actuator pushes against the hand's closing direction."""
+        closing = np.sign(hk.hand.closed_ctrl - hk.hand.open_ctrl)
+
+        def actuated(tau: np.ndarray) -> np.ndarray:
+            force = np.linalg.lstsq(a.T, tau, rcond=None)[0]  # actuator forces f with A^T f = tau (least squares)
+            return np.where(force * closing > 0, force, 0.0) if self.close_only else force
+
+        force = actuated(rows.sum(axis=0))  # joint torques of unit inward pushes at every pad
+        if not self.balanced_squeeze or center is None:
+            return force
+        internal = balanced_squeeze(x, normal, center, self.min_force_share)
+        if internal is None:
+            return force
+        balanced = actuated(np.einsum("ki,kij->j", internal, jac))
+        used = [squeeze_friction(x, normal, jac, a.T @ f, center) for f in (force, balanced)]
+        return balanced if used[1] < used[0] else force
 
 
 @dataclass(frozen=True)
