@@ -5,7 +5,15 @@ missing on either side are listed (a run with several protocols compares, agains
 of that protocol). One-sided pooled two-proportion z-tests per group, per hand x planner x observation x protocol
 over its groups in both, and over all groups in both pooled. Per-group p-values are
 Holm-Bonferroni corrected across groups, per-method ones across methods, so that a config with many groups
-does not fail CI by chance; the all-groups test is uncorrected.
+does not fail CI by chance; the all-groups test is uncorrected. The per-method and all-groups lines are
+stratified by group (Cochran-Mantel-Haenszel, `stats.stratified_lower_than_baseline`): their pooled counts are
+shown, but pooled counts would also test the mix of groups, and fewer trials of an easy object on one side (its
+harness faults, left out of every count) read as a regression where no group's rate moved. A group that one
+side holds only part of (fewer trials stored than its `grasps_per_object`, an interrupted run) is not compared
+and is listed: its first trials are a ranked planner's first candidates, not the population of all of them.
+The z-tests are normal approximations: with few trials per group they are anti-conservative (2/2 against 0/2
+gives p = 0.023 where Fisher's exact test gives 0.17); across many groups Holm's correction keeps the gate's
+error rate, and a small group alone decides little.
 
 A gate that cannot fail is no gate: anything it cannot judge raises `ConfigError` (exit 2 at the CLI): an
 alpha outside (0, 1), counts that are not counts (successes > trials, NaN, negative), no trials in common,
@@ -21,19 +29,26 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from manigrasp.bench.completeness import completeness
 from manigrasp.bench.report import Group, Rate, Report, load_results, report_from_json, summarize
-from manigrasp.bench.stats import ProportionTest, lower_than_baseline, wilson_interval
+from manigrasp.bench.stats import (
+    ProportionTest,
+    lower_than_baseline,
+    stratified_lower_than_baseline,
+    wilson_interval,
+)
 from manigrasp.errors import ConfigError
 
 POOLED_GROUP = "pooled (groups in both)"
 METHOD_WORDS = "hand x planner x observation x protocol"
 GROUP_WORDS = f"{METHOD_WORDS} x object"
 P_NOTE = (f"p (adjusted): one-sided; Holm-adjusted across the {GROUP_WORDS} groups and, apart, across the "
-          f"{METHOD_WORDS} lines; the pooled line is one test, not adjusted")
+          f"{METHOD_WORDS} lines; the pooled line is one test, not adjusted; the lines over several groups show "
+          "their pooled counts and are tested stratified by group (Cochran-Mantel-Haenszel; difference: "
+          "Mantel-Haenszel), so a different mix of groups alone is no regression")
 # Config fields that must be equal on both sides for their success rates to be comparable (and every protocol,
 # hand and object present on both sides).
 _SAME = ("scene",)
@@ -79,6 +94,7 @@ class Verdict:
     only_new: list[Group]
     only_base: list[Group]
     notes: list[str]
+    partial: list[Group] = field(default_factory=list)
 
     @property
     def regressions(self) -> list[Comparison]:
@@ -126,6 +142,7 @@ def load_side(path: Path) -> Side:
     if not isinstance(data, dict):
         raise ConfigError(f"baseline {path} is not a report (a JSON object from `manigrasp report --json`)")
     try:
+        _refuse_repeated_groups(data)
         report = report_from_json(data)
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise ConfigError(f"baseline {path} is not a valid report ({type(exc).__name__}: {exc}); "
@@ -136,6 +153,15 @@ def load_side(path: Path) -> Side:
     if isinstance(done, dict) and done.get("complete") is False:
         warnings = (f"recorded from an incomplete run ({done.get('stored')} of {done.get('expected')} trials stored)",)
     return Side(report, run if isinstance(run, dict) else {}, str(path), warnings)
+
+
+def _refuse_repeated_groups(data: dict) -> None:
+    """A baseline listing one group twice is malformed (reading it would keep one of the two silently)."""
+    keys = [(g["hand"], g["planner"], g.get("observation"), g.get("protocol"), g["object"])
+            for g in data["groups"]]
+    repeated = sorted({"/".join(map(str, k)) for k in keys if keys.count(k) > 1})
+    if repeated:
+        raise ValueError(f"group(s) listed more than once: {', '.join(repeated)}")
 
 
 def check_counts(report: Report, source: str) -> None:
@@ -277,13 +303,20 @@ def _short(value: object, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def compare(new: Report, base: Report, alpha: float = 0.05) -> Verdict:
-    """Compare `new` against `base` over the groups present in both (`ConfigError` if it cannot judge)."""
+def compare(new: Report, base: Report, alpha: float = 0.05, partial: set[Group] | frozenset = frozenset()
+            ) -> Verdict:
+    """Compare `new` against `base` over the groups present in both and not in `partial` (groups one side holds
+    only part of, `partial_groups`: listed, not compared); `ConfigError` if it cannot judge."""
     if not (isinstance(alpha, float | int) and math.isfinite(alpha) and 0 < alpha < 1):
         raise ConfigError(f"alpha must be a number strictly between 0 and 1, got {alpha!r}")
     check_counts(new, "the new run")
     check_counts(base, "the baseline")
-    common = [k for k in new.groups if k in base.groups]
+    both = [k for k in new.groups if k in base.groups]
+    left = [k for k in both if k in partial]
+    common = [k for k in both if k not in partial]
+    if both and not common:
+        raise ConfigError(f"nothing to compare: every group in both is held only in part by one side "
+                          f"({_names(left)}); finish the run (re-run the same command) or use a complete baseline")
     only_new = [k for k in new.groups if k not in base.groups]
     only_base = [k for k in base.groups if k not in new.groups]
     if not new.groups:
@@ -294,17 +327,34 @@ def compare(new: Report, base: Report, alpha: float = 0.05) -> Verdict:
     empty = [k for k in common if new.groups[k].trials == 0 or base.groups[k].trials == 0]
     if empty:
         raise ConfigError(f"cannot judge groups with zero trials: {_names(empty)}")
-    overall = _test(POOLED_GROUP, _pool([new.groups[k] for k in common]), _pool([base.groups[k] for k in common]))
+    overall = _stratified(POOLED_GROUP, [(new.groups[k], base.groups[k]) for k in common])
     out = [Comparison(*overall, overall[3].p_value, overall[3].p_value < alpha, "pooled")]
     methods = sorted({k[:4] for k in common})
-    tests = [_test("/".join(m) + " (objects in both)", _pool([new.groups[k] for k in common if k[:4] == m]),
-                   _pool([base.groups[k] for k in common if k[:4] == m])) for m in methods]
+    tests = [_stratified("/".join(m) + " (objects in both)",
+                         [(new.groups[k], base.groups[k]) for k in common if k[:4] == m]) for m in methods]
     out += [Comparison(*t, p, p < alpha, "method") for t, p in zip(tests, _holm([t[3].p_value for t in tests]),
                                                                     strict=True)]
     groups = [_test("/".join(k), new.groups[k], base.groups[k]) for k in common]
     out += [Comparison(*g, p, p < alpha, "group") for g, p in zip(groups, _holm([g[3].p_value for g in groups]),
                                                                    strict=True)]
-    return Verdict(out, only_new, only_base, [])
+    return Verdict(out, only_new, only_base, [], left)
+
+
+def partial_groups(side: Side) -> set[Group]:
+    """The groups `side` holds only part of: fewer trials stored (harness faults included) than its config's
+    `grasps_per_object` (none when the config does not record it)."""
+    config = side.meta.get("config") if isinstance(side.meta, dict) else None
+    per = config.get("grasps_per_object") if isinstance(config, dict) else None
+    if not _count(per):
+        return set()
+    return {k for k, r in side.report.groups.items()
+            if _count(r.trials) and _count(r.harness_faults) and r.trials + r.harness_faults < per}
+
+
+def _stratified(name: str, pairs: list[tuple[Rate, Rate]]) -> tuple[str, Rate, Rate, ProportionTest]:
+    """A line over several groups: their pooled counts, tested stratified by group (module docstring)."""
+    test = stratified_lower_than_baseline([(n.successes, n.trials, b.successes, b.trials) for n, b in pairs])
+    return name, _pool([n for n, _ in pairs]), _pool([b for _, b in pairs]), test
 
 
 def _names(groups: list[Group]) -> str:
@@ -338,5 +388,5 @@ def compare_sides(new: Side, base: Side, alpha: float = 0.05) -> Verdict:
              for w in side.warnings]
     perception = any(k[2] != "ground_truth" for k in new.report.groups if k in base.report.groups)
     notes += check_comparable(new, base, perception)
-    verdict = compare(new.report, base.report, alpha)
-    return Verdict(verdict.comparisons, verdict.only_new, verdict.only_base, notes)
+    verdict = compare(new.report, base.report, alpha, partial_groups(new) | partial_groups(base))
+    return Verdict(verdict.comparisons, verdict.only_new, verdict.only_base, notes, verdict.partial)

@@ -47,6 +47,35 @@ def lower_than_baseline(successes: int, trials: int, base_successes: int, base_t
     return ProportionTest(float(p_new - p_base), float(z), float(stats.norm.cdf(z)))
 
 
+def stratified_lower_than_baseline(strata: list[tuple[int, int, int, int]]) -> ProportionTest:
+    """Test whether success rates are lower than a baseline's over several strata (the objects of a hand x
+    planner), each (successes, trials, base_successes, base_trials): the Cochran-Mantel-Haenszel test, one-sided,
+    without continuity correction (Z = sum_k (a_k - E a_k) / sqrt(sum_k Var a_k), a_k a stratum's successes of the
+    run, E and Var its hypergeometric mean and variance given the stratum's margins). Pooling the counts instead
+    tests the mix of strata too: with fewer trials of an easy object on one side (harness faults, an interrupted
+    run) the pooled rate drops while no stratum's does. `difference` is the Mantel-Haenszel rate difference
+    (strata weighted n_k m_k / (n_k + m_k)). A single stratum gives the pooled z-test's Z times
+    sqrt((N - 1) / N)."""
+    observed = expected = variance = weighted = weights = 0.0
+    for k, n, kb, nb in strata:
+        total = n + nb
+        if n == 0 or nb == 0:
+            continue
+        m = k + kb
+        observed += k
+        expected += n * m / total
+        if total > 1:
+            variance += n * nb * m * (total - m) / (total ** 2 * (total - 1))
+        w = n * nb / total
+        weighted += w * (k / n - kb / nb)
+        weights += w
+    difference = weighted / weights if weights > 0 else 0.0
+    if variance <= 0:
+        return ProportionTest(float(difference), 0.0, 1.0)
+    z = (observed - expected) / np.sqrt(variance)
+    return ProportionTest(float(difference), float(z), float(stats.norm.cdf(z)))
+
+
 def roc_auc(scores: np.ndarray, labels: np.ndarray) -> float:
     """Area under the ROC curve of `scores` predicting boolean `labels` (ties count one half).
 

@@ -156,7 +156,9 @@ def _compare(args: argparse.Namespace) -> int:
           f"{c.base.successes}/{c.base.trials} = {format_rate(c.base)}", f"{c.test.difference:+.3f}",
           f"{c.adjusted_p:.3g}", "REGRESSION" if c.regression else "ok"] for c in verdict.comparisons]))
     for groups, where in ((verdict.only_new, "in the run only (not compared)"),
-                          (verdict.only_base, "in the baseline only (not compared)")):
+                          (verdict.only_base, "in the baseline only (not compared)"),
+                          (verdict.partial, "held only in part by one side (not compared: a ranked planner's first "
+                                            "candidates are not all of them; finish the run)")):
         if groups:
             print(f"\n{len(groups)} group(s) {where}: " + ", ".join("/".join(g) for g in groups))
     for note in verdict.notes:
