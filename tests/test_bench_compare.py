@@ -281,3 +281,19 @@ def test_a_baseline_listing_a_group_twice_is_refused(tmp_path):
     path.write_text(json.dumps(data))
     with pytest.raises(ConfigError, match="listed more than once"):
         load_side(path)
+
+
+def test_a_baselines_harness_faults_are_noted_as_a_runs_are(tmp_path, capsys):
+    """5 of a baseline group's trials were harness faults (left out of its counts): the run's side said so, the
+    baseline's did not."""
+    from manigrasp.protocol.result import Status, TrialResult
+
+    results = [(k, TrialResult(Status.HARNESS_FAULT, detail="worker died") if k.grasp_index >= 15 else r)
+               for k, r in _results({("025_mug", "antipodal"): 10})]
+    base_run = make_run(tmp_path / "base", results)
+    assert main(["report", str(base_run), "--json"]) == 0
+    baseline = tmp_path / "base.json"
+    baseline.write_text(capsys.readouterr().out)
+    assert any("5 trial(s) ended as harness_fault" in w for w in load_side(baseline).warnings)
+    clean = load_side(make_run(tmp_path / "clean", _results({("025_mug", "antipodal"): 10})))
+    assert not any("harness_fault" in w for w in clean.warnings)

@@ -147,12 +147,17 @@ def load_side(path: Path) -> Side:
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise ConfigError(f"baseline {path} is not a valid report ({type(exc).__name__}: {exc}); "
                           "write one with `manigrasp report RUN_DIR --json > FILE`") from exc
-    run = data.get("run")
+    from manigrasp.bench.markdown import warning_lines
+
+    run = data.get("run") if isinstance(data.get("run"), dict) else {}
     done = data.get("completeness")  # written by `report --json` since it checks completeness
-    warnings = ()
+    warnings: list[str] = []
     if isinstance(done, dict) and done.get("complete") is False:
-        warnings = (f"recorded from an incomplete run ({done.get('stored')} of {done.get('expected')} trials stored)",)
-    return Side(report, run if isinstance(run, dict) else {}, str(path), warnings)
+        warnings.append(f"recorded from an incomplete run ({done.get('stored')} of {done.get('expected')} trials "
+                        "stored)")
+    # Its harness faults and a resumption by other code, as a run directory's side says them (they were not).
+    warnings += warning_lines(run, None, report)
+    return Side(report, run, str(path), tuple(warnings))
 
 
 def _refuse_repeated_groups(data: dict) -> None:
