@@ -88,7 +88,8 @@ class Comparison:
 
 @dataclass(frozen=True)
 class Verdict:
-    """The comparisons, the groups found on one side only, and notes (version differences)."""
+    """The comparisons, the groups found on one side only, notes (version differences, each side's warnings) and
+    the groups in both that one side holds only in part (`partial_groups`: listed, not compared)."""
 
     comparisons: list[Comparison]
     only_new: list[Group]
