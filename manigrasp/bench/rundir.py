@@ -202,7 +202,13 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None,
     Raises:
         ConfigError: as `check`.
     """
-    existing = check(run_dir, config, base)
+    return start(run_dir, config, check(run_dir, config, base), base, grip_limits)
+
+
+def start(run_dir: Path, config: BenchConfig, existing: dict | None, base: Path | None = None,
+          grip_limits: dict[str, float] | None = None) -> dict:
+    """`prepare` after its `check` (which gave `existing`), for a caller that checked the folder itself (under
+    `locked`, so run.json cannot have changed since): a resumed run's mesh files are not hashed again."""
     meta_path = run_dir / META_NAME
     if existing is not None:
         if "identity" not in existing:  # (not setdefault: its argument would hash every mesh file again)

@@ -100,7 +100,7 @@ def validate(config: BenchConfig, base: Path | None = None) -> list[Group]:
 
 
 def grip_limits(config: BenchConfig) -> dict[str, float]:
-    """Each hand's largest grip force [N] (`Hand.max_grip_force`), recorded in run.json (`rundir.prepare`); the
+    """Each hand's largest grip force [N] (`Hand.max_grip_force`), recorded in run.json (`rundir.start`); the
     hands were loaded by `validate` (built-in hands are cached)."""
     from manigrasp import hands
 
@@ -198,9 +198,9 @@ def run_benchmark(
         # Objects are built (their meshes read) after the folder is checked and before run.json is written: a
         # folder of another run is refused before minutes of building, and a broken mesh leaves no run.json
         # (with that mesh's hash) that would refuse the corrected rerun.
-        rundir.check(run_dir, config, base)
+        existing = rundir.check(run_dir, config, base)
         _prebuild_objects(all_groups, jobs, progress)
-        meta = rundir.prepare(run_dir, config, base, grip_limits(config))
+        meta = rundir.start(run_dir, config, existing, base, grip_limits(config))
         settings = RecordSettings.for_run(run_dir, policy)
         problem = recording_problem(settings)
         if problem:
