@@ -33,12 +33,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from manigrasp.bench.completeness import completeness
-from manigrasp.bench.report import Group, Rate, Report, load_results, report_from_json, summarize
+from manigrasp.bench.report import Group, Rate, Report, load_results, pooled_rate, report_from_json, summarize
 from manigrasp.bench.stats import (
     ProportionTest,
     lower_than_baseline,
     stratified_lower_than_baseline,
-    wilson_interval,
 )
 from manigrasp.errors import ConfigError
 
@@ -360,16 +359,11 @@ def partial_groups(side: Side) -> set[Group]:
 def _stratified(name: str, pairs: list[tuple[Rate, Rate]]) -> tuple[str, Rate, Rate, ProportionTest]:
     """A line over several groups: their pooled counts, tested stratified by group (module docstring)."""
     test = stratified_lower_than_baseline([(n.successes, n.trials, b.successes, b.trials) for n, b in pairs])
-    return name, _pool([n for n, _ in pairs]), _pool([b for _, b in pairs]), test
+    return name, pooled_rate([n for n, _ in pairs]), pooled_rate([b for _, b in pairs]), test
 
 
 def _names(groups: list[Group]) -> str:
     return ", ".join("/".join(g) for g in groups) or "none"
-
-
-def _pool(rates: list[Rate]) -> Rate:
-    trials, successes = sum(r.trials for r in rates), sum(r.successes for r in rates)
-    return Rate(trials, successes, successes / trials, *wilson_interval(successes, trials))
 
 
 def _test(name: str, new: Rate, base: Rate) -> tuple[str, Rate, Rate, ProportionTest]:

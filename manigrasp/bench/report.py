@@ -91,6 +91,13 @@ class Rate:
                    float(np.median(times)) if times else math.nan, len(times), faults, timeouts)
 
 
+def pooled_rate(rates: list[Rate]) -> Rate:
+    """One rate of several sets of trials: their trials and successes summed, the Wilson interval of the sums (the
+    failure modes and planning times are not carried over)."""
+    n, k = sum(r.trials for r in rates), sum(r.successes for r in rates)
+    return Rate(n, k, k / n if n else math.nan, *wilson_interval(k, n))
+
+
 def planning_timed_out(result: TrialResult) -> bool:
     """Whether the trial's planning call ran out of its budget (`timeout` in planning: the trial's
     ``plan_time_s`` is the budget, not a measured time)."""

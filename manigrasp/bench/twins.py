@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from manigrasp.bench.report import Rate, Report, format_rate
+from manigrasp.bench.report import Rate, Report, format_rate, pooled_rate
 from manigrasp.objects.scans import SCAN_SUFFIX
 
 GAP_POINTS = 10.0  # [percentage points], the largest scan-recipe gap the benchmark accepts
@@ -77,21 +77,12 @@ def _pooled_over_rest(groups: Mapping[tuple[str, ...], Rate]) -> dict[tuple[str,
     """`groups` keyed by the object's name without its resting pose (``<object>@rest<i>`` -> ``<object>``), the
     rates of its poses pooled (trials and successes summed, a Wilson interval of the sum); an object without
     resting-pose labels keeps its rate as it is."""
-    from manigrasp.bench.stats import wilson_interval
     from manigrasp.bench.trials import REST_LABEL
 
     parts: dict[tuple[str, ...], list[Rate]] = {}
     for (*method, obj), rate in groups.items():
         parts.setdefault((*method, obj.split(REST_LABEL)[0]), []).append(rate)
-    out = {}
-    for key, rates in parts.items():
-        if len(rates) == 1:
-            out[key] = rates[0]
-            continue
-        n, k = sum(r.trials for r in rates), sum(r.successes for r in rates)
-        low, high = wilson_interval(k, n)
-        out[key] = Rate(n, k, k / n if n else float("nan"), low, high)
-    return out
+    return {key: rates[0] if len(rates) == 1 else pooled_rate(rates) for key, rates in parts.items()}
 
 
 def _verdict(row: TwinRow) -> str:

@@ -136,15 +136,14 @@ def _other_object(args: argparse.Namespace, grasps, entry: dict) -> bool:
     the object built). A mesh-frame set whose mesh file is the mesh --object is that object's, whatever it is
     named (an ACRONYM file names its object by its mesh file's stem)."""
     from manigrasp.errors import ConfigError
-    from manigrasp.graspsets import mesh_path
     from manigrasp.objects import catalog
+    from manigrasp.planners.file import mesh_file_is
 
     named = grasps.object.name
     built = entry["name"] if "mesh" in entry else catalog.full_name(entry["name"])
     if not named or named == built:
         return False
-    mesh = mesh_path(grasps) if grasps.frame == "mesh" else None
-    own_mesh = "mesh" in entry and mesh is not None and mesh.resolve() == Path(entry["mesh"]).resolve()
+    own_mesh = "mesh" in entry and mesh_file_is(grasps, [entry["mesh"]])
     if not args.any_object and catalog.full_name(named) != built and not own_mesh:
         raise ConfigError(f"{args.grasps} holds grasps of object {named!r}, not {entry['name']!r}: their poses are "
                           f"in the frame of {named!r} (--any-object runs them on {entry['name']!r} anyway)")

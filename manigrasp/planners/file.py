@@ -18,7 +18,7 @@ evaluate a whole dataset written by `manigrasp label`.
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
@@ -153,9 +153,13 @@ def mesh_to_object(grasps: GraspSet, asset: object | None) -> np.ndarray:
 def same_mesh(grasps: GraspSet, asset: object | None) -> bool:
     """Whether `grasps` is a mesh-frame set whose mesh file is the built object's source or visual mesh: then it
     is that object's set whatever name the file gives it (an ACRONYM file names its object by its mesh's stem)."""
-    mesh = mesh_path(grasps) if grasps.frame == "mesh" else None
-    if mesh is None or asset is None:
+    if asset is None:
         return False
     metadata = getattr(asset, "metadata", {}) or {}
-    own = [str(p) for p in (getattr(asset, "visual_path", None), metadata.get("source")) if p]
-    return any(Path(p).resolve() == mesh.resolve() for p in own)
+    return mesh_file_is(grasps, (getattr(asset, "visual_path", None), metadata.get("source")))
+
+
+def mesh_file_is(grasps: GraspSet, paths: Iterable[object]) -> bool:
+    """Whether `grasps` is a mesh-frame set whose mesh file is one of `paths` (None entries ignored)."""
+    mesh = mesh_path(grasps) if grasps.frame == "mesh" else None
+    return mesh is not None and any(Path(str(p)).resolve() == mesh.resolve() for p in paths if p)
