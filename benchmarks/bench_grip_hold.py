@@ -11,6 +11,9 @@ mirrored from the right's): creep at gains 0 / 20 / 40: inspire_right 19.5 / 2.4
 12.0 / 1.5 / 1.2 mm, allegro_right 1.0 / 1.4 / 1.4 mm, inspire_left 19.5 / 2.7 / 1.8 mm, fourier_left
 12.3 / 1.4 / 1.1 mm, allegro_left 0.9 / 1.2 / 1.2 mm, every trial a success (the Allegro's fingers held per
 finger, without a force floor: `manigrasp.control.hold`; with the floor on every joint it crept 1.2 and 1.0 mm).
+With the Allegro's distal collision boxes trimmed to its link meshes (4 Dec 2026; the can is pressed into the
+palm, so `finger_hold: fingertips` keeps the floor on every joint): allegro_right 1.98 / - / 1.39 mm, allegro_left
+1.40 / - / 1.27 mm at gains 0 / 40.
 (With robosuite's own left thumb,
 inspire_left crept 2.4 mm at 40: its thumb flexes in a plane tilted 6.5 deg from the right's mirror image.)
 
@@ -18,25 +21,27 @@ inspire_left crept 2.4 mm at 40: its thumb flexes in a plane tilted 6.5 deg from
         inspire_left fourier_left allegro_left
     .venv/bin/python benchmarks/bench_grip_hold.py --hands inspire_right --gains 0 40 --adaptive
 
-`--run RUN_DIR` instead replays the stored trials of a `manigrasp bench` run (`--only` filters their ids) and
-splits the object's turn in the hand from the start of the lift to the first perturbation into what the fingers
-carried and what slipped: the rotation of the contact points on the fingers (each contact's point on its finger
-link at the start of the lift, seen in the hand frame; their best-fit rotation), the largest slip of a contact
-(its point on the object against its point on the finger) [mm], and the largest motion of a hand joint [rad].
-`--hold-joints` replays with the protocol's `finger_hold_joints` (a finger with several closing servos held in
-its joint configuration, no force floor; the default pushes on with the floor on every held servo).
-Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x
-allegro_right, inspire_right x dexopt x 5 grasps, `standard` with grip_force 10, seed 0, planned at fd0aae5):
-allegro_right, floor on every joint (the default): 12/20, the 5 `dropped_perturb` turned 8.7 deg (median), 4.8 deg of it
-carried by the fingers, largest slip 4.5 mm, largest joint motion 0.116 rad (the 12 successes: 1.3 deg, 0.8 deg,
-1.6 mm, 0.022 rad); held per finger: 15/20, the 2 drops 2.1 deg, 0.5 deg, 2.6 mm, 0.028 rad (successes 1.5 deg,
-0.6 deg, 1.6 mm, 0.008 rad); the 3 banana grasps slip in the lift either way (turn 15-18 deg, largest slip up to
-22 mm: squeezed out). inspire_right 17/20 either way (one closing actuator per finger). The same planner at
-seed 1 on mustard bottle, tennis ball, sugar box, potted meat can, mug and tomato soup can: 10/30 -> 16/30.
-Held per finger is not the default: the power planner's wraps lose by it (allegro_right, 7 dexterous objects x 10,
-`standard` at 10 N, seed 0: power 19 -> 11/70, the soup can 8 -> 1/10; dexopt 32 -> 37/70).
+`--run RUN_DIR` instead replays the stored trials of a `manigrasp bench` run (`--only` filters their ids) and splits
+the object's turn in the hand from the start of the lift to the first perturbation into what the fingers carried and
+what slipped: the rotation of the contact points on the fingers (each contact's point on its finger link at the start
+of the lift, seen in the hand frame; their best-fit rotation), the largest slip of a contact (its point on the object
+against its point on the finger) [mm], and the largest motion of a hand joint [rad]. `--finger-hold MODE` replays with
+the protocol's `finger_hold` set to MODE: "floor" (every held servo pushes on with the force floor), "joints" (a
+finger with several closing servos held in its joint configuration, no floor) or "fingertips" (the default since 4 Dec
+2026: "joints" for the fingers of a grasp the palm does not touch that touch with their tip only); without it, the
+run's own parameters. Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x allegro_right,
+inspire_right x dexopt x 5 grasps, `standard` with grip_force 10, seed 0, planned at fd0aae5): allegro_right, floor on
+every joint (the default then, `--finger-hold floor`): 12/20, the 5 `dropped_perturb` turned 8.7 deg (median), 4.8 deg
+of it carried by the fingers, largest slip 4.5 mm, largest joint motion 0.116 rad (the 12 successes: 1.3 deg, 0.8 deg,
+1.6 mm, 0.022 rad); held per finger: 15/20, the 2 drops 2.1 deg, 0.5 deg, 2.6 mm, 0.028 rad (successes 1.5 deg, 0.6
+deg, 1.6 mm, 0.008 rad); the 3 banana grasps slip in the lift either way (turn 15-18 deg, largest slip up to 22 mm:
+squeezed out). inspire_right 17/20 either way (one closing actuator per finger). The same planner at seed 1 on mustard
+bottle, tennis ball, sugar box, potted meat can, mug and tomato soup can: 10/30 -> 16/30. Held per finger for every
+grasp (`joints`) costs the power planner's wraps (allegro_right, 7 dexterous objects x 10, `standard` at 10 N, seed 0:
+power 19 -> 11/70, the soup can 8 -> 1/10; dexopt 32 -> 37/70): hence the default `fingertips`, which holds by joints
+only the fingertip contacts of a grasp the palm does not touch.
 
-    .venv/bin/python benchmarks/bench_grip_hold.py --run RUN --only allegro_right [--hold-joints]
+    .venv/bin/python benchmarks/bench_grip_hold.py --run RUN --only allegro_right [--finger-hold joints]
 """
 
 from __future__ import annotations
@@ -57,6 +62,7 @@ from manigrasp.hands.placement import side_power_grasp
 from manigrasp.objects import build_object
 from manigrasp.planners.base import GraspCandidate
 from manigrasp.protocol import PROTOCOLS, settle_object
+from manigrasp.protocol.execution import FINGER_HOLDS
 from manigrasp.protocol.result import Phase
 from manigrasp.sim import build_scene, read_hand_contacts
 
@@ -139,7 +145,7 @@ class TurnSplit:
         return out
 
 
-def replay_run(run_dir: Path, only: str, hold_joints: bool) -> None:
+def replay_run(run_dir: Path, only: str, finger_hold: str | None) -> None:
     """`--run`: the turn of each stored trial's object in the hand, split (see the module docstring)."""
     from manigrasp.bench.replay import find_trial, stored_grasp, stored_trials
     from manigrasp.bench.worker import scene_for
@@ -150,7 +156,9 @@ def replay_run(run_dir: Path, only: str, hold_joints: bool) -> None:
         trial = find_trial(run_dir, trial_id)
         scene = scene_for(trial.group)
         object_pose = settle_object(scene)
-        params = {**dict(trial.group.protocol.params), "finger_hold_joints": hold_joints}
+        params = dict(trial.group.protocol.params)
+        if finger_hold is not None:
+            params["finger_hold"] = finger_hold
         protocol = PROTOCOLS.load(trial.group.protocol.name, **params)
         seed = trial.group.trial_seed(trial.index)
         watch = TurnSplit()
@@ -177,11 +185,11 @@ def main() -> None:
     parser.add_argument("--adaptive", action="store_true", help="also the five-finger hands with adaptive fingers")
     parser.add_argument("--run", type=Path, help="replay this bench run's stored trials instead (turn split)")
     parser.add_argument("--only", default="", help="with --run: trials whose id contains this")
-    parser.add_argument("--hold-joints", action="store_true", help="with --run: the protocol's finger_hold_joints "
-                        "(a finger with several closing servos held in its joint configuration)")
+    parser.add_argument("--finger-hold", choices=FINGER_HOLDS, help="with --run: the protocol's finger_hold "
+                        "(default: the run's)")
     args = parser.parse_args()
     if args.run is not None:
-        replay_run(args.run, args.only, args.hold_joints)
+        replay_run(args.run, args.only, args.finger_hold)
         return
     with tempfile.TemporaryDirectory() as cache:
         can = build_object(trimesh.creation.cylinder(0.033, 0.12, sections=48), name="can", mass=0.35,

@@ -98,6 +98,35 @@ def test_left_hand_mirrors_the_right(right: hands.Hand) -> None:
     assert left.max_grip_force == pytest.approx(right.max_grip_force, rel=1e-6)
 
 
+def _collision_extent(model: mujoco.MjModel, body: str, axis: int) -> tuple[float, float]:
+    """(lowest, highest) coordinate along `axis` of the collision geoms of `body`, in its own frame [m]."""
+    b = model.body(body).id
+    lows, highs = [], []
+    for g in np.flatnonzero((model.geom_bodyid == b) & ((model.geom_contype > 0) | (model.geom_conaffinity > 0))):
+        half = model.geom_size[g, :3] if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX else model.geom_size[g, :1]
+        lows.append(model.geom_pos[g, axis] - half[min(axis, len(half) - 1)])
+        highs.append(model.geom_pos[g, axis] + half[min(axis, len(half) - 1)])
+    return min(lows), max(highs)
+
+
+@pytest.mark.parametrize(("distal", "tip", "mesh_end"), [("link_3.0", "link_3.0_tip", 0.0157),
+                                                          ("link_15.0", "link_15.0_tip", 0.0313)])
+def test_distal_collision_box_ends_where_the_link_mesh_does(right: hands.Hand, distal: str, tip: str,
+                                                           mesh_end: float) -> None:
+    """The distal link's collision box ends where its visual mesh does (15.7 / 31.3 mm, as read from the STL), not at
+    the fingertip sphere's centre; the sphere (the 24 mm ball of link_*_tip.STL) is then the finger's outermost
+    collision geometry, and nothing wider than it reaches past the box's end."""
+    model = right.build_spec().compile()
+    folder = allegro.description_dir() / "meshes"
+    assert trimesh.load(folder / f"{distal}.STL").bounds[1, 2] == pytest.approx(mesh_end, abs=2e-4)
+    assert _collision_extent(model, distal, 2) == pytest.approx((0.0, mesh_end), abs=2e-4)
+    tip_offset = model.body(tip).pos[2]
+    assert tip_offset - 0.012 < mesh_end < tip_offset  # the ball starts where the box ends
+    untrimmed = allegro.make_from(allegro.AllegroModel("allegro_right", "allegro_right_hand.urdf",
+                                                       trim_distal=False)).build_spec().compile()
+    assert _collision_extent(untrimmed, distal, 2)[1] == pytest.approx(tip_offset, abs=2e-4)  # the URDF's box
+
+
 @pytest.fixture(scope="module")
 def wide_can_scene(right: hands.Hand, tmp_path_factory: pytest.TempPathFactory):
     can = build_object(trimesh.creation.cylinder(0.038, 0.12, sections=48), name="wide_can", mass=0.35,

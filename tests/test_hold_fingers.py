@@ -1,9 +1,12 @@
-"""`FingerHold` per finger: a finger with several closing servos has its joint configuration held (no force floor),
-a finger that one actuator closes follows the object with the floor; `Scene.actuator_fingers` tells them apart.
+"""`FingerHold` per finger: a finger with several closing servos may have its joint configuration held (no force
+floor), a finger that one actuator closes follows the object with the floor; `Scene.actuator_fingers` tells them
+apart, and the protocols' `finger_hold` chooses (`phases.joint_held_fingers`: by default the fingers that touch with
+their distal phalanx only, `Scene.distal_body`).
 
 Closed loop: an Allegro fingertip grasp of the mug (planned by dexopt, stored below) turned 8.7 deg in the hand
 during the lift and hold when every held joint followed the object at `FLOOR` of its force (its fingers curled
-on and rolled it); with the fingers' joints held (the protocols' `finger_hold_joints`, opt-in) it turns about 2 deg.
+on and rolled it, `finger_hold: floor`); with the fingers' joints held (the default for fingertip contacts) it
+turns about 2 deg.
 """
 
 from __future__ import annotations
@@ -57,7 +60,7 @@ def test_servos_of_one_finger_are_held_without_a_floor_a_lone_servo_keeps_it() -
     model, data = _pressed()
     force0 = data.actuator_force.copy()
     assert np.all((force0 < -0.1) & (force0 > -0.6))  # each presses its stop below its limit
-    FingerHold(model, np.arange(3), gain=20.0, fingers=np.array([0, 0, 1])).engage(data, CLOSING)
+    FingerHold(model, np.arange(3), gain=20.0, fingers=np.array([0, 0, 1])).engage(data, CLOSING, (0, 1))
     np.testing.assert_allclose(model.actuator_forcerange[:, 1], [0.0, 0.0, FLOOR * force0[2]], rtol=1e-3)
     mujoco.mj_forward(model, data)
     q0 = data.qpos.copy()
@@ -72,7 +75,14 @@ def test_servos_of_one_finger_are_held_without_a_floor_a_lone_servo_keeps_it() -
 def test_without_fingers_every_held_servo_keeps_the_floor() -> None:
     model, data = _pressed()
     force0 = data.actuator_force.copy()
-    FingerHold(model, np.arange(3), gain=20.0).engage(data, CLOSING)
+    FingerHold(model, np.arange(3), gain=20.0).engage(data, CLOSING, (0, 1))
+    np.testing.assert_allclose(model.actuator_forcerange[:, 1], FLOOR * force0, rtol=1e-3)
+
+
+def test_a_finger_not_named_to_hold_its_joints_keeps_the_floor_on_each() -> None:
+    model, data = _pressed()
+    force0 = data.actuator_force.copy()
+    FingerHold(model, np.arange(3), gain=20.0, fingers=np.array([0, 0, 1])).engage(data, CLOSING, (1,))
     np.testing.assert_allclose(model.actuator_forcerange[:, 1], FLOOR * force0, rtol=1e-3)
 
 
@@ -142,7 +152,10 @@ class _TurnInHand:
         pass
 
 
-def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift() -> None:
+@pytest.mark.parametrize("mode", ["fingertips", "floor"])
+def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift(mode: str) -> None:
+    """By default (`finger_hold: fingertips`) the grasp's fingers, touching with their tips only, keep their joints:
+    under 5 deg of turn (2.9 deg measured); with the floor on every joint they curl on and roll the mug (10.2)."""
     pytest.importorskip("cmeel", reason="the Allegro hand needs the 'allegro' extra (example-robot-data)")
     from manigrasp.objects import catalog
     from manigrasp.planners.base import GraspCandidate
@@ -154,8 +167,51 @@ def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift() -> N
     np.testing.assert_array_equal(scene.actuator_fingers, [1] * 4 + [2] * 4 + [3] * 4 + [0] * 4)
     object_pose = settle_object(scene)
     watch = _TurnInHand()
-    result = PROTOCOLS.load("standard", grip_force=10.0, finger_hold_joints=True).run(
+    result = PROTOCOLS.load("standard", grip_force=10.0, finger_hold=mode).run(
         scene, GraspCandidate(pose=MUG_POSE, score=1.0, preshape=0.0, joints=MUG_JOINTS), np.random.default_rng(0),
         deadline=time.monotonic() + 300, object_pose=object_pose, observer=watch, seed=0)
     assert np.isfinite(watch.turn), result.detail  # the grasp was lifted and held
-    assert watch.turn < 5.0  # 8.7 deg with a floor on every held joint
+    if mode == "fingertips":
+        assert watch.turn < 5.0
+    else:
+        assert watch.turn > 7.0
+
+
+def test_distal_bodies_of_the_hands() -> None:
+    """`Scene.distal_body`: the bodies past each finger's last joint (the Allegro's distal links and the tip bodies
+    welded to them; the five-finger hands' last link of each finger), no palm or inner link."""
+    from manigrasp.sim import build_scene
+
+    scene = build_scene("inspire_right")
+    names = {scene.model.body(int(b)).name for b in scene.hand_bodies if scene.distal_body[b]}
+    assert names == {f"hand/r_{f}_distal" for f in ("thumb", "index", "middle", "ring", "pinky")}
+    pytest.importorskip("cmeel", reason="the Allegro hand needs the 'allegro' extra (example-robot-data)")
+    scene = build_scene("allegro_right")
+    names = {scene.model.body(int(b)).name for b in scene.hand_bodies if scene.distal_body[b]}
+    assert names == {f"hand/link_{j}.0{tip}" for j in (3, 7, 11, 15) for tip in ("", "_tip")}
+
+
+def test_fingers_held_in_their_joints_by_mode() -> None:
+    """`joint_held_fingers`: "fingertips" holds the joints of every finger but one touching with an inner link, and
+    none in a grasp the palm touches."""
+    from manigrasp.protocol.phases import joint_held_fingers
+    from manigrasp.sim import HandContacts, build_scene
+
+    pytest.importorskip("cmeel", reason="the Allegro hand needs the 'allegro' extra (example-robot-data)")
+    scene = build_scene("allegro_right")
+    body = {name: scene.model.body(f"hand/{name}").id for name in ("link_3.0_tip", "link_6.0", "link_7.0_tip")}
+
+    def touching(fingers: list[int], bodies: list[int]) -> HandContacts:
+        n = len(fingers)
+        return HandContacts(*[np.zeros((n, 3))] * 4, *[np.ones(n)] * 5, np.ones(n, bool), np.array(fingers),
+                            np.array(bodies), np.zeros(n, int), np.zeros(n, int), np.full(n, 4))
+
+    # index (1) at its tip, middle (2) at its middle link and its tip; thumb (0) and ring (3) off
+    contacts = touching([1, 2, 2], [body["link_3.0_tip"], body["link_6.0"], body["link_7.0_tip"]])
+    assert joint_held_fingers(scene, contacts, "fingertips") == (0, 1, 3)
+    assert joint_held_fingers(scene, contacts, "joints") == (0, 1, 2, 3)
+    assert joint_held_fingers(scene, contacts, "floor") == ()
+    # the same with the palm (-1) touching: a power grasp, every finger keeps the floor
+    palm = touching([1, 2, 2, -1], [body["link_3.0_tip"], body["link_6.0"], body["link_7.0_tip"], scene.root_body])
+    assert joint_held_fingers(scene, palm, "fingertips") == ()
+    assert joint_held_fingers(scene, palm, "joints") == (0, 1, 2, 3)

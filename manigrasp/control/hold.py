@@ -26,28 +26,31 @@ inspire_right 7 vs 10).
   (a hand-placed can then creeps 11 mm in the Inspire hand); at `FLOOR` the squeeze stays on the object and the
   can creeps under 2 mm in every hand (`benchmarks/bench_grip_hold.py`).
 
-The floor suits a finger that closes along one path: a tendon or linkage that one actuator drives (each finger
-of the five-finger hands), which follows the object along the path it closed on. Given `fingers` (the protocols'
-`finger_hold_joints`, opt-in), a finger with several servoed joints that close (the Allegro's fingers: three, its
-thumb: two) has its joint configuration held instead (floor 0: stiff against opening, pushing nothing where the
-object yields). It is not the default because it trades planners: it helps fingertip grasps and costs wraps
-(allegro_right, the dexterous config's 7 objects x 10, `standard` at 10 N, seed 0, floor on every joint -> held
-per finger: dexopt 32 -> 37/70, power 19 -> 11/70, the power wraps of the soup can 8 -> 1/10; a floor of 0.2 on
-such fingers: 35 and 14/70). For fingertip grasps: with a floor on each joint, a finger the
-object moves away from keeps pushing on every joint in a ratio that no longer matches the contact it held, so it
-curls on along the object and rolls it. Measured on the Allegro's dexopt grasps (tomato soup can, potted meat can,
-mug, banana x 5, `standard` at 10 N; replayed with an observer, from the start of the lift to the first
-perturbation): with the floor on every joint, 12/20 succeeded; the 5 that dropped in the perturbations had
-turned 8.7 deg in the hand (median; successes 1.3 deg), 4.8 deg of it carried by the fingers' own motion (the
-rotation of their contact points in the hand; the rest slip, largest 4.5 mm), their fingers curled on by up to
-0.12 rad (median of the largest joint motion; successes 0.02 rad; `benchmarks/bench_grip_hold.py --run`). Held
-per finger: 15/20, largest joint motion 0.008 rad in the successes, 0.028 in the 2 drops; two mug grasps that
-dropped turn 2.2 and 2.3 deg instead of 8.7 and 9.2 deg. Not the cause there: the thumb at its 0.7 N m limit (1.4 N m in
-a replay: 12/20), the grip level (7 or 8 N: 13, 12/20), a slower lift (0.03 m/s: 11/20), the hold gain (10 or 200
-with the floor: 12, 11/20; 10, 20, 80 held per finger: 16, 16, 15/20); without the hold 6/20, with the full
-force as the floor 4/20 (fingers that follow at full force roll the object further). The five-finger hands'
-tendon fingers keep the floor: without it, inspire_right's dexopt grasps of the same objects held 14/20, with it
-17/20.
+The floor suits a finger that closes along one path: a tendon or linkage that one actuator drives (each finger of the
+five-finger hands), which follows the object along the path it closed on. A finger with several servoed joints that
+close (the Allegro's fingers: three, its thumb: two) named in `engage`'s `joint_fingers` has its joint configuration
+held instead (floor 0: stiff against opening, pushing nothing where the object yields). Which fingers, the protocols'
+`finger_hold` says (`protocol.phases.joint_held_fingers`): by default ("fingertips") those of a grasp the palm does
+not touch that touch the object with their distal phalanx only (or not at all). Holding every finger that way
+("joints") trades planners: it helps fingertip grasps and costs wraps (allegro_right, the dexterous config's 7 objects
+x 10, `standard` at 10 N, seed 0, floor on every joint -> held per finger: dexopt 32 -> 37/70, power 19 -> 11/70, the
+power wraps of the soup can 8 -> 1/10, pressed into the palm at 37 N; a floor of 0.2 on such fingers: 35 and 14/70);
+"fingertips" keeps both (4 Dec 2026, the dexterous config's 7 objects x 10 on the Allegro, `standard` at 10 N, paired
+seeds, floor -> fingertips: dexopt seed 0 41 -> 50/70, seed 1 47 -> 50/70, as "joints"; power seed 0 24 -> 22/70,
+where "joints" gave 15). For fingertip grasps: with a floor on each joint, a finger the object moves away from keeps
+pushing on every joint in a ratio that no longer matches the contact it held, so it curls on along the object and
+rolls it. Measured on the Allegro's dexopt grasps (tomato soup can, potted meat can, mug, banana x 5, `standard` at 10
+N; replayed with an observer, from the start of the lift to the first perturbation): with the floor on every joint,
+12/20 succeeded; the 5 that dropped in the perturbations had turned 8.7 deg in the hand (median; successes 1.3 deg),
+4.8 deg of it carried by the fingers' own motion (the rotation of their contact points in the hand; the rest slip,
+largest 4.5 mm), their fingers curled on by up to 0.12 rad (median of the largest joint motion; successes 0.02 rad;
+`benchmarks/bench_grip_hold.py --run`). Held per finger: 15/20, largest joint motion 0.008 rad in the successes, 0.028
+in the 2 drops; two mug grasps that dropped turn 2.2 and 2.3 deg instead of 8.7 and 9.2 deg. Not the cause there: the
+thumb at its 0.7 N m limit (1.4 N m in a replay: 12/20), the grip level (7 or 8 N: 13, 12/20), a slower lift (0.03
+m/s: 11/20), the hold gain (10 or 200 with the floor: 12, 11/20; 10, 20, 80 held per finger: 16, 16, 15/20); without
+the hold 6/20, with the full force as the floor 4/20 (fingers that follow at full force roll the object further). The
+five-finger hands' tendon fingers keep the floor: without it, inspire_right's dexopt grasps of the same objects held
+14/20, with it 17/20.
 
 The closing direction of each actuator is given to `engage` (the closed row of the hand's path minus its open
 row); actuators that do not move with the squeeze (finger spread, thumb rotation: they hold the pre-shape and
@@ -59,6 +62,8 @@ anything else (motors, a user's custom actuators) is left alone.
 """
 
 from __future__ import annotations
+
+from collections.abc import Collection
 
 import mujoco
 import numpy as np
@@ -83,8 +88,8 @@ class FingerHold:
         actuators: ids of the hand's actuators.
         gain: stiffness multiple of the held grasp [-] (>= 1).
         fingers: (n,) the finger each of `actuators` moves (e.g. `Scene.actuator_fingers`; -1: none or several);
-            the servos of a finger with several that close are held without a floor (see the module docstring).
-            None: every actuator its own finger (each held servo gets the floor).
+            `engage` may hold the servos of a finger with several that close without a floor (see the module
+            docstring). None: every actuator its own finger (each held servo gets the floor).
     """
 
     def __init__(self, model: mujoco.MjModel, actuators: np.ndarray, gain: float = HOLD_GAIN,
@@ -107,7 +112,7 @@ class FingerHold:
         self.held = np.zeros(0, dtype=int)
         self.engaged = False
 
-    def engage(self, data: mujoco.MjData, closing: np.ndarray) -> np.ndarray:
+    def engage(self, data: mujoco.MjData, closing: np.ndarray, joint_fingers: Collection[int] = ()) -> np.ndarray:
         """Hold the servos that close with the squeeze; returns the new commands of all servos (`ids` order).
 
         Args:
@@ -115,12 +120,14 @@ class FingerHold:
             closing: (n,) command change from open to closed of each of the `actuators` given at construction
                 (its sign is the closing direction; 0: the actuator does not take part in the squeeze and is
                 left alone).
+            joint_fingers: the fingers (indices as in `fingers`) to hold in their joint configuration if
+                several of their servos close.
 
         Each held servo keeps its current spring force f = kp (u - L) (clamped to its force range): its command
         becomes u' = L + f / kp' (clamped to the control range), its stiffness kp' = gain kp, its damping
         sqrt(gain) kv (same damping ratio), and its force range [f_min, f_max] in the closing direction,
-        f_min = `FLOOR` f if it is the only held servo of its finger (or its finger is unknown), else 0 (the
-        finger's joint configuration is held).
+        f_min = 0 if its finger is one of `joint_fingers` with several held servos (the finger's joint
+        configuration is held), else `FLOOR` f.
         """
         m = self.model
         closing = np.asarray(closing, dtype=float)
@@ -130,7 +137,8 @@ class FingerHold:
         take = sign != 0
         ids, kp0, kv0, sign = self.ids[take], self.kp[take], self.kv[take], sign[take]
         fingers = self.fingers[take]
-        shared = (fingers >= 0) & (np.sum(fingers[:, None] == fingers[None, :], axis=1) > 1)
+        shared = ((fingers >= 0) & (np.sum(fingers[:, None] == fingers[None, :], axis=1) > 1)
+                  & np.isin(fingers, np.fromiter(joint_fingers, int)))
         low, high = self.forcerange[take, 0], self.forcerange[take, 1]
         limited = self.forcelimited[take].astype(bool)
         length = data.actuator_length[ids]

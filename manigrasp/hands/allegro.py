@@ -17,6 +17,11 @@ fixes are applied at load (each is recorded in the hand's notes):
   so a blocked joint's torque grows over 0.7 rad of command and the synergy can regulate the grip
   (`manigrasp.control.GripController`); the finger spread joints and the thumb's rotation and roll, which
   hold the pre-shape and take no part in the squeeze, are stiff (`HOLD_KP`);
+- each distal link's collision box ends where the link's own mesh ends (`DISTAL_END`, as MuJoCo Menagerie's
+  wonik_allegro has it), not at the fingertip sphere's centre: the URDF's box ran on over the first half of the
+  fingertip ball and, 27.6 mm wide against the ball's 24 mm, put its bare edges in front of the rubber tip as soon
+  as a fingertip contact tilted 10 deg sideways (`AllegroModel.trim_distal`; on the dexterous config's 7 objects x
+  10, `standard` at 10 N, dexopt, seeds 0 and 1: 40 -> 41 and 43 -> 47/70, within noise);
 - palm-finger self-collisions excluded (the knuckle links overlap the palm box, as in MuJoCo Menagerie);
 - the thumb's rotation and roll joints are re-referenced so that the model's default configuration (qpos0) is
   the open pre-shape (the URDF's zero lies outside the rotation joint's range).
@@ -78,6 +83,11 @@ SPREAD = tuple(f"joint_{_FINGER_BASE[f]}.0" for f in FINGERS)
 BENDING = {**{f: tuple(f"joint_{_FINGER_BASE[f] + i}.0" for i in (1, 2, 3)) for f in FINGERS},
            "thumb": ("joint_14.0", "joint_15.0")}
 TIPS = {**{f: f"link_{_FINGER_BASE[f] + 3}.0_tip" for f in FINGERS}, "thumb": "link_15.0_tip"}
+# Where each distal link's own mesh ends along the link [m] (link_3.0.STL and link_15.0.STL reach z = 15.7 and
+# 31.3 mm; MuJoCo Menagerie's wonik_allegro distal_collision boxes end at 16 and 31.4 mm): the fingertip sphere
+# (link_*_tip.STL, a 24 mm ball centred at 26.7 and 42.3 mm) follows. The URDF's collision box runs on to the ball's
+# centre and is wider (27.6 mm) than the ball (24 mm); see `_trim_distal`.
+DISTAL_END = {"finger": 0.0157, "thumb": 0.0313}
 # The fingertips' 12 mm collision spheres, named at load (thumb first). With `pads: compliant` they touch with the pad
 # rubber's friction (`SceneConfig.pad_friction`): the Allegro's fingertips are the white rounded caps at the end of
 # each finger, described as rubber-covered by users and papers, but no manufacturer statement of their material
@@ -100,6 +110,7 @@ class AllegroModel:
     damping: float = DAMPING
     armature: float = ARMATURE
     thumb_roll: float = THUMB_ROLL
+    trim_distal: bool = True  # end the distal collision boxes at `DISTAL_END` (False: the URDF's, as before 4 Dec 2026)
 
 
 MODELS = {f"allegro_{side}": AllegroModel(f"allegro_{side}", f"allegro_{side}_hand.urdf")
@@ -171,6 +182,18 @@ def _name_fingertips(spec: mujoco.MjSpec) -> None:
         spheres[0].name = geom_name
 
 
+def _trim_distal(spec: mujoco.MjSpec) -> None:
+    """End each distal link's collision box where the link's own mesh ends (`DISTAL_END`), short of its fingertip."""
+    for finger, tip in TIPS.items():
+        link = spec.body(tip).parent
+        boxes = [g for g in link.geoms if (g.contype or g.conaffinity) and g.type == mujoco.mjtGeom.mjGEOM_BOX]
+        if len(boxes) != 1:
+            raise HandError(f"Allegro distal link {link.name!r}: expected one collision box, got {len(boxes)}")
+        half = DISTAL_END["thumb" if finger == "thumb" else "finger"] / 2
+        boxes[0].size = [boxes[0].size[0], boxes[0].size[1], half]
+        boxes[0].pos = [boxes[0].pos[0], boxes[0].pos[1], half]
+
+
 def _base_spec(model: AllegroModel) -> mujoco.MjSpec:
     """The URDF with the fixes of the module docstring; no TCP yet."""
     spec = mujoco.MjSpec.from_string(_urdf_text(model))
@@ -179,6 +202,8 @@ def _base_spec(model: AllegroModel) -> mujoco.MjSpec:
     _actuate(spec, model)
     _exclude_palm(spec)
     _name_fingertips(spec)
+    if model.trim_distal:
+        _trim_distal(spec)
     build.set_joint_default(spec, THUMB_ROTATION, float(spec.joint(THUMB_ROTATION).range[1]))
     build.set_joint_default(spec, THUMB_ROLL_JOINT, model.thumb_roll)
     return spec
@@ -305,6 +330,9 @@ def make_from(model: AllegroModel) -> Hand:
             "thumb rotation and roll re-referenced so qpos0 is the open pre-shape (thumb opposed and rolled)",
             "inertias balanced at load (the distal links' URDF inertias violate the triangle inequality); "
             "palm-knuckle collisions excluded",
+            *(("distal links' collision boxes end where their meshes do (15.7 mm, thumb 31.3 mm; MuJoCo Menagerie "
+               "likewise), short of the fingertip sphere (the URDF's ran on to its centre)",) if model.trim_distal
+              else ()),
             "fingertip forces at the torque limit (F = pinv(J^T) tau, open pose): "
             + ", ".join(f"{k} {v:.1f} N" for k, v in forces.items())
             + "; max_grip_force = min(thumb, sum of the three fingers)",

@@ -45,6 +45,7 @@ from manigrasp.protocol.sampling import Sampler
 from manigrasp.sim import Scene, current_grip_force, grip_force, read_hand_contacts
 
 CLOSE_MODES = ("synergy", "per_finger")  # `GraspParams.close_mode`
+FINGER_HOLDS = ("fingertips", "joints", "floor")  # `GraspParams.finger_hold`
 
 Trajectory = Callable[[float], tuple[np.ndarray, np.ndarray]]
 """A set-point as a function of the time since its phase began [s]: (TCP pose (4, 4), twist (6,)), world."""
@@ -92,11 +93,13 @@ class GraspParams:
             object and pushes it less, with no gain in success beyond noise (dexterous config, `standard` at
             10 N, seed 0, 7 objects x 10: dexopt Allegro 40 -> 40/70, Fourier 37 -> 37, Inspire 44 -> 45;
             power 19 -> 23, 53 -> 57, 54 -> 50; see `control.fingers`).
-        finger_hold_joints: hold a finger with several closing servos (the Allegro's) in its joint
-            configuration (no force floor) instead of letting each of its servos push on with `FLOOR` of its
-            force where the object moves away (the default, as for a finger one actuator closes). Opt-in: it
-            trades planners (allegro_right, 7 dexterous objects x 10, `standard` at 10 N, seed 0: dexopt
-            32 -> 37/70, power 19 -> 11/70; the power wraps of the soup can 8 -> 1/10), see `control.hold`.
+        finger_hold: how a finger with several closing servos (the Allegro's) is held after the close:
+            "floor" (each servo as a finger of its own: stiff against opening, still pushing with `FLOOR` of its
+            force where the object yields), "joints" (the finger's joint configuration held, no push) or
+            "fingertips" (the default: in a grasp the palm does not touch, "joints" for a finger that touches the
+            object with its distal phalanx only, or not at all, "floor" for one that wraps it with inner links
+            too; "floor" for every finger of a grasp pressed into the palm). A finger one actuator
+            closes (the five-finger hands' tendons) keeps the floor in every mode; see `control.hold`.
         metric_edges: edges of the linearised friction cones in the metrics.
         metric_friction_tol: tolerance of the smallest-friction-for-closure bisection [-].
         simulated_min_friction: also compute the smallest friction for closure of the simulated
@@ -125,7 +128,7 @@ class GraspParams:
     check_period_s: float = 0.02
     regulate_grip_after_close: bool = False
     finger_hold_gain: float = HOLD_GAIN
-    finger_hold_joints: bool = False
+    finger_hold: str = "fingertips"
     close_mode: str = "synergy"
     metric_edges: int = 8
     metric_friction_tol: float = 0.01
@@ -151,6 +154,8 @@ class GraspParams:
             raise ConfigError("metric_edges must be even and >= 4, metric_friction_tol > 0")
         if not (self.finger_hold_gain == 0 or self.finger_hold_gain >= 1):
             raise ConfigError(f"finger_hold_gain must be 0 (off) or >= 1, got {self.finger_hold_gain}")
+        if self.finger_hold not in FINGER_HOLDS:
+            raise ConfigError(f"finger_hold must be one of {', '.join(FINGER_HOLDS)}, got {self.finger_hold!r}")
         if self.close_mode not in CLOSE_MODES:
             raise ConfigError(f"close_mode must be one of {', '.join(CLOSE_MODES)}, got {self.close_mode!r}")
         if self.torque_scale is not None and not self.torque_scale > 0:

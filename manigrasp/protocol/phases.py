@@ -20,24 +20,37 @@ from manigrasp.geometry import pregrasp_pose
 from manigrasp.protocol.execution import Abort, Trajectory, TrialRun
 from manigrasp.protocol.metrics import simulated_metrics
 from manigrasp.protocol.result import Phase, Status
-from manigrasp.sim import grip_force, read_hand_contacts
+from manigrasp.sim import HandContacts, Scene, grip_force, read_hand_contacts
 
 CLOSED_SYNERGY = 0.995  # [-] hand synergy (0 open, 1 closed) past which a position-mode close has finished
 
-# One `FingerHold` per scene, with the (gain, joints) it was made for (its model's gains are edited while a
-# dexterous grasp is held).
+# One `FingerHold` per scene, with the gain it was made for (its model's gains are edited while a dexterous grasp
+# is held).
 _HOLDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def finger_hold(run: TrialRun, gain: float, joints: bool = False) -> FingerHold:
-    """The scene's `FingerHold` of `gain` (made on first use, from the model's own gains); with `joints`, a
-    finger with several closing servos is held in its joint configuration (`finger_hold_joints`)."""
+def finger_hold(run: TrialRun, gain: float) -> FingerHold:
+    """The scene's `FingerHold` of `gain` (made on first use, from the model's own gains, with the finger of each
+    actuator, `Scene.actuator_fingers`)."""
     scene = run.scene
-    if scene not in _HOLDS or _HOLDS[scene][0] != (gain, joints):
+    if scene not in _HOLDS or _HOLDS[scene][0] != gain:
         release_hold(run)
-        fingers = scene.actuator_fingers if joints else None
-        _HOLDS[scene] = ((gain, joints), FingerHold(scene.model, scene.hand_actuators, gain, fingers))
+        _HOLDS[scene] = (gain, FingerHold(scene.model, scene.hand_actuators, gain, scene.actuator_fingers))
     return _HOLDS[scene][1]
+
+
+def joint_held_fingers(scene: Scene, contacts: HandContacts, mode: str) -> tuple[int, ...]:
+    """The fingers `FingerHold.engage` holds in their joint configuration under the protocols' `finger_hold`
+    `mode`: none ("floor"), all ("joints"), or ("fingertips") in a grasp the palm does not touch (a precision
+    grasp; one pressed into the palm is a power grasp: none), the fingers that touch the object with their distal
+    phalanx only (`Scene.distal_body`) or not at all (a finger that also touches with an inner link wraps it)."""
+    every = range(len(scene.hand.finger_bodies))
+    if mode == "floor" or (mode == "fingertips" and np.any(contacts.finger < 0)):
+        return ()
+    if mode == "joints":
+        return tuple(every)
+    wrapping = set(contacts.finger[(contacts.finger >= 0) & ~scene.distal_body[contacts.hand_body]].tolist())
+    return tuple(f for f in every if f not in wrapping)
 
 
 def release_hold(run: TrialRun) -> None:
@@ -99,8 +112,9 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     the finger command stays where it left it (unless `regulate_grip_after_close`), so
     the finger servos hold the grip with no Python in the loop; with `finger_hold_gain`, a
     dexterous hand's servos that close along its path are then held around the forces they
-    reached (`FingerHold`: stiff against opening, and still pushing where the object yields; with
-    `finger_hold_joints`, a finger with several closing joints has its joint configuration held instead); the
+    reached (`FingerHold`: stiff against opening, and still pushing where the object yields; a finger with
+    several closing joints that touches with its fingertip only has its joint configuration held instead,
+    `finger_hold`); the
     next pre-grasp or close gives the gains back. The object's pose in the
     hand is the reference of all later motion, and (with `metrics`) the grip force and
     simulated-contact metrics are recorded. `detail` goes to the observer's phase call.
@@ -154,7 +168,8 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
         raise Abort(Status.NO_CONTACT, "the hand closed without touching the object")
     if hand.kind == "dexterous" and run.grip is None and p.finger_hold_gain > 0:
         closing = np.diff(run.scene.hand_path, axis=0)[0]
-        finger_hold(run, p.finger_hold_gain, p.finger_hold_joints).engage(run.scene.data, closing)
+        held = joint_held_fingers(run.scene, contacts, p.finger_hold)
+        finger_hold(run, p.finger_hold_gain).engage(run.scene.data, closing, held)
     if metrics:
         run.grip_force_n = grip_force(contacts)
         run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,

@@ -153,10 +153,28 @@ class Scene:
         return out
 
     @functools.cached_property
+    def distal_body(self) -> np.ndarray:
+        """(nbody,) True for the hand bodies on a finger's distal phalanx: the nearest joint up from the body
+        (its own included) moves no other joint (the last joint of its chain); a body fixed to the palm is not."""
+        m = self.model
+        out = np.zeros(m.nbody, bool)
+        has_joint = m.body_jntnum > 0
+        below = np.zeros(m.nbody, bool)  # a joint in the body's subtree, below the body itself
+        for b in range(m.nbody - 1, 0, -1):  # children come after their parents
+            parent = int(m.body_parentid[b])
+            below[parent] |= below[b] or has_joint[b]
+        for body in self.hand_bodies:
+            b = int(body)
+            while b != self.root_body and not has_joint[b]:
+                b = int(m.body_parentid[b])
+            out[body] = b != self.root_body and self.finger_of_body[body] >= 0 and not below[b]
+        return out
+
+    @functools.cached_property
     def actuator_fingers(self) -> np.ndarray:
         """(n_act,) index into `hand.finger_bodies` of the finger each hand actuator moves, -1 if none or several:
         the finger of its joint (joint transmission) or of every joint its tendon spans (a finger's tendon).
-        Computed on first use (only `finger_hold_joints` asks)."""
+        Computed on first use (`control.FingerHold` asks)."""
         m = self.model
         out = np.full(len(self.hand_actuators), -1)
         for i, a in enumerate(self.hand_actuators):
