@@ -183,6 +183,28 @@ def test_the_gate_refuses_another_draw_of_candidates_or_another_planner(tmp_path
     assert message in err and err.count("\n") == 1
 
 
+def test_a_parameter_written_out_at_its_default_is_the_same_config(tmp_path, capsys):
+    """A config that writes out a protocol's or planner's default value runs what one leaving it out runs: the gate
+    compares them (it refused them as different configs); a parameter this code does not know is compared as
+    recorded, and any other value still differs."""
+    payload = json.loads(BASELINE.read_text())
+    config = payload["run"]["config"]
+    config["protocol"]["params"].update(lift_height=0.1, finger_hold="fingertips")
+    config["planners"][0]["params"].update(n_samples=2048, depth_fractions=[0.0, 0.4, 0.8])
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(BASELINE), str(other)]) == 0
+    config["protocol"]["params"]["finger_hold_joints"] = False  # no longer a parameter
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(BASELINE), str(other)]) == 2
+    assert "protocol.params.finger_hold_joints" in capsys.readouterr().err
+    del config["protocol"]["params"]["finger_hold_joints"]
+    config["planners"][0]["params"]["n_samples"] = 1024
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(BASELINE), str(other)]) == 2
+    assert "planner 'antipodal'.params.n_samples (2048 vs baseline 1024)" in capsys.readouterr().err
+
+
 def test_cameras_must_match_only_where_perception_groups_are_compared(tmp_path, capsys):
     payload = json.loads(BASELINE.read_text())
     payload["run"]["config"]["camera"] = {"views": 2}

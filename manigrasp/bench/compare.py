@@ -27,6 +27,7 @@ the reason texts are not compared (they change no trial).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
@@ -39,7 +40,7 @@ from manigrasp.bench.stats import (
     lower_than_baseline,
     stratified_lower_than_baseline,
 )
-from manigrasp.errors import ConfigError
+from manigrasp.errors import ConfigError, ManigraspError
 
 POOLED_GROUP = "pooled (groups in both)"
 METHOD_WORDS = "hand x planner x observation x protocol"
@@ -186,7 +187,8 @@ def check_comparable(new: Side, base: Side, perception: bool = False) -> list[st
     """Raise `ConfigError` naming what differs when the two runs' physics cannot be compared.
 
     The scene (physics) must be equal; a protocol or planner (by label), hand or object present on both sides
-    must be defined the same way; `grasps_per_object` must be equal where both record it, and the camera
+    must be defined the same way (a built-in protocol's or planner's parameters at their effective values: one
+    written out at its default is the same as one left out); `grasps_per_object` must be equal where both record it, and the camera
     setup(s) too when `perception` groups are compared. Returns notes on version differences (not refused).
     """
     configs = [side.meta.get("config") for side in (new, base)]
@@ -196,7 +198,7 @@ def check_comparable(new: Side, base: Side, perception: bool = False) -> list[st
                               "write a baseline with `manigrasp report RUN_DIR --json > FILE`")
     new_config, base_config = configs
     differ = [d for key in _SAME for d in _differences(new_config.get(key), base_config.get(key), key)]
-    ours, theirs = _protocols(new_config), _protocols(base_config)
+    ours, theirs = _effective_pairs(_protocols(new_config), _protocols(base_config), "protocol")
     if len(ours) == len(theirs) == 1:  # one protocol each: it must be the same one
         differ += _differences(*ours.values(), *theirs.values(), "protocol")
     for label in sorted(ours.keys() & theirs.keys()) if len(ours) > 1 or len(theirs) > 1 else ():
@@ -206,7 +208,7 @@ def check_comparable(new: Side, base: Side, perception: bool = False) -> list[st
         for name in sorted(ours.keys() & theirs.keys()):
             differ += _differences(_without_exclude(ours[name]), _without_exclude(theirs[name]), f"{key[:-1]} {name!r}")
     differ += _exclusion_differences(new_config, base_config)
-    ours, theirs = _planners(new_config), _planners(base_config)
+    ours, theirs = _effective_pairs(_planners(new_config), _planners(base_config), "planner")
     for label in sorted(ours.keys() & theirs.keys()):
         differ += _differences(ours[label], theirs[label], f"planner {label!r}")
     for key in ("grasps_per_object", *(("camera",) if perception else ())):
@@ -249,6 +251,46 @@ def _planners(config: dict) -> dict[str, dict]:
                                                                                       strict=True)}
     except (KeyError, TypeError, AttributeError, ConfigError) as exc:
         raise ConfigError(f"a recorded config's planners are malformed ({exc})") from None
+
+
+def _effective_pairs(ours: dict[str, object], theirs: dict[str, object],
+                    kind: str) -> tuple[dict[str, object], dict[str, object]]:
+    """Both sides' protocol or planner entries by label, each label's pair with every parameter at its effective
+    value (`_effective`) where both can be built here, else both as recorded (so a parameter this code does not
+    know is named alone, "absent vs baseline 2.0")."""
+    ours, theirs = dict(ours), dict(theirs)
+    for label in ours.keys() & theirs.keys():
+        pair = _effective(ours[label], kind), _effective(theirs[label], kind)
+        if all(p is not None for p in pair):
+            ours[label], theirs[label] = pair
+    return ours, theirs
+
+
+def _effective(entry: object, kind: str) -> dict | None:
+    """A recorded protocol or planner entry ({name, params} or a name) as {name, params} with every parameter it
+    leaves out at its default, so that a config writing out a default value compares equal to one that leaves it
+    out. None for an entry this code cannot build (a parameter it no longer knows, say) and for a
+    ``module:attribute`` entry (not imported to be compared)."""
+    name = entry.get("name") if isinstance(entry, dict) else entry
+    params = entry.get("params") if isinstance(entry, dict) else {}
+    if not isinstance(name, str) or ":" in name or not isinstance(params, dict):
+        return None
+    from manigrasp.planners import PLANNERS
+    from manigrasp.protocol import PROTOCOLS
+
+    try:
+        built = (PROTOCOLS.load(name, **params).params if kind == "protocol" else PLANNERS.load(name, **params))
+        values = {f.name: getattr(built, f.name) for f in dataclasses.fields(built) if f.init}
+        return {"name": name, "params": json.loads(json.dumps(values, default=_jsonable))}
+    except (ManigraspError, TypeError, ValueError, OSError):  # unknown or invalid here: compared as recorded
+        return None
+
+
+def _jsonable(value: object) -> object:
+    """`json.dumps` default for parameter values: arrays and other sequences as lists, the rest as text."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    return list(value) if isinstance(value, (tuple, set, frozenset)) else str(value)
 
 
 def _entries(value: object) -> dict[str, object]:
