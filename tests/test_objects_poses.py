@@ -27,6 +27,17 @@ def test_box_rests_most_probably_on_its_largest_face() -> None:
     assert poses[-1].height == pytest.approx(0.05)  # standing on end is the least probable
 
 
+def test_tied_poses_come_in_the_same_order_whatever_the_order_of_the_points() -> None:
+    """A box's opposite faces are equally probable (but for float noise): which one is rest 0 must not depend on
+    how the mesh lists its vertices (it did: shuffled, the box rested on -x instead of +x)."""
+    box = trimesh.creation.box((0.04, 0.09, 0.175)).vertices
+    rng = np.random.default_rng(0)
+    ups = [[tuple(np.round(p.rotation[2], 6) + 0.0) for p in stable_poses(box[rng.permutation(len(box))])]
+           for _ in range(6)]
+    assert all(u == ups[0] for u in ups)
+    assert ups[0][:4] == [(1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0)]
+
+
 def test_flat_points_are_refused() -> None:
     with pytest.raises(MeshError, match="no 3-D convex hull"):
         stable_poses(np.c_[np.random.default_rng(0).random((10, 2)), np.zeros(10)])

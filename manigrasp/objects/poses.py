@@ -37,7 +37,8 @@ class RestPose:
 
 def stable_poses(points: np.ndarray, com: np.ndarray | None = None) -> list[RestPose]:
     """Stable poses of the rigid body whose surface points are `points` (n, 3) [m] (object frame),
-    centre of mass `com` (3,) (default the origin), most probable first. Deterministic.
+    centre of mass `com` (3,) (default the origin), most probable first (ties in a fixed order, whatever the order of
+    the points). Deterministic.
 
     Raises:
         MeshError: fewer than 4 points not all in one plane.
@@ -56,5 +57,12 @@ def stable_poses(points: np.ndarray, com: np.ndarray | None = None) -> list[Rest
         rotation = np.asarray(transform[:3, :3], float)
         height = -float((points @ rotation.T)[:, 2].min())
         out.append(RestPose(rotation=rotation, height=height, probability=float(prob)))
-    out.sort(key=lambda pose: -pose.probability)
+    out.sort(key=_rank)
     return out
+
+
+def _rank(pose: RestPose) -> tuple[float, ...]:
+    """Most probable first; equal probabilities (a box's opposite faces: equal but for float noise, which the
+    order of the points decided) by the object frame's up direction, largest component first."""
+    up = np.round(pose.rotation[2], 6) + 0.0  # + 0.0: no negative zero
+    return (-round(pose.probability, 9), *(-up))
