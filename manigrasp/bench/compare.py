@@ -189,7 +189,8 @@ def check_comparable(new: Side, base: Side, perception: bool = False) -> list[st
     The scene (physics) must be equal; a protocol or planner (by label), hand or object present on both sides
     must be defined the same way (a built-in protocol's or planner's parameters at their effective values: one
     written out at its default is the same as one left out); `grasps_per_object` must be equal where both record
-    it, and the camera setup(s) too when `perception` groups are compared. Returns notes on version differences (not refused).
+    it, and the camera setup(s) too when `perception` groups are compared. Returns notes on version differences
+    (not refused).
     """
     configs = [side.meta.get("config") for side in (new, base)]
     for side, config in zip((new, base), configs, strict=True):
