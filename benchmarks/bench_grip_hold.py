@@ -28,18 +28,18 @@ of the lift, seen in the hand frame; their best-fit rotation), the largest slip 
 against its point on the finger) [mm], and the largest motion of a hand joint [rad]. `--finger-hold MODE` replays with
 the protocol's `finger_hold` set to MODE: "floor" (every held servo pushes on with the force floor), "joints" (a
 finger with several closing servos held in its joint configuration, no floor) or "fingertips" (the default since 4 Dec
-2026: "joints" for the fingers of a grasp the palm does not touch that touch with their tip only); without it, the
-run's own parameters. Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x allegro_right,
-inspire_right x dexopt x 5 grasps, `standard` with grip_force 10, seed 0, planned at fd0aae5): allegro_right, floor on
-every joint (the default then, `--finger-hold floor`): 12/20, the 5 `dropped_perturb` turned 8.7 deg (median), 4.8 deg
-of it carried by the fingers, largest slip 4.5 mm, largest joint motion 0.116 rad (the 12 successes: 1.3 deg, 0.8 deg,
-1.6 mm, 0.022 rad); held per finger: 15/20, the 2 drops 2.1 deg, 0.5 deg, 2.6 mm, 0.028 rad (successes 1.5 deg, 0.6
-deg, 1.6 mm, 0.008 rad); the 3 banana grasps slip in the lift either way (turn 15-18 deg, largest slip up to 22 mm:
-squeezed out). inspire_right 17/20 either way (one closing actuator per finger). The same planner at seed 1 on mustard
-bottle, tennis ball, sugar box, potted meat can, mug and tomato soup can: 10/30 -> 16/30. Held per finger for every
-grasp (`joints`) costs the power planner's wraps (allegro_right, 7 dexterous objects x 10, `standard` at 10 N, seed 0:
-power 19 -> 11/70, the soup can 8 -> 1/10; dexopt 32 -> 37/70): hence the default `fingertips`, which holds by joints
-only the fingertip contacts of a grasp the palm does not touch.
+2026: "joints" for the fingers of a grasp the palm does not touch that touch with their distal phalanx only, or not at
+all); without it, the run's own parameters. Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x
+allegro_right, inspire_right x dexopt x 5 grasps, `standard` with grip_force 10, seed 0, planned at fd0aae5):
+allegro_right, floor on every joint (the default then, `--finger-hold floor`): 12/20, the 5 `dropped_perturb` turned
+8.7 deg (median), 4.8 deg of it carried by the fingers, largest slip 4.5 mm, largest joint motion 0.116 rad (the 12
+successes: 1.3 deg, 0.8 deg, 1.6 mm, 0.022 rad); held per finger: 15/20, the 2 drops 2.1 deg, 0.5 deg, 2.6 mm, 0.028
+rad (successes 1.5 deg, 0.6 deg, 1.6 mm, 0.008 rad); the 3 banana grasps slip in the lift either way (turn 15-18 deg,
+largest slip up to 22 mm: squeezed out). inspire_right 17/20 either way (one closing actuator per finger). The same
+planner at seed 1 on mustard bottle, tennis ball, sugar box, potted meat can, mug and tomato soup can: 10/30 -> 16/30.
+Held per finger for every grasp (`joints`) costs the power planner's wraps (allegro_right, 7 dexterous objects x 10,
+`standard` at 10 N, seed 0: power 19 -> 11/70, the soup can 8 -> 1/10; dexopt 32 -> 37/70): hence the default
+`fingertips`, which holds by joints only the fingertip contacts of a grasp the palm does not touch.
 
     .venv/bin/python benchmarks/bench_grip_hold.py --run RUN --only allegro_right [--finger-hold joints]
 """

@@ -38,6 +38,8 @@ MAX_DEPTH = 20
 def from_mapping(cls: type[T], data: Mapping[str, Any] | None, where: str = "config") -> T:
     """Build dataclass `cls` from `data`, refusing unknown keys with a hint and values of the wrong type.
 
+    A key `cls` names in its class attribute ``RENAMED`` ({old key: what replaced it}) is refused with that text.
+
     Every value is checked against the field's annotation before the dataclass is built: ``int`` takes
     integers only (not ``true``, not ``2.5``, not ``"3"``), ``float`` takes finite integers or floats,
     ``str`` strings, ``bool`` booleans, ``tuple[X, ...]`` lists of X, a nested dataclass a mapping, and
@@ -49,7 +51,10 @@ def from_mapping(cls: type[T], data: Mapping[str, Any] | None, where: str = "con
         raise ConfigError(f"{where}: expected a mapping, got {_kind(data)}")
     data = dict(data)
     fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    renamed = getattr(cls, "RENAMED", {})
     for key in data:
+        if isinstance(key, str) and key in renamed:
+            raise ConfigError(f"{where}: {key!r} is no longer a key: {renamed[key]}")
         if not isinstance(key, str) or key not in fields:
             hint = nearest(str(key), list(fields))
             did_you_mean = f"; did you mean {hint!r}?" if hint else ""

@@ -205,6 +205,22 @@ def test_a_parameter_written_out_at_its_default_is_the_same_config(tmp_path, cap
     assert "planner 'antipodal'.params.n_samples (2048 vs baseline 1024)" in capsys.readouterr().err
 
 
+def test_a_dataclass_parameter_written_out_at_its_default_is_the_same_config(tmp_path):
+    """dexopt's `weights` written out in whole numbers (as YAML gives them) equal its defaults (they were compared
+    as the text of the dataclass, 100 against 100.0); another weight differs."""
+    baseline = BASELINE.parent / "dexterous.json"
+    payload = json.loads(baseline.read_text())
+    dexopt = next(p for p in payload["run"]["config"]["planners"] if p["name"] == "dexopt")
+    dexopt["params"]["weights"] = {"force_closure": 1, "distance": 100, "penetration": 1000, "table": 1000,
+                                   "joints": 10, "self_penetration": 1000, "centroid": 1}
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(baseline), str(other)]) == 0
+    dexopt["params"]["weights"]["centroid"] = 10
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(baseline), str(other)]) == 2
+
+
 def test_cameras_must_match_only_where_perception_groups_are_compared(tmp_path, capsys):
     payload = json.loads(BASELINE.read_text())
     payload["run"]["config"]["camera"] = {"views": 2}

@@ -6,7 +6,7 @@ their distal phalanx only, `Scene.distal_body`).
 Closed loop: an Allegro fingertip grasp of the mug (planned by dexopt, stored below) turned 8.7 deg in the hand
 during the lift and hold when every held joint followed the object at `FLOOR` of its force (its fingers curled
 on and rolled it, `finger_hold: floor`); with the fingers' joints held (the default for fingertip contacts) it
-turns about 2 deg.
+turns 2.9 deg.
 """
 
 from __future__ import annotations
@@ -191,6 +191,35 @@ def test_distal_bodies_of_the_hands() -> None:
     assert names == {f"hand/link_{j}.0{tip}" for j in (3, 7, 11, 15) for tip in ("", "_tip")}
 
 
+def test_compliant_pad_elements_belong_to_the_phalanx_they_sit_on() -> None:
+    """A user's Allegro with pads on the index's middle and distal boxes: the pads' elements ride on slide joints
+    (`hands.pads`), which must not make the distal link look inner nor a middle-phalanx pad look distal."""
+    import dataclasses
+
+    from manigrasp import hands
+    from manigrasp.sim import build_scene
+
+    pytest.importorskip("cmeel", reason="the Allegro hand needs the 'allegro' extra (example-robot-data)")
+    base = hands.load("allegro_right")
+
+    def spec() -> mujoco.MjSpec:
+        out = base.build_spec()
+        for link in ("link_2.0", "link_3.0"):
+            [box] = [g for g in out.body(link).geoms if g.type == mujoco.mjtGeom.mjGEOM_BOX]
+            box.name = f"pad_{link}"
+        return out
+
+    scene = build_scene(dataclasses.replace(base, name="allegro_padded", build_spec=spec,
+                                            pad_geoms=("pad_link_2.0", "pad_link_3.0")))
+    names = {int(b): scene.model.body(int(b)).name for b in scene.hand_bodies}
+    middle = [b for b, n in names.items() if n.startswith("hand/padel_pad_link_2.0")]
+    distal = [b for b, n in names.items() if n.startswith("hand/padel_pad_link_3.0")]
+    assert middle and distal
+    assert not scene.distal_body[middle].any() and scene.distal_body[distal].all()
+    assert scene.distal_body[scene.model.body("hand/link_3.0").id]
+    assert not scene.distal_body[scene.model.body("hand/link_2.0").id]
+
+
 def test_fingers_held_in_their_joints_by_mode() -> None:
     """`joint_held_fingers`: "fingertips" holds the joints of every finger but one touching with an inner link, and
     none in a grasp the palm touches."""
@@ -215,3 +244,14 @@ def test_fingers_held_in_their_joints_by_mode() -> None:
     palm = touching([1, 2, 2, -1], [body["link_3.0_tip"], body["link_6.0"], body["link_7.0_tip"], scene.root_body])
     assert joint_held_fingers(scene, palm, "fingertips") == ()
     assert joint_held_fingers(scene, palm, "joints") == (0, 1, 2, 3)
+
+
+def test_the_old_key_names_its_replacement() -> None:
+    """`finger_hold_joints` (before 4 Dec 2026) is refused with what replaced it, not the nearest spelling."""
+    from manigrasp.errors import ConfigError
+    from manigrasp.protocol import PROTOCOLS
+
+    with pytest.raises(ConfigError, match="no longer a key: use finger_hold"):
+        PROTOCOLS.load("standard", finger_hold_joints=True)
+    with pytest.raises(ConfigError, match="finger_hold must be one of"):
+        PROTOCOLS.load("standard", finger_hold="tips")

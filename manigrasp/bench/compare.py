@@ -270,8 +270,10 @@ def _effective_pairs(ours: dict[str, object], theirs: dict[str, object],
 def _effective(entry: object, kind: str) -> dict | None:
     """A recorded protocol or planner entry ({name, params} or a name) as {name, params} with every parameter it
     leaves out at its default, so that a config writing out a default value compares equal to one that leaves it
-    out. None for an entry this code cannot build (a parameter it no longer knows, say) and for a
-    ``module:attribute`` entry (not imported to be compared)."""
+    out. The defaults are this code's: a baseline recorded under other defaults is read as if it had run this
+    code's, as when neither side writes the parameter out (the gate compares code under one config). None for
+    an entry this code cannot build (a parameter it no longer knows, say) and for a ``module:attribute`` entry
+    (not imported to be compared)."""
     name = entry.get("name") if isinstance(entry, dict) else entry
     params = entry.get("params") if isinstance(entry, dict) else {}
     if not isinstance(name, str) or ":" in name or not isinstance(params, dict):
@@ -288,9 +290,12 @@ def _effective(entry: object, kind: str) -> dict | None:
 
 
 def _jsonable(value: object) -> object:
-    """`json.dumps` default for parameter values: arrays and other sequences as lists, the rest as text."""
+    """`json.dumps` default for parameter values: arrays and other sequences as lists, a dataclass (dexopt's
+    `weights`) as its fields, the rest as text."""
     if hasattr(value, "tolist"):
         return value.tolist()
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return dataclasses.asdict(value)
     return list(value) if isinstance(value, (tuple, set, frozenset)) else str(value)
 
 

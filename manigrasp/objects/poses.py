@@ -57,12 +57,23 @@ def stable_poses(points: np.ndarray, com: np.ndarray | None = None) -> list[Rest
         rotation = np.asarray(transform[:3, :3], float)
         height = -float((points @ rotation.T)[:, 2].min())
         out.append(RestPose(rotation=rotation, height=height, probability=float(prob)))
-    out.sort(key=_rank)
-    return out
+    return _ranked(out)
 
 
-def _rank(pose: RestPose) -> tuple[float, ...]:
-    """Most probable first; equal probabilities (a box's opposite faces: equal but for float noise, which the
-    order of the points decided) by the object frame's up direction, largest component first."""
-    up = np.round(pose.rotation[2], 6) + 0.0  # + 0.0: no negative zero
-    return (-round(pose.probability, 9), *(-up))
+def _ranked(poses: list[RestPose], tie: float = 1e-9) -> list[RestPose]:
+    """Most probable first; probabilities within `tie` of the previous one's are equal (a box's opposite faces:
+    equal but for float noise, which the order of the points decided) and go by the object frame's up direction,
+    largest component first."""
+    poses = sorted(poses, key=lambda pose: -pose.probability)
+    groups: list[list[RestPose]] = []
+    for pose in poses:
+        if groups and groups[-1][-1].probability - pose.probability <= tie:
+            groups[-1].append(pose)
+        else:
+            groups.append([pose])
+    return [pose for group in groups for pose in sorted(group, key=_up_first)]
+
+
+def _up_first(pose: RestPose) -> tuple[float, ...]:
+    """Sort key: the object frame's up direction, largest component first (+ 0.0: no negative zero)."""
+    return tuple(-(np.round(pose.rotation[2], 6) + 0.0))

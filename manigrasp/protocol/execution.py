@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -106,6 +107,9 @@ class GraspParams:
             contacts (a bisection of hull computations, ~0.1-0.4 s per trial; off: NaN).
         torque_scale: length dividing torques in the metrics [m]; None: the object's radius of gyration.
     """
+
+    RENAMED: ClassVar[dict[str, str]] = {
+        "finger_hold_joints": "use finger_hold (true: joints, false: floor; the default is now fingertips)"}
 
     pregrasp_offset: float = PREGRASP_OFFSET
     approach_speed: float = 0.10

@@ -43,7 +43,9 @@ def joint_held_fingers(scene: Scene, contacts: HandContacts, mode: str) -> tuple
     """The fingers `FingerHold.engage` holds in their joint configuration under the protocols' `finger_hold`
     `mode`: none ("floor"), all ("joints"), or ("fingertips") in a grasp the palm does not touch (a precision
     grasp; one pressed into the palm is a power grasp: none), the fingers that touch the object with their distal
-    phalanx only (`Scene.distal_body`) or not at all (a finger that also touches with an inner link wraps it)."""
+    phalanx only (`Scene.distal_body`) or not at all (a finger that also touches with an inner link wraps it).
+    Any contact of a hand body outside the fingers (`finger` -1: the palm, or a link `Hand.finger_bodies` does
+    not reach) counts as the palm's."""
     every = range(len(scene.hand.finger_bodies))
     if mode == "floor" or (mode == "fingertips" and np.any(contacts.finger < 0)):
         return ()
@@ -113,8 +115,8 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     the finger servos hold the grip with no Python in the loop; with `finger_hold_gain`, a
     dexterous hand's servos that close along its path are then held around the forces they
     reached (`FingerHold`: stiff against opening, and still pushing where the object yields; a finger with
-    several closing joints that touches with its fingertip only has its joint configuration held instead,
-    `finger_hold`); the
+    several closing joints that touches with its distal phalanx only, or not at all, in a grasp the palm does
+    not touch, has its joint configuration held instead, `finger_hold`); the
     next pre-grasp or close gives the gains back. The object's pose in the
     hand is the reference of all later motion, and (with `metrics`) the grip force and
     simulated-contact metrics are recorded. `detail` goes to the observer's phase call.

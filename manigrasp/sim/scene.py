@@ -154,11 +154,14 @@ class Scene:
 
     @functools.cached_property
     def distal_body(self) -> np.ndarray:
-        """(nbody,) True for the hand bodies on a finger's distal phalanx: the nearest joint up from the body
-        (its own included) moves no other joint (the last joint of its chain); a body fixed to the palm is not."""
+        """(nbody,) True for the hand bodies on a finger's distal phalanx: the nearest hinge up from the body
+        (its own included) moves no other hinge (the last joint of its chain); a body fixed to the palm is not.
+        Hinges only: a compliant pad's elements ride on slide joints (`manigrasp.hands.pads`) and belong to the
+        phalanx they sit on."""
         m = self.model
         out = np.zeros(m.nbody, bool)
-        has_joint = m.body_jntnum > 0
+        hinge = m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE
+        has_joint = np.bincount(m.jnt_bodyid[hinge], minlength=m.nbody) > 0
         below = np.zeros(m.nbody, bool)  # a joint in the body's subtree, below the body itself
         for b in range(m.nbody - 1, 0, -1):  # children come after their parents
             parent = int(m.body_parentid[b])
