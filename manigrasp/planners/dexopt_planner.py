@@ -82,7 +82,10 @@
    Fourier 180 -> 190 (19 / 9, p = 0.09), Inspire 162 -> 150 (17 / 29, p = 0.10): no hand's change is beyond
    noise, and the Inspire's goes the other way, below 0.75. With `close_only` off as well, so that the actuators
    can press the balanced forces whole (the planned friction then equals the least, 0.02-0.44 on the Allegro
-   banana and mug): Allegro seed 0 30/70 against 40 (mug 4, can 6 against 8, 10). So it stays off.
+   banana and mug): Allegro seed 0 30/70 against 40 (mug 4, can 6 against 8, 10). So it stays off. Measured again
+   on the Allegro with the fingertip hold of 4 Dec 2026 (`finger_hold: fingertips`), seeds 0-4, of 350: 238 -> 250
+   (32 / 20, p = 0.13; sugar box 22 -> 31 of 50, the rest within 2): a lead for a fully actuated hand, not
+   beyond noise, so still off.
    (Variants of one planner in one config are not paired: the label enters the group's seed, and two draws of
    the planning seeds moved these hands by up to 16 of 210 with the code unchanged: the same comparison run as
    two planner entries of one config read +20, +15, +4.)
