@@ -120,11 +120,11 @@ def test_violent_shake_drops_a_box_that_survives_the_lift(box: tuple) -> None:
 
 def test_six_direction_failure_names_its_direction_in_a_field_the_report_counts(box: tuple) -> None:
     """2 N of grip: a 10 m g push along the closing axis (+y) takes the cube off one jaw (+z, into the palm,
-    is held). The trial fails at +y with a detail that names no direction; the direction is the
-    result's field, and the report's failure modes count the trial under it."""
+    is held). The trial fails at +y; its detail names the direction as a motion failure's does ("+y: only 1
+    finger(s) touch ..."), and the result's field, which the report's failure modes count, holds it."""
     result = _run(box, "six_direction", grip_force=2.0, directions=("+z", "+y"), force_s=1.0, force_multiple=10.0)
     assert result.status is Status.DROPPED_PERTURB, result.detail
-    assert result.perturb_direction == "+y" and not result.detail.startswith("+y")
+    assert result.perturb_direction == "+y" and result.detail.startswith("+y: only 1 finger(s) touch")
     assert result.last_phase is Phase.CLOSE  # +z passed, then the closing of +y, not its push
     key = TrialKey("box", "parallel_jaw", "fixed", "ground_truth", "six_direction", 0)
     rate = summarize([(key, result)]).overall
@@ -168,3 +168,31 @@ def test_six_direction_closes_a_dexterous_hand_alike_in_every_direction(can) -> 
     assert result.status is Status.SUCCESS, result.detail
     assert len(closes.took) == 3
     np.testing.assert_allclose(closes.took, closes.took[0], rtol=0.05)
+
+
+def test_six_direction_needs_a_direction(box: tuple) -> None:
+    """With no direction the hand would never close and the trial would pass (it did: `success` with nothing
+    simulated); refused."""
+    from manigrasp.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="at least one"):
+        PROTOCOLS.load("six_direction", directions=())
+
+
+def test_a_trial_leaves_the_hand_its_own_gains(can) -> None:
+    """A dexterous grasp is held stiffer after its close (`FingerHold`); when the trial ends, whatever it ended in,
+    the scene has the hand's own gains and force ranges back for whatever uses it next (user code, an env)."""
+    scene = build_scene(hands.load("inspire_right"), can)
+    rest = settle_object(scene)
+    grasp = GraspCandidate(pose=side_power_grasp(scene.hand, [rest[0, 3], rest[1, 3], scene.object_rest_height]),
+                           score=1.0)
+    hand = scene.hand_actuators
+    before = (scene.model.actuator_gainprm[hand].copy(), scene.model.actuator_biasprm[hand].copy(),
+              scene.model.actuator_forcerange[hand].copy())
+    result = PROTOCOLS.load("six_direction", grip_force=10.0, force_s=0.3, directions=("+x",)).run(
+        scene, grasp, np.random.default_rng(0), deadline=time.monotonic() + 120, object_pose=rest, seed=0)
+    assert result.last_phase is Phase.PERTURB, result.detail  # closed and held
+    after = (scene.model.actuator_gainprm[hand], scene.model.actuator_biasprm[hand],
+             scene.model.actuator_forcerange[hand])
+    for b, a in zip(before, after, strict=True):
+        np.testing.assert_array_equal(a, b)

@@ -117,7 +117,7 @@ def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = ""
     reached (`FingerHold`: stiff against opening, and still pushing where the object yields; a finger with
     several closing joints that touches with its distal phalanx only, or not at all, in a grasp the palm does
     not touch, has its joint configuration held instead, `finger_hold`); the
-    next pre-grasp or close gives the gains back. The object's pose in the
+    next pre-grasp or close, and the end of the trial (`trial.execute`), give the gains back. The object's pose in the
     hand is the reference of all later motion, and (with `metrics`) the grip force and
     simulated-contact metrics are recorded. `detail` goes to the observer's phase call.
     """
@@ -206,10 +206,11 @@ def lift(run: TrialRun, height: float, speed: float, hold_s: float) -> None:
                         f"object left behind: it rose {100 * risen:.1f} cm of {100 * height:.0f}")
 
 
-def require_fingers(run: TrialRun, status: Status) -> tuple[str, ...]:
-    """The fingers touching the object; fewer than `min_fingers`: abort with `status`."""
+def require_fingers(run: TrialRun, status: Status, where: str = "") -> tuple[str, ...]:
+    """The fingers touching the object; fewer than `min_fingers`: abort with `status` (its detail led by `where`,
+    e.g. the perturbation's direction, if given)."""
     fingers = run.fingers_touching()
     if len(fingers) < run.params.min_fingers:
-        raise Abort(status, f"only {len(fingers)} finger(s) touch the object at the end "
-                            f"(need {run.params.min_fingers})")
+        raise Abort(status, f"{f'{where}: ' if where else ''}only {len(fingers)} finger(s) touch the object at the "
+                            f"end (need {run.params.min_fingers})")
     return fingers

@@ -63,6 +63,8 @@ class SixDirectionParams(GraspParams):
         bad = [d for d in self.directions if d not in DIRECTIONS]
         if bad:
             raise ConfigError(f"unknown direction(s) {bad}; available: {', '.join(DIRECTIONS)}")
+        if not self.directions:  # no direction: the hand would never close, and the trial would pass
+            raise ConfigError(f"directions must name at least one of {', '.join(DIRECTIONS)}")
 
 
 def six_directions(run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Grasp) -> tuple[str, ...]:
@@ -84,8 +86,8 @@ def six_directions(run: TrialRun, pose: np.ndarray, rest: np.ndarray, grasp: Gra
                 scene.data.xfrc_applied[scene.object_body, :3] = force * np.asarray(DIRECTIONS[name], float)
                 run.hold_for(p.force_s)
                 scene.data.xfrc_applied[scene.object_body] = 0.0
-                fingers = require_fingers(run, Status.DROPPED_PERTURB)
-        return fingers if p.directions else ()
+                fingers = require_fingers(run, Status.DROPPED_PERTURB, name)
+        return fingers
     finally:
         scene.data.xfrc_applied[scene.object_body] = 0.0
         model.opt.gravity[:] = saved[0]

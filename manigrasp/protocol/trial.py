@@ -13,6 +13,7 @@ from manigrasp.protocol.execution import Abort, GraspParams, TrialRun
 from manigrasp.protocol.grasp import Grasp, as_grasp, check_grasp, grasp_tcp_pose
 from manigrasp.protocol.metrics import planned_metrics
 from manigrasp.protocol.observer import TrialObserver
+from manigrasp.protocol.phases import release_hold
 from manigrasp.protocol.result import GraspMetrics, Phase, Status, TrialResult
 from manigrasp.protocol.settle import settle_object
 from manigrasp.sim import Scene
@@ -30,7 +31,7 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     An invalid grasp (`grasp.check_grasp`: non-finite pose, non-rigid rotation, non-unit quaternion,
     pre-shape outside [0, 1], joints that do not fit the hand) is `invalid_grasp` before anything is
     simulated; the grasp's own hand path (`Grasp.joints`) is the scene's during the trial only;
-    a `SimulationError` inside the trial is `unstable`.
+    a `SimulationError` inside the trial is `unstable`. The scene is left with the hand's own gains and path.
 
     `observer` (or None) gets `on_start` first (with the given object pose, or, when the
     trial settles the object itself, the pose it is dropped from; "settle" is then the
@@ -74,7 +75,8 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
     except SimulationError as exc:
         status, detail = Status.UNSTABLE, str(exc)
     finally:
-        scene.set_hand_path()  # the hand's own path for whatever uses the scene next
+        release_hold(run)  # the hand's own gains (a held grasp stiffens them) and path for whatever uses the
+        scene.set_hand_path()  # scene next (the protocols release before a reset already; user code may not)
     dt = float(scene.model.opt.timestep)
     result = TrialResult(status=status, detail=detail, last_phase=run.last_phase,
                        perturb_direction=_perturb_direction(run, status),
