@@ -27,7 +27,6 @@ the reason texts are not compared (they change no trial).
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
@@ -278,25 +277,16 @@ def _effective(entry: object, kind: str) -> dict | None:
     params = entry.get("params") if isinstance(entry, dict) else {}
     if not isinstance(name, str) or ":" in name or not isinstance(params, dict):
         return None
+    from manigrasp.config import to_mapping
     from manigrasp.planners import PLANNERS
     from manigrasp.protocol import PROTOCOLS
 
     try:
         built = (PROTOCOLS.load(name, **params).params if kind == "protocol" else PLANNERS.load(name, **params))
-        values = {f.name: getattr(built, f.name) for f in dataclasses.fields(built) if f.init}
-        return {"name": name, "params": json.loads(json.dumps(values, default=_jsonable))}
+        # as run.json writes a dataclass (nested ones, dexopt's `weights`, by their fields), then as JSON reads it
+        return {"name": name, "params": json.loads(json.dumps(to_mapping(built), default=str))}
     except (ManigraspError, TypeError, ValueError, OSError):  # unknown or invalid here: compared as recorded
         return None
-
-
-def _jsonable(value: object) -> object:
-    """`json.dumps` default for parameter values: arrays and other sequences as lists, a dataclass (dexopt's
-    `weights`) as its fields, the rest as text."""
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return dataclasses.asdict(value)
-    return list(value) if isinstance(value, (tuple, set, frozenset)) else str(value)
 
 
 def _entries(value: object) -> dict[str, object]:
