@@ -205,6 +205,54 @@ def test_a_parameter_written_out_at_its_default_is_the_same_config(tmp_path, cap
     assert "planner 'antipodal'.params.n_samples (2048 vs baseline 1024)" in capsys.readouterr().err
 
 
+def test_the_defaults_a_run_recorded_are_compared_not_this_codes(tmp_path, capsys):
+    """A baseline whose run.json recorded the values its code ran with (``effective``) is compared on them: a
+    default changed since (antipodal's n_samples 1024 then, 2048 now) is a different planner, where without the
+    record both sides read as this code's and pass. A recorded parameter this code no longer knows is ignored,
+    as one it added since is at its default on both sides."""
+    payload = json.loads(BASELINE.read_text())
+    assert "n_samples" not in payload["run"]["config"]["planners"][0]["params"]
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(BASELINE), str(other)]) == 0
+    payload["run"]["effective"] = {"planners": {"antipodal": {"name": "antipodal", "params": {"n_samples": 1024}}},
+                                   "protocols": {"standard": {"name": "standard",
+                                                              "params": {"finger_hold_joints": False}}}}
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(BASELINE), str(other)]) == 2
+    err = capsys.readouterr().err
+    assert "planner 'antipodal'.params.n_samples (2048 vs baseline 1024)" in err and "finger_hold" not in err
+    payload["run"]["effective"]["planners"]["antipodal"]["params"]["n_samples"] = 2048
+    other.write_text(json.dumps(payload))
+    assert main(["compare", str(BASELINE), str(other)]) == 0
+
+
+def test_a_new_run_records_every_parameter_it_runs_with_and_its_baseline_carries_them(tmp_path, capsys):
+    """run.json's ``effective``: each built-in protocol and planner by label with all its parameters, those the
+    config leaves out at this code's defaults; `report --json` (the baseline format) keeps it; a user's
+    ``module:attribute`` planner is left out (not imported to be recorded)."""
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.rundir import prepare
+    from manigrasp.planners.antipodal import AntipodalPlanner
+    from manigrasp.protocol.standard import StandardParams
+
+    config = parse_config({"name": "t", "objects": ["025_mug"], "planners": [
+        {"name": "antipodal", "params": {"n_approaches": 3}}, "random", "conftest:NoSuchPlanner"],
+        "protocols": [{"name": "standard", "params": {"grip_force": 10.0}}, "six_direction"]})
+    meta = prepare(tmp_path / "run", config)
+    effective = json.loads((tmp_path / "run" / "run.json").read_text())["effective"]
+    assert effective == meta["effective"] and set(effective["planners"]) == {"antipodal", "random"}
+    antipodal = effective["planners"]["antipodal"]["params"]
+    assert antipodal["n_approaches"] == 3 and antipodal["n_samples"] == AntipodalPlanner().n_samples
+    standard = effective["protocols"]["standard"]["params"]
+    assert standard["grip_force"] == 10.0 and standard["lift_height"] == StandardParams().lift_height
+    assert set(effective["protocols"]) == {"standard", "six_direction"}
+    make_run(tmp_path / "run", _results({("025_mug", "antipodal"): 18}),
+             meta=json.loads((tmp_path / "run" / "run.json").read_text()))
+    assert main(["report", str(tmp_path / "run"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["run"]["effective"] == effective
+
+
 def test_a_dataclass_parameter_written_out_at_its_default_is_the_same_config(tmp_path):
     """dexopt's `weights` written out in whole numbers (as YAML gives them) equal its defaults (they were compared
     as the text of the dataclass, 100 against 100.0); another weight differs."""

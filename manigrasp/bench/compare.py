@@ -186,8 +186,9 @@ def check_comparable(new: Side, base: Side, perception: bool = False) -> list[st
     """Raise `ConfigError` naming what differs when the two runs' physics cannot be compared.
 
     The scene (physics) must be equal; a protocol or planner (by label), hand or object present on both sides
-    must be defined the same way (a built-in protocol's or planner's parameters at their effective values: one
-    written out at its default is the same as one left out); `grasps_per_object` must be equal where both record
+    must be defined the same way (a built-in protocol's or planner's parameters at their effective values, the
+    defaults each side's run.json recorded it ran with where it did, `_effective_pairs`: one written out at its
+    default is the same as one left out); `grasps_per_object` must be equal where both record
     it, and the camera setup(s) too when `perception` groups are compared. Returns notes on version differences
     (not refused).
     """
@@ -198,7 +199,8 @@ def check_comparable(new: Side, base: Side, perception: bool = False) -> list[st
                               "write a baseline with `manigrasp report RUN_DIR --json > FILE`")
     new_config, base_config = configs
     differ = [d for key in _SAME for d in _differences(new_config.get(key), base_config.get(key), key)]
-    ours, theirs = _effective_pairs(_protocols(new_config), _protocols(base_config), "protocol")
+    used = [side.meta.get("effective") for side in (new, base)]
+    ours, theirs = _effective_pairs(_protocols(new_config), _protocols(base_config), "protocol", used)
     if len(ours) == len(theirs) == 1:  # one protocol each: it must be the same one
         differ += _differences(*ours.values(), *theirs.values(), "protocol")
     for label in sorted(ours.keys() & theirs.keys()) if len(ours) > 1 or len(theirs) > 1 else ():
@@ -208,7 +210,7 @@ def check_comparable(new: Side, base: Side, perception: bool = False) -> list[st
         for name in sorted(ours.keys() & theirs.keys()):
             differ += _differences(_without_exclude(ours[name]), _without_exclude(theirs[name]), f"{key[:-1]} {name!r}")
     differ += _exclusion_differences(new_config, base_config)
-    ours, theirs = _effective_pairs(_planners(new_config), _planners(base_config), "planner")
+    ours, theirs = _effective_pairs(_planners(new_config), _planners(base_config), "planner", used)
     for label in sorted(ours.keys() & theirs.keys()):
         differ += _differences(ours[label], theirs[label], f"planner {label!r}")
     for key in ("grasps_per_object", *(("camera",) if perception else ())):
@@ -253,40 +255,81 @@ def _planners(config: dict) -> dict[str, dict]:
         raise ConfigError(f"a recorded config's planners are malformed ({exc})") from None
 
 
-def _effective_pairs(ours: dict[str, object], theirs: dict[str, object],
-                    kind: str) -> tuple[dict[str, object], dict[str, object]]:
+def _effective_pairs(ours: dict[str, object], theirs: dict[str, object], kind: str,
+                     used: list[object] | None = None) -> tuple[dict[str, object], dict[str, object]]:
     """Both sides' protocol or planner entries by label, each label's pair with every parameter at its effective
     value (`_effective`) where both can be built here, else both as recorded (so a parameter this code does not
-    know is named alone, "absent vs baseline 2.0")."""
+    know is named alone, "absent vs baseline 2.0").
+
+    `used` (ours, theirs): each side's run.json ``effective`` (`effective_entries`, recorded when the run
+    started; None for a run recorded before it): the values its code ran with override this code's defaults,
+    so a default changed since a baseline was recorded is a difference, not read as the same run."""
     ours, theirs = dict(ours), dict(theirs)
+    used = used or [None, None]
     for label in ours.keys() & theirs.keys():
-        pair = _effective(ours[label], kind), _effective(theirs[label], kind)
+        pair = [_effective(side[label], kind, _recorded_effective(record, kind, label))
+                for side, record in zip((ours, theirs), used, strict=True)]
         if all(p is not None for p in pair):
             ours[label], theirs[label] = pair
     return ours, theirs
 
 
-def _effective(entry: object, kind: str) -> dict | None:
+def _recorded_effective(record: object, kind: str, label: str) -> dict | None:
+    """The parameters run.json's ``effective`` records for the `kind` ("protocol" or "planner") of `label`, or
+    None (not recorded, or malformed)."""
+    entries = record.get(f"{kind}s") if isinstance(record, dict) else None
+    entry = entries.get(label) if isinstance(entries, dict) else None
+    params = entry.get("params") if isinstance(entry, dict) else None
+    return params if isinstance(params, dict) else None
+
+
+def _effective(entry: object, kind: str, ran_with: dict | None = None) -> dict | None:
     """A recorded protocol or planner entry ({name, params} or a name) as {name, params} with every parameter it
     leaves out at its default, so that a config writing out a default value compares equal to one that leaves it
-    out. The defaults are this code's: a baseline recorded under other defaults is read as if it had run this
-    code's, as when neither side writes the parameter out (the gate compares code under one config). None for
-    an entry this code cannot build (a parameter it no longer knows, say) and for a ``module:attribute`` entry
-    (not imported to be compared)."""
+    out. The defaults are those the run recorded it ran with (`ran_with`: run.json's ``effective``, for the
+    parameters this code knows), else this code's: a baseline recorded without them is read as if it had run
+    this code's, as when neither side writes the parameter out; a parameter this code added since is at its
+    default on both sides. None for an entry this code cannot build (a parameter it no longer knows, say) and
+    for a ``module:attribute`` entry (not imported to be compared)."""
     name = entry.get("name") if isinstance(entry, dict) else entry
     params = entry.get("params") if isinstance(entry, dict) else {}
     if not isinstance(name, str) or ":" in name or not isinstance(params, dict):
         return None
+    params = _built_params(name, params, kind)
+    if params is None:
+        return None
+    for key, value in (ran_with or {}).items():
+        if key in params:
+            params[key] = value
+    return {"name": name, "params": params}
+
+
+def _built_params(name: str, params: dict, kind: str) -> dict | None:
+    """Every parameter of the protocol or planner `name` built here with `params`, as run.json writes a dataclass
+    (nested ones, dexopt's `weights`, by their fields) and JSON reads it; None if it cannot be built here."""
     from manigrasp.config import to_mapping
     from manigrasp.planners import PLANNERS
     from manigrasp.protocol import PROTOCOLS
 
     try:
         built = (PROTOCOLS.load(name, **params).params if kind == "protocol" else PLANNERS.load(name, **params))
-        # as run.json writes a dataclass (nested ones, dexopt's `weights`, by their fields), then as JSON reads it
-        return {"name": name, "params": json.loads(json.dumps(to_mapping(built), default=str))}
+        return json.loads(json.dumps(to_mapping(built), default=str))
     except (ManigraspError, TypeError, ValueError, OSError):  # unknown or invalid here: compared as recorded
         return None
+
+
+def effective_entries(config: object) -> dict:
+    """What a run records in run.json as ``effective``: each built-in protocol and planner of `config` (a
+    `BenchConfig`) by label with every parameter at the value this code runs it with (`_built_params`), so a
+    later comparison reads the defaults the run had, not those of the code that compares. A ``module:attribute``
+    entry, or one that does not build, is left out."""
+    out: dict[str, dict] = {}
+    for kind, entries, names in (("protocol", config.protocol_entries, config.protocol_labels),
+                                 ("planner", config.planners, config.planner_labels)):
+        built = {label: _effective({"name": e.name, "params": dict(e.params)}, kind)
+                 for label, e in zip(names, entries, strict=True)}
+        out[f"{kind}s"] = {label: entry for label, entry in built.items() if entry is not None}
+    return out
 
 
 def _entries(value: object) -> dict[str, object]:

@@ -193,7 +193,9 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None,
 
     `grip_limits` (each hand's `Hand.max_grip_force` [N], `runner.grip_limits`) is recorded in a new run.json as
     ``hand_grip_limits``, so that its report says which hands closed below an asked grip force with the forces
-    of the hands that ran, not of the hand models installed when the report is made. A resumed run keeps what it
+    of the hands that ran, not of the hand models installed when the report is made. A new run.json also records
+    as ``effective`` every parameter its built-in protocols and planners run with (`compare.effective_entries`),
+    so that a comparison made by later code reads the defaults this code ran with. A resumed run keeps what it
     recorded (an older run.json without them stays without).
 
     Whether it is resumed by other code is not recorded here: `record_other_code` does that once trials are
@@ -231,6 +233,9 @@ def start(run_dir: Path, config: BenchConfig, existing: dict | None, base: Path 
     }
     if grip_limits is not None:
         meta["hand_grip_limits"] = {hand: float(force) for hand, force in grip_limits.items()}
+    from manigrasp.bench.compare import effective_entries
+
+    meta["effective"] = effective_entries(config)
     _write_json(meta_path, meta)
     return meta
 

@@ -78,6 +78,8 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
     done = completeness(results, meta, config_dir(run_dir))
     if as_json:
         run = {k: meta.get(k) for k in ("config", "seed", "versions", "git_commit", "started")}
+        if isinstance(meta.get("effective"), dict):
+            run["effective"] = meta["effective"]
         if meta.get("resumed_with_other_code"):
             run["resumed_with_other_code"] = meta["resumed_with_other_code"]
         pairs = left_out_of(meta)
