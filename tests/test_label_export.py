@@ -31,9 +31,9 @@ def _top_down(height: float) -> np.ndarray:
     return pose
 
 
-def _store(run_dir: Path, statuses: list[Status], label: str = CAN, rest_index: int = -1) -> list[str]:
-    """A results store of one group of `label`: a trial per status, those in PLANNED with a grasp; its trial ids."""
-    planned = {Status.SUCCESS, Status.SLIPPED_LIFT, Status.NO_CONTACT}
+def _store(run_dir: Path, statuses: list[Status], label: str = CAN, rest_index: int = -1,
+           planned: frozenset = frozenset({Status.SUCCESS, Status.SLIPPED_LIFT, Status.NO_CONTACT})) -> list[str]:
+    """A results store of one group of `label`: a trial per status, those in `planned` with a grasp; its ids."""
     obj = np.eye(4)
     obj[:3, 3] = [0.1, 0.0, 0.05]
     ids = []
@@ -56,6 +56,16 @@ def test_trials_without_a_grasp_are_left_out_and_counted_by_status(tmp_path):
     (item,), without = export_dataset(tmp_path, parse_config(CONFIG))
     assert without == {"timeout": 2, "no_grasp": 1, "harness_fault": 1, "planner_error": 1}
     assert item.grasps == 2 and item.trial_ids == (ids[0], ids[4])
+
+
+def test_a_harness_fault_after_the_grasp_has_no_label_and_is_not_written(tmp_path):
+    """A bug of manigrasp that stopped a trial after its grasp was written as a failed grasp (success false): a
+    label physics never gave, and the summary's share counted it where every report leaves it out."""
+    ids = _store(tmp_path, [Status.SUCCESS, Status.HARNESS_FAULT, Status.SLIPPED_LIFT],
+                 planned=frozenset({Status.SUCCESS, Status.HARNESS_FAULT, Status.SLIPPED_LIFT}))
+    (item,), without = export_dataset(tmp_path, parse_config(CONFIG))
+    assert without == {"harness_fault": 1}
+    assert (item.grasps, item.successes, item.trial_ids) == (2, 1, (ids[0], ids[2]))
     for path in item.files:
         grasps = read(path)
         assert len(grasps) == 2 and np.all(np.isfinite(grasps.poses))
@@ -88,7 +98,7 @@ def test_the_cli_summary_counts_grasps_written_and_trials_without_one_by_status(
     assert main(["label", str(config), "--out", str(tmp_path / "run"), "--quiet", "--jobs", "1"]) == 0
     err = capsys.readouterr().err
     assert "2 grasps written, 2 of them labelled now (4 trials run, 0 already stored)" in err, err
-    assert "2 trials without a grasp not written (no_grasp 1, timeout 1)" in err and "planner errors" not in err
+    assert "2 trials not written, without a grasp or a label (no_grasp 1, timeout 1)" in err and "planner errors" not in err
 
 
 def test_label_summary_rate_counts_grasps_labelled_now():

@@ -19,8 +19,10 @@ resting pose it was placed in (``rest_*``: ``rest_index`` -1 is its file's orien
 ``rest: stable_k`` a file names its object by its plain name (``005_tomato_soup_can``, not the group's
 ``005_tomato_soup_can@rest0``), so `manigrasp evaluate FILE` resolves it; ``rest_index`` says which pose.
 Trials that executed no grasp have no grasp to write: those without a finite grasp pose (`no_grasp`: the
-planner returned fewer than asked; `planner_error`: it failed; a `timeout` while planning; a
-`harness_fault` before the grasp). They are left out of the files and the summary counts them by status.
+planner returned fewer than asked; `planner_error`: it failed; a `timeout` while planning). Nor has a
+`harness_fault` a label (a bug of manigrasp stopped the trial, before or after the grasp: physics did not
+judge it, and the reports leave it out of every rate). They are left out of the files and the summary counts
+them by status.
 """
 
 from __future__ import annotations
@@ -75,7 +77,7 @@ class LabelSummary:
         ran: trials run by this call (with or without a grasp); already_done: found in the store (resumed).
         seconds: wall time of the run (simulation and planning) [s].
         exported: the grasp sets written.
-        without_grasp: per status, the trials of the run with no grasp to write (`export_dataset`).
+        without_grasp: per status, the trials of the run with no grasp or no label to write (`export_dataset`).
         labelled_now: grasps written whose trials this call ran.
     """
 
@@ -130,8 +132,9 @@ def label(config: BenchConfig, run_dir: Path, jobs: int = 1, executor: str = "lo
 
 def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path | None = None,
                    native_suffix: str = ".json") -> tuple[list[Exported], dict[str, int]]:
-    """Write every stored trial's grasp and label under ``run_dir/grasps``; returns (sets, trials without a
-    grasp per status). A trial without a finite grasp pose executed no grasp (module docstring): it is left out.
+    """Write every stored trial's grasp and label under ``run_dir/grasps``; returns (sets, trials not written
+    per status). A trial without a finite grasp pose executed no grasp, and a `harness_fault` has no label
+    (module docstring): they are left out.
 
     `config` (default: the run's own, from run.json) names each object's source, needed for the
     ACRONYM file's ``object/file`` (the built object's visual mesh, whose frame is the object frame).
@@ -152,9 +155,9 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
     names = _file_names(by_group)
     for group, members in by_group.items():
         members.sort(key=lambda r: int(r["grasp_index"]))
-        kept = [r for r in members if not _nan_grasp(r)]
+        kept = [r for r in members if not _unlabelled(r)]
         for row in members:
-            if _nan_grasp(row):
+            if _unlabelled(row):
                 without_grasp[str(row["status"])] += 1
         stem = run_dir / DATASET_DIR / names[group]
         if not kept:  # no file: and none left of an earlier export (which wrote such trials as NaN grasps)
@@ -213,6 +216,11 @@ def _object_frame(row: dict) -> np.ndarray:
     except ValueError:
         return np.full((4, 4), np.nan)
     return np.linalg.inv(obj) @ grasp
+
+
+def _unlabelled(row: dict) -> bool:
+    """A stored trial with no grasp to write (no finite pose) or no label (a `harness_fault`)."""
+    return _nan_grasp(row) or row["status"] == Status.HARNESS_FAULT.value
 
 
 def _nan_grasp(row: dict) -> bool:

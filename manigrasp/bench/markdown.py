@@ -25,7 +25,7 @@ from manigrasp.bench.report import (
 )
 from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import REST_LABEL, LeftOut, left_out
-from manigrasp.protocol.result import PoseRecord, TrialResult
+from manigrasp.protocol.result import PoseRecord, Status, TrialResult
 from manigrasp.runfiles import REPORT_NAME
 
 
@@ -157,12 +157,14 @@ def paired_rows(report: Report, results: list[tuple[TrialKey, TrialResult]], ord
     object, grasp rank and seed: the paired design of `manigrasp.bench.trials`): pairs, how many of them executed
     the very same grasp pose (all, unless the planner adapts its plan to the protocol), both succeed, only the
     first, only the second, neither, and the exact McNemar p-value (two-sided binomial test of the discordant
-    pairs: how likely a split this uneven is if the protocols were equally hard)."""
+    pairs: how likely a split this uneven is if the protocols were equally hard). A pair with a `harness_fault`
+    on either side is left out, as every rate leaves those trials out (a bug of manigrasp is neither outcome)."""
     from scipy.stats import binomtest
 
     outcome: dict[tuple, dict[str, TrialResult]] = defaultdict(dict)
     for key, result in results:
-        outcome[(key.hand, key.planner, key.observation, key.object, key.grasp_index)][key.protocol] = result
+        if result.status is not Status.HARNESS_FAULT:
+            outcome[(key.hand, key.planner, key.observation, key.object, key.grasp_index)][key.protocol] = result
     rows = []
     for method in sorted({m[:3] for m in report.by_method}):
         for a, b in combinations(order or report.protocols, 2):

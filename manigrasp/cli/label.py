@@ -60,10 +60,11 @@ def _label(args: argparse.Namespace) -> int:
 
 
 def without_grasp_note(counts: dict[str, int]) -> str:
-    """"3 trials without a grasp not written (no_grasp 2, timeout 1)": the trials that executed no grasp, by
-    status (a planner that found too few, failed or overran its budget; a harness fault before the grasp)."""
+    """"3 trials not written, without a grasp or a label (no_grasp 2, timeout 1)": the trials that executed no
+    grasp (a planner that found too few, failed or overran its budget) and the harness faults (a bug of
+    manigrasp: physics did not judge the grasp), by status."""
     total = sum(counts.values())
     if not total:
-        return "every trial had a grasp"
+        return "every trial had a grasp and a label"
     by_status = ", ".join(f"{status} {n}" for status, n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])))
-    return f"{total} trial{'s' if total != 1 else ''} without a grasp not written ({by_status})"
+    return f"{total} trial{'s' if total != 1 else ''} not written, without a grasp or a label ({by_status})"
