@@ -516,7 +516,18 @@ def test_console_pose_errors_carry_the_symmetry_caveat_of_the_markdown(tmp_path,
     assert main(["report", str(make_run(tmp_path / "run", results))]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
     assert "rotation median 180.0 deg (p90 180.0; not meaningful for symmetric objects)" in line
-    assert "100% of 1 objects with ADD-S < 5 mm and translation < 1 cm" in line
+    assert "100% of 1 estimated pose (one per object, or object x resting pose) with ADD-S < 5 mm" in line
+
+
+def test_pose_errors_count_estimates_of_resting_poses_not_objects(tmp_path, capsys):
+    """Under ``rest: stable_k`` each object x resting pose is a group with its own estimate: two objects in two
+    poses are 4 estimated poses (the line said "of 4 objects")."""
+    results = [(TrialKey(f"{obj}@rest{k}", "parallel_jaw", "antipodal", "estimated_pose", "standard", 0),
+                TrialResult(Status.SUCCESS, pose_rotation_error_deg=2.0, pose_translation_error_mm=0.2 + k,
+                            pose_add_s_mm=1.0)) for obj in ("004_sugar_box", "025_mug") for k in range(2)]
+    assert main(["report", str(make_run(tmp_path / "run", results))]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
+    assert "100% of 4 estimated poses (one per object, or object x resting pose)" in line
 
 
 def test_harness_faults_are_named_and_left_out_of_the_rates(tmp_path, capsys):

@@ -88,6 +88,8 @@ def test_recognition_picks_the_right_model(assets, database):
                           true_pose=pose)
         if result.recognized_as != name:
             wrong[name] = (result.recognized_as, round(result.estimate.score, 2))
+        # features and registration run per model inside recognition: one stage, not "features 0 ms"
+        assert list(result.timings) == ["depth", "cloud", "recognition"] and result.timings["recognition"] > 0
     assert not wrong, f"misrecognised (as, score): {wrong}"
 
 

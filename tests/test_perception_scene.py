@@ -102,6 +102,8 @@ def test_perceive_on_the_sim_tabletop_equals_perceive_on_the_hand_built_model(bo
     # Open3D's registration is reproducible to rounding only (two calls on one scene differ by 1e-16 at times).
     np.testing.assert_allclose(first.estimate.pose, second.estimate.pose, rtol=0, atol=1e-12)
     assert second.errors.add_s_mm < 20.0  # and the box is found, roughly (one noisy view, two restarts)
+    assert list(second.timings) == ["depth", "cloud", "features", "registration"]
+    assert all(t > 0 for t in second.timings.values())
 
 
 @pytest.mark.parametrize(("fields", "match"), [

@@ -117,10 +117,11 @@ def _mode(result: TrialResult) -> str:
 
 @dataclass(frozen=True)
 class PoseErrors:
-    """Errors of the estimated object poses of one hand x planner x observation (one per object).
+    """Errors of the estimated object poses of one hand x planner x observation (one per group: per object, or
+    per object x resting pose under ``rest: stable_k``).
 
     Attributes:
-        objects: objects with an estimated pose.
+        objects: estimated poses (groups with one; the JSON field keeps this name).
         median_rotation_deg, p90_rotation_deg, median_translation_mm, p90_translation_mm,
         median_add_s_mm: statistics over those objects.
         share_add_s_5mm_translation_1cm: fraction of objects whose pose is good: ADD-S < 5 mm and translation

@@ -176,7 +176,9 @@ class PerceptionResult:
         recognized_as: the recognised model's name (None if below the threshold), or
             the given model's name when recognition was not asked for.
         errors: errors against `true_pose`, None if no truth was given.
-        timings: seconds per stage: "depth", "cloud", "features", "registration" (RANSAC + ICP + verification).
+        timings: seconds per stage: "depth", "cloud", then, given the object's name, "features" (the observed
+            cloud's FPFH) and "registration" (RANSAC + ICP + verification), else "recognition" (features and
+            registration against every model of the database, not split).
     """
 
     image: DepthImage
@@ -231,8 +233,7 @@ def perceive(scene: Viewed, camera: Camera, database: ModelDatabase, rng: np.ran
         if result.best is None:
             raise ConfigError("no model of the database fits the size of the observed cloud")
         estimate, recognized_as = result.best, result.name
-        timings["features"] = 0.0  # computed inside recognition, counted with registration
-    timings["registration"] = time.perf_counter() - start
+    timings["registration" if object_name is not None else "recognition"] = time.perf_counter() - start
     errors = None
     if true_pose is not None:
         errors = pose_errors(database.get(estimate.name), true_pose, estimate.pose)
