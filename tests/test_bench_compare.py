@@ -89,6 +89,21 @@ def test_compare_cli_passes_itself_flags_a_drop_and_lists_missing_groups(tmp_pat
             in out)
 
 
+def test_a_baselines_rates_are_its_counts_not_the_figures_it_stores(tmp_path, capsys, run_and_payload):
+    """A baseline whose counts were edited (or written by other code) but not its rate showed "20/20 = 0.90
+    [0.70, 0.97]": the figures shown are computed from the counts the tests use."""
+    run, payload = run_and_payload
+    edited = copy.deepcopy(payload)
+    edited["groups"] = [dict(g, successes=g["trials"]) if g["object"] == "025_mug" else g for g in edited["groups"]]
+    path = tmp_path / "edited.json"
+    path.write_text(json.dumps(edited))
+    mug = next(r for g, r in load_side(path).report.groups.items() if g[-1] == "025_mug")
+    assert (mug.trials, mug.successes, mug.success_rate) == (20, 20, 1.0)
+    assert mug.ci_low == pytest.approx(0.839, abs=1e-3) and mug.ci_high == 1.0
+    assert _gate(tmp_path, run, edited) == 0  # 18/20 against 20/20: p = 0.15 after Holm, no regression
+    assert "20/20 = 1.00 [0.84, 1.00]" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("broken, message", [
     (lambda p: p["groups"][0].update(successes=25), "25 successes of 20 trials"),
     (lambda p: p["groups"][0].update(trials=None), "18 successes of nan trials"),

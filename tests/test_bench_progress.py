@@ -50,3 +50,20 @@ def test_each_step_of_the_bar_shows_the_successes_of_the_trials_it_counts(tmp_pa
     summary = runner.run_benchmark(config, tmp_path / "run", progress=True)
     assert (summary.already_done, summary.ran, summary.successes) == (2, 1, 1)
     assert bar.shown == ["success=1/1 this session"]
+
+
+def test_the_bars_count_leaves_harness_faults_out_as_the_reports_do(tmp_path, monkeypatch):
+    """Success, harness fault, failure: the bar read success=1/2 after the fault, a rate no report gives."""
+    outcomes = [Status.SUCCESS, Status.HARNESS_FAULT, Status.NO_CONTACT]
+
+    def tasks(pending, todo, jobs, address, settings):
+        for group in pending:
+            for i in todo[id(group)]:
+                yield group.key(i), TrialResult(outcomes[i], seed=group.trial_seed(i))
+
+    bar = _Bar()
+    monkeypatch.setattr(runner, "_iter_local", tasks)
+    monkeypatch.setattr(runner, "_progress_bar", lambda total, initial, enabled: bar)
+    config = parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 3})
+    runner.run_benchmark(config, tmp_path / "run", progress=True)
+    assert bar.shown == ["success=1/1", "success=1/1, 1 harness fault(s)", "success=1/2, 1 harness fault(s)"]

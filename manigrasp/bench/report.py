@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter, defaultdict
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -218,7 +218,8 @@ def _nan(value: object) -> object:
 
 
 def report_from_json(data: dict) -> Report:
-    """Inverse of `Report.to_json` (for baselines committed as JSON); KeyError/TypeError on a malformed one.
+    """Inverse of `Report.to_json` (for baselines committed as JSON); KeyError/TypeError on a malformed one. Each
+    rate and its Wilson interval are recomputed from the stored counts.
 
     A report written before trials were keyed by protocol has entries without one: they get the run's protocol
     (``run.config.protocol.name``; "standard" if the run is not recorded).
@@ -229,7 +230,14 @@ def report_from_json(data: dict) -> Report:
         return d["hand"], d["planner"], d["observation"], d.get("protocol", default)
 
     def rate(d: dict) -> Rate:
-        return Rate(**{k: _nan(d[k]) for k in Rate.__dataclass_fields__ if k in d})
+        r = Rate(**{k: _nan(d[k]) for k in Rate.__dataclass_fields__ if k in d})
+        n, k = r.trials, r.successes
+        if all(isinstance(v, int) and not isinstance(v, bool) for v in (n, k)) and 0 <= k <= n:
+            # the rate and interval of the counts, not as stored: a hand-edited or stale file shows no figure
+            # its counts do not give (counts that are not counts are refused by `compare.check_counts`)
+            r = replace(r, success_rate=k / n if n else math.nan, **dict(zip(("ci_low", "ci_high"),
+                                                                             wilson_interval(k, n), strict=True)))
+        return r
 
     def auc(d: dict) -> AucEstimate:
         return AucEstimate(**{k: _nan(d[k]) for k in AucEstimate.__dataclass_fields__})

@@ -217,21 +217,22 @@ def run_benchmark(
         total = sum(g.n_grasps for g in all_groups)
         already = total - sum(len(v) for v in todo.values())
         bar = _progress_bar(total, already, progress)
-        ran = successes = 0
+        ran = successes = faults = 0
         try:
             tasks = _iter_ray if executor == "ray" else _iter_inline if in_process else _iter_local
             for key, result in tasks(pending, todo, jobs, address, settings):
                 if _add(store, key, result):
                     ran += 1
                     successes += result.success
+                    faults += result.status is Status.HARNESS_FAULT
                     if other_code and ran == 1:
                         rundir.record_other_code(run_dir, meta["resumed"][-1], other_code, ran)
                 if on_result is not None:
                     on_result(key, result)
                 # Set before the step that draws it; on a resumed run the bar counts the stored trials too, the
-                # successes only this session's trials.
-                bar.set_postfix_str(f"success={successes}/{ran}" + (" this session" if already else ""),
-                                    refresh=False)
+                # successes only this session's trials; harness faults apart, as the reports count them.
+                bar.set_postfix_str(f"success={successes}/{ran - faults}" + (" this session" if already else "")
+                                    + (f", {faults} harness fault(s)" if faults else ""), refresh=False)
                 bar.update(1)
         finally:
             bar.close()
