@@ -213,8 +213,9 @@ def test_planning_time_keeps_three_significant_digits():
     def shown(seconds: float) -> str:
         return format_planning_time(Rate(1, 1, 1.0, 0.0, 1.0, median_planning_time_s=seconds, planning_calls=5))
 
-    assert [shown(s) for s in (0.00042, 0.0095157, 1.0726, 3.0, 251.3)] == [
-        "0.000420 (5 calls)", "0.00952 (5 calls)", "1.07 (5 calls)", "3.00 (5 calls)", "251 (5 calls)"]
+    assert [shown(s) for s in (0.00042, 0.0095157, 1.0726, 3.0, 251.3, 99.97, 99.94)] == [
+        "0.000420 (5 calls)", "0.00952 (5 calls)", "1.07 (5 calls)", "3.00 (5 calls)", "251 (5 calls)",
+        "100 (5 calls)", "99.9 (5 calls)"]  # (99.97 printed "100.")
 
 
 def test_markdown_lists_every_group(tmp_path):

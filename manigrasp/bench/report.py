@@ -378,6 +378,8 @@ def format_planning_time(rate: Rate) -> str:
     if not rate.planning_calls:
         return f"- ({out})" if rate.planning_timeouts else "-"
     seconds = rate.median_planning_time_s
-    text = f"{seconds:.0f}" if abs(seconds) >= 100 else f"{seconds:#.3g}"
+    text = f"{seconds:#.3g}"
+    if abs(float(text)) >= 100:  # (99.95 s rounds to "100." at three digits)
+        text = f"{seconds:.0f}"
     calls = f"{rate.planning_calls} call{'s' * (rate.planning_calls != 1)}"
     return f"{text} ({calls}; {out})" if rate.planning_timeouts else f"{text} ({calls})"
