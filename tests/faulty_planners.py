@@ -146,3 +146,44 @@ def sleeping_protocol(**params):
 def raising_hand():
     """A hand factory that raises."""
     raise RuntimeError("no hand today")
+
+
+class RaisesCancelled:
+    """A planner that raises asyncio.CancelledError (a BaseException, not an Exception)."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        import asyncio
+
+        raise asyncio.CancelledError("cancelled inside the planner")
+
+
+class UnreadableError:
+    """A planner whose exception cannot be turned into text (its __str__ raises)."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        class Unreadable(RuntimeError):
+            def __str__(self):
+                raise ValueError("no text")
+
+        raise Unreadable()
+
+
+class LocalSubclass:
+    """A planner whose candidates are of a GraspCandidate subclass defined in `plan` (it cannot be pickled)."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        from manigrasp.planners.random_planner import RandomPlanner
+
+        class Mine(GraspCandidate):
+            pass
+
+        import dataclasses
+
+        return [Mine(**{f.name: getattr(c, f.name) for f in dataclasses.fields(c) if f.init})
+                for c in RandomPlanner().plan(observation, hand, n, rng)]

@@ -69,6 +69,7 @@ def test_a_store_written_before_the_pose_columns_is_extended_not_lost(tmp_path):
     db = sqlite3.connect(path)
     db.execute("ALTER TABLE trials DROP COLUMN plan_time_s")
     db.execute("ALTER TABLE trials DROP COLUMN grasp_qw")
+    db.execute("ALTER TABLE trials DROP COLUMN camera_views")  # an int column: NULL read as NaN crashed report
     db.commit()
     db.close()
     with ResultsStore(path) as store:
@@ -76,7 +77,10 @@ def test_a_store_written_before_the_pose_columns_is_extended_not_lost(tmp_path):
         rows = dict(store.results())
     assert rows[_key(1)] == _result(1)
     assert math.isnan(rows[_key(0)].plan_time_s) and math.isnan(rows[_key(0)].grasp.qw)
-    assert rows[_key(0)].status is Status.SUCCESS
+    assert rows[_key(0)].status is Status.SUCCESS and rows[_key(0)].camera_views == 0
+    from manigrasp.bench.report import summarize
+
+    assert summarize(list(rows.items())).views  # (int(NaN or 0) raised ValueError)
 
 
 def test_a_trial_is_never_stored_twice(tmp_path):

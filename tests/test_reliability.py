@@ -303,16 +303,23 @@ def test_config_code_of_the_wrong_kind_is_refused_before_it_is_called(tmp_path, 
     assert not (tmp_path / "PWNED").exists() and not (tmp_path / "run").exists()
 
 
-FAULTY = ["Exits", "Segfaults", "CallsSysExit", "WideWidth", "NoPreshape", "FactoryRaises"]
+FAULTY = ["Exits", "Segfaults", "CallsSysExit", "WideWidth", "NoPreshape", "FactoryRaises", "RaisesCancelled",
+          "UnreadableError"]
 
 
 @pytest.mark.slow
 def test_crashing_and_malformed_planners_are_recorded_and_the_run_completes(tmp_path, capsys):
-    data = dict(ONE, planners=[f"faulty_planners:{name}" for name in FAULTY] + ["random"])
+    # (A CancelledError, a BaseException, and an exception whose text cannot be read were harness faults, left out
+    # of the planner's rate; a candidate of an unpicklable subclass was one too.)
+    planners = [f"faulty_planners:{name}" for name in FAULTY] + ["random", "faulty_planners:LocalSubclass"]
+    data = dict(ONE, planners=planners)
     summary = run_benchmark(parse_config(data), tmp_path / "run", jobs=1000, progress=False)
     assert f"capped at the {max_jobs()} cores" in capsys.readouterr().err
     rows = {r["planner"]: r for r in _rows(tmp_path / "run")}
-    assert summary.ran == len(rows) == len(FAULTY) + 1
+    assert summary.ran == len(rows) == len(FAULTY) + 2
+    assert rows["LocalSubclass"]["status"] not in ("planner_error", "harness_fault"), rows["LocalSubclass"]["detail"]
+    assert "CancelledError" in rows["RaisesCancelled"]["detail"]
+    assert "its message could not be read" in rows["UnreadableError"]["detail"]
     for name in FAULTY:
         assert rows[name]["status"] == "planner_error", (name, rows[name]["detail"])
     assert "exited with code 3" in rows["Exits"]["detail"] and "SIGSEGV" in rows["Segfaults"]["detail"]
@@ -320,7 +327,7 @@ def test_crashing_and_malformed_planners_are_recorded_and_the_run_completes(tmp_
     assert "preshape is None" in rows["NoPreshape"]["detail"] and "cannot build me" in rows["FactoryRaises"]["detail"]
     assert rows["random"]["status"] not in ("planner_error", "harness_fault")
     again = run_benchmark(parse_config(data), tmp_path / "run", jobs=2, progress=False)
-    assert again.ran == 0 and again.already_done == len(FAULTY) + 1
+    assert again.ran == 0 and again.already_done == len(FAULTY) + 2
 
 
 @pytest.mark.slow

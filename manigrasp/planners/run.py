@@ -38,6 +38,14 @@ class PlanResult:
     planning_time_s: float
 
 
+def _text(exc: BaseException) -> str:
+    """`str(exc)`, or what can be said of it when its own `__str__` fails."""
+    try:
+        return str(exc)
+    except Exception as inner:  # noqa: BLE001 (a user's exception type: anything may come out of it)
+        return f"<its message could not be read: {type(inner).__name__}>"
+
+
 def planner_name(planner: object) -> str:
     """The planner's `name`, or its class name if it has none."""
     return str(getattr(planner, "name", type(planner).__name__))
@@ -75,13 +83,18 @@ def plan(planner: Planner, observation: Observation, hand: Hand, n: int, rng: np
     try:
         extra = {"context": context} if context is not None and takes_context(planner) else {}
         returned = planner.plan(observation, hand, n, rng, **extra)
-    except (Exception, SystemExit) as exc:  # a planner's failure (even sys.exit) is reported, never swallowed
-        raise PlannerError(f"planner {name!r} raised {type(exc).__name__}: {exc}") from exc
+    except KeyboardInterrupt:  # Ctrl-C (it reaches the planner's worker too): the run stops, nothing is recorded
+        raise
+    except BaseException as exc:  # a planner's failure (even sys.exit, a CancelledError) is reported, never swallowed
+        raise PlannerError(f"planner {name!r} raised {type(exc).__name__}: {_text(exc)}") from exc
     elapsed = time.perf_counter() - start
     candidates = validate_candidates(returned, name, n, hand)
     order = sorted(range(len(candidates)), key=lambda i: -candidates[i].score)
-    ranked = tuple(dataclasses.replace(candidates[i], planner=candidates[i].planner or name,
-                                       planning_time_s=elapsed) for i in order)
+    # As plain `GraspCandidate`s: a planner's own subclass (one defined in a function, say) need not pickle to the
+    # harness's worker pool, and carries nothing the trials read.
+    ranked = tuple(GraspCandidate(**{f.name: getattr(candidates[i], f.name) for f in dataclasses.fields(GraspCandidate)
+                                     if f.init} | {"planner": candidates[i].planner or name,
+                                                   "planning_time_s": elapsed}) for i in order)
     return PlanResult(planner=name, candidates=ranked, planning_time_s=elapsed)
 
 

@@ -245,7 +245,8 @@ class TrialResult:
         """Inverse of `flat`. A row stored before `perturb_direction` existed (absent or not a string) gets
         the direction its `detail` began with ("+x: object moved ..."), as it was written then; one stored
         before `no_grasp` existed as `planner_error` with the detail `short_plan_detail` writes is read as
-        `no_grasp` (module docstring)."""
+        `no_grasp` (module docstring). An integer field read as NaN (a column the store added after the row was
+        written, NULL) takes its default."""
         row = dict(row)
         if row.get("status") == Status.PLANNER_ERROR.value and _SHORT_PLAN.fullmatch(str(row.get("detail") or "")):
             row["status"] = Status.NO_GRASP.value
@@ -260,6 +261,10 @@ class TrialResult:
         for prefix, key in _NESTED:
             kind = TrialResult.__dataclass_fields__[key].default_factory  # type: ignore[misc]
             metrics[key] = kind(**{n: row.pop(f"{prefix}_{n}", math.nan) for n in kind.__dataclass_fields__})
+        for name, spec in cls.__dataclass_fields__.items():  # an int column added since the row was stored: NULL
+            value = row.get(name)
+            if spec.type in ("int", int) and isinstance(value, float) and math.isnan(value):
+                row[name] = spec.default
         fingers = str(row.pop("fingers_in_contact") or "")
         return cls(status=Status(row.pop("status")), fingers_in_contact=tuple(f for f in fingers.split(",") if f),
                    **metrics, **row)  # type: ignore[arg-type]
