@@ -178,3 +178,15 @@ def test_a_recorded_config_that_no_longer_parses_names_left_out_objects_as_one_t
     assert parsed == [LeftOut(name, "panda", next(iter(entry["exclude"].values())))]
     assert left_out_of({**meta, "config": {**config, "a_key_of_other_code": 1}}) == parsed
     assert left_out_of({**meta, "config": {**config, "objects": ["025_mug", {**entry, "mass": -1}]}}) == parsed
+
+
+@pytest.mark.parametrize("entry, phrase", [
+    ({"name": "025_mug", "scale": 1000}, "scale apply to a mesh entry only"),
+    ({"name": "025_mug", "density": 5}, "density apply to a mesh entry only"),
+    ({"ycb": "some/folder", "scale": 2.0}, "a YCB folder has its real size"),
+])
+def test_scale_and_density_of_an_entry_that_ignores_them_are_refused(entry, phrase):
+    """They were recorded in run.json and silently not applied (the trials ran the mug at its real size)."""
+    with pytest.raises(ConfigError, match=phrase):
+        parse_config({"objects": [entry]})
+    assert parse_config({"objects": [{"name": "025_mug", "mass": 0.5}]}).objects[0].mass == 0.5

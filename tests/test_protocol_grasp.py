@@ -115,3 +115,13 @@ def test_the_grasps_pregrasp_offset_places_the_open_hand(box):
         PROTOCOLS.load("lift").run(scene, grasp, np.random.default_rng(0), object_pose=rest, observer=Start(key))
     assert starts["candidate"] - pose[2, 3] == pytest.approx(0.03, abs=1e-6)
     assert starts["bare"] - pose[2, 3] == pytest.approx(0.10, abs=1e-6)
+
+
+@pytest.mark.parametrize("offset, ok", [(0.0, True), (0.1, True), (1.0, True), (1.5, False), (1000.0, False)])
+def test_a_pregrasp_offset_past_a_metre_is_an_invalid_candidate(offset, ok):
+    """A planner's 1000 m offset was accepted and each trial waited out its whole time budget in the approach,
+    stored as a timeout; now the candidate is refused (a planner error naming the bound)."""
+    defect = candidate_defect(GraspCandidate(pose=np.eye(4), score=1.0, pregrasp_offset=offset))
+    assert (defect is None) is ok
+    if not ok:
+        assert "in [0, 1] m back along the approach" in defect

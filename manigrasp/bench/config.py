@@ -70,6 +70,11 @@ class ObjectEntry:
             value = getattr(self, key)
             if value is not None and not value > 0:
                 raise ConfigError(f"object {self.label}: {key} must be > 0, got {value}")
+        unused = [k for k, default in (("scale", 1.0), ("density", DEFAULT_DENSITY)) if getattr(self, k) != default]
+        if unused and not self.mesh:
+            kind = "a YCB folder" if self.ycb else "a shipped object"
+            raise ConfigError(f"object {self.label}: {' and '.join(unused)} apply to a mesh entry only (`mesh:`); "
+                              f"{kind} has its real size and mass (give `mass` to change its mass)")
         if self.exclude is not None:
             for hand, reason in self.exclude.items():
                 if not isinstance(reason, str) or not reason.strip():

@@ -38,6 +38,11 @@ class PlanResult:
     planning_time_s: float
 
 
+# Largest pre-grasp offset a candidate may ask for [m]: the approach from it at the protocols' 0.1 m/s takes 10 s (a
+# planner's 1000 m waited out each trial's time budget and was stored as a timeout).
+MAX_PREGRASP_OFFSET = 1.0
+
+
 def _text(exc: BaseException) -> str:
     """`str(exc)`, or what can be said of it when its own `__str__` fails."""
     try:
@@ -148,8 +153,9 @@ def candidate_defect(candidate: GraspCandidate, hand: Hand | None = None) -> str
     if not (np.all(np.isfinite(candidate.contacts)) and np.all(np.isfinite(candidate.contact_normals))):
         return "contacts contain NaN or inf"
     offset = candidate.pregrasp_offset
-    if offset is not None and not (np.isfinite(offset) and offset >= 0):
-        return f"pregrasp_offset is {candidate.pregrasp_offset}"
+    if offset is not None and not (np.isfinite(offset) and 0 <= offset <= MAX_PREGRASP_OFFSET):
+        return (f"pregrasp_offset is {candidate.pregrasp_offset} (a distance in [0, {MAX_PREGRASP_OFFSET:g}] m back "
+                "along the approach)")
     if candidate.joints is not None:
         from manigrasp.protocol.grasp import joints_defect
 
