@@ -108,6 +108,10 @@ def test_one_protocol_or_several_side_by_side():
     ({"protocols": ["standard", "lift"]}, ["protocol.params.grip_force=5"], "protocol=NAME or protocols=.* replaces"),
     ({"protocols": []}, [], "at least one protocol"),
     ({"protocols": ["lift", "lift"]}, [], "protocol 'lift' with params {} is listed twice"),
+    # a default written out ran the same trials twice under two labels, pooled twice
+    ({"protocols": ["standard", {"name": "standard", "params": {"grip_force_fraction": 0.5}}]}, [],
+     "protocols 1 and 2 .* run the same"),
+    ({"planners": ["random", {"name": "random", "params": {"spread": 0.5}}]}, [], "planners 1 and 2 .* run the same"),
     ({"protocols": [{"name": "lift", "parms": {}}]}, [], "did you mean 'params'"),
     ({"protocls": ["lift"]}, [], "did you mean 'protocol"),
 ])

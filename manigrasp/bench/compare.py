@@ -258,7 +258,7 @@ def _planners(config: dict) -> dict[str, dict]:
 def _effective_pairs(ours: dict[str, object], theirs: dict[str, object], kind: str,
                      used: list[object] | None = None) -> tuple[dict[str, object], dict[str, object]]:
     """Both sides' protocol or planner entries by label, each label's pair with every parameter at its effective
-    value (`_effective`) where both can be built here, else both as recorded (so a parameter this code does not
+    value (`effective_entry`) where both can be built here, else both as recorded (so a parameter this code does not
     know is named alone, "absent vs baseline 2.0").
 
     `used` (ours, theirs): each side's run.json ``effective`` (`effective_entries`, recorded when the run
@@ -267,7 +267,7 @@ def _effective_pairs(ours: dict[str, object], theirs: dict[str, object], kind: s
     ours, theirs = dict(ours), dict(theirs)
     used = used or [None, None]
     for label in ours.keys() & theirs.keys():
-        pair = [_effective(side[label], kind, _recorded_effective(record, kind, label))
+        pair = [effective_entry(side[label], kind, _recorded_effective(record, kind, label))
                 for side, record in zip((ours, theirs), used, strict=True)]
         if all(p is not None for p in pair):
             ours[label], theirs[label] = pair
@@ -283,7 +283,7 @@ def _recorded_effective(record: object, kind: str, label: str) -> dict | None:
     return params if isinstance(params, dict) else None
 
 
-def _effective(entry: object, kind: str, ran_with: dict | None = None) -> dict | None:
+def effective_entry(entry: object, kind: str, ran_with: dict | None = None) -> dict | None:
     """A recorded protocol or planner entry ({name, params} or a name) as {name, params} with every parameter it
     leaves out at its default, so that a config writing out a default value compares equal to one that leaves it
     out. The defaults are those the run recorded it ran with (`ran_with`: run.json's ``effective``, for the
@@ -326,7 +326,7 @@ def effective_entries(config: object) -> dict:
     out: dict[str, dict] = {}
     for kind, entries, names in (("protocol", config.protocol_entries, config.protocol_labels),
                                  ("planner", config.planners, config.planner_labels)):
-        built = {label: _effective({"name": e.name, "params": dict(e.params)}, kind)
+        built = {label: effective_entry({"name": e.name, "params": dict(e.params)}, kind)
                  for label, e in zip(names, entries, strict=True)}
         out[f"{kind}s"] = {label: entry for label, entry in built.items() if entry is not None}
     return out

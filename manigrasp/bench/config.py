@@ -189,6 +189,24 @@ def labels(entries: Sequence[NamedEntry], kind: str = "planner") -> tuple[str, .
     return tuple(out)
 
 
+def _refuse_same_effective(entries: Sequence[NamedEntry], kind: str) -> None:
+    """Refuse two built-in entries that run the same (every parameter at its effective value equal: one writes
+    out a default the other leaves out): the same trials would run twice under two labels and be pooled twice."""
+    from manigrasp.bench.compare import effective_entry
+
+    seen: dict[str, int] = {}
+    for i, entry in enumerate(entries):
+        effective = effective_entry({"name": entry.name, "params": dict(entry.params)}, kind)
+        if effective is None:
+            continue
+        text = json.dumps(effective, sort_keys=True, default=str)
+        if text in seen:
+            raise ConfigError(f"{kind}s {seen[text] + 1} and {i + 1} ({entry.name!r}) run the same: their parameters "
+                              f"differ only by values written out at their defaults ({dict(entry.params)} against "
+                              f"{dict(entries[seen[text]].params)})")
+        seen[text] = i
+
+
 def _param_text(params: Mapping[str, Any], key: str) -> str:
     if key not in params:
         return "default"
@@ -267,6 +285,7 @@ class BenchConfig:
         _refuse_duplicates("object", self.objects)
         self._check_exclusions()
         labels(self.planners)  # refuses identical planner entries
+        _refuse_same_effective(self.planners, "planner")
         if isinstance(self.camera, tuple):
             if not self.camera:
                 raise ConfigError("camera must be a setup or a non-empty list of setups")
@@ -297,6 +316,7 @@ class BenchConfig:
         elif self.protocol is None and not self.protocols:
             object.__setattr__(self, "protocol", NamedEntry("standard"))
         labels(self.protocol_entries, "protocol")  # refuses identical protocol entries
+        _refuse_same_effective(self.protocol_entries, "protocol")
 
     @property
     def protocol_entries(self) -> tuple[NamedEntry, ...]:
