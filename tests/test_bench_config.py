@@ -152,3 +152,16 @@ def test_rest_stable_k_needs_k_and_leaves_other_configs_identity_alone():
                           ({"rest": "stable"}, "unknown rest 'stable'; available: file, most_stable, stable_k")):
         with pytest.raises(ConfigError, match=phrase):
             parse_config({"objects": ["mug"], "scene": scene})
+
+
+def test_a_key_given_twice_in_a_config_file_is_refused(tmp_path):
+    """`seed: 0` then `seed: 7` ran seed 7 silently (YAML's loaders keep the last); nested mappings too."""
+    path = tmp_path / "c.yaml"
+    path.write_text("objects: [mug]\nseed: 0\nseed: 7\n")
+    with pytest.raises(ConfigError, match="key 'seed' is given twice"):
+        load_config(path)
+    path.write_text("objects: [mug]\nprotocol: {name: standard, params: {grip_force: 5, grip_force: 6}}\n")
+    with pytest.raises(ConfigError, match="key 'grip_force' is given twice"):
+        load_config(path)
+    path.write_text("objects: [mug]\nseed: 7\n")
+    assert load_config(path).seed == 7
