@@ -206,3 +206,11 @@ def pregrasp_pose(pose: np.ndarray, offset: float) -> np.ndarray:
     out = np.array(pose, dtype=float)
     out[..., :3, 3] -= offset * out[..., :3, 2]
     return out
+
+
+def perpendicular_basis(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors (n, 3) each, orthogonal to unit `axes` (n, 3) and to each other (a, b, axis right-handed)."""
+    helper = np.where(np.abs(axes[:, [2]]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    a = np.cross(helper, axes)
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    return a, np.cross(axes, a)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from manigrasp.errors import ConfigError
+from manigrasp.grasp.forces import balanced_forces
 from manigrasp.planners import dexopt
 from manigrasp.planners.dexopt import Box, EnergyWeights, Sphere
 
@@ -350,7 +351,7 @@ def test_balanced_squeeze_of_a_wedge_pinch_needs_the_tangent_of_its_tilt(tilt: f
     """Two contacts whose normals lean `tilt` up from their line: the only internal forces press along that line,
     each a normal part cos and a tangential part sin of it: friction tan(tilt), equal forces, mean normal 1."""
     points, normals, _ = _wedge_pinch(tilt)
-    forces = dexopt.balanced_squeeze(points, normals, np.zeros(3))
+    forces = balanced_forces(points, normals, np.zeros(3))
     assert forces is not None
     np.testing.assert_allclose(forces.sum(axis=0), 0.0, atol=1e-9)
     np.testing.assert_allclose(forces[:, 1:], 0.0, atol=1e-9)  # along the line (x) only
@@ -365,16 +366,27 @@ def test_balanced_squeeze_of_a_thumb_against_two_fingers_takes_no_friction() -> 
     (the thumb twice each finger), where equal unit pushes (the planner's first squeeze) leave a net push of 1."""
     points = np.array([[-0.03, 0.0, 0.0], [0.03, 0.02, 0.0], [0.03, -0.02, 0.0]])
     normals = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
-    forces = dexopt.balanced_squeeze(points, normals, np.zeros(3))
+    forces = balanced_forces(points, normals, np.zeros(3))
     np.testing.assert_allclose(forces, [[1.5, 0, 0], [-0.75, 0, 0], [-0.75, 0, 0]], atol=1e-9)
     assert np.linalg.norm(normals.sum(axis=0)) == pytest.approx(1.0)
+
+
+def test_balanced_forces_carry_a_load_by_friction_shared_between_a_pinch() -> None:
+    """A pinch along x at +-3 cm about the centre, a weight of 0.5 (in units of the mean normal force) along -z: the
+    contacts carry it as 0.25 each of upward friction, pressing 1 each; with friction bounded at 0.2 nothing does."""
+    points = np.array([[0.03, 0.0, 0.0], [-0.03, 0.0, 0.0]])
+    normals = np.array([[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    forces = balanced_forces(points, normals, np.zeros(3), load=np.array([0.0, 0.0, -0.5]))
+    np.testing.assert_allclose(forces, [[-1.0, 0.0, 0.25], [1.0, 0.0, 0.25]], atol=1e-9)
+    assert balanced_forces(points, normals, np.zeros(3), load=np.array([0.0, 0.0, -0.5]), friction=0.3) is not None
+    assert balanced_forces(points, normals, np.zeros(3), load=np.array([0.0, 0.0, -0.5]), friction=0.2) is None
 
 
 def test_balanced_squeeze_is_none_where_the_normals_cannot_oppose() -> None:
     points = np.array([[0.0, 0.0, 0.0], [0.02, 0.0, 0.0]])
     normals = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])  # both pushing up: no internal force presses them
-    assert dexopt.balanced_squeeze(points, normals, np.zeros(3)) is None
-    assert dexopt.balanced_squeeze(points[:1], normals[:1], np.zeros(3)) is None
+    assert balanced_forces(points, normals, np.zeros(3)) is None
+    assert balanced_forces(points[:1], normals[:1], np.zeros(3)) is None
 
 
 def test_the_planner_squeezes_with_whichever_forces_use_less_friction_through_its_actuators() -> None:
@@ -401,7 +413,7 @@ def test_the_planner_squeezes_with_whichever_forces_use_less_friction_through_it
         chosen = on._squeeze_force(hk, a, rows, jac, points, normals, np.zeros(3))
         unit = off._squeeze_force(hk, a, rows, jac, points, normals, np.zeros(3))
         np.testing.assert_allclose(unit, np.linalg.lstsq(a.T, rows.sum(axis=0), rcond=None)[0], atol=1e-9)
-        forces = dexopt.balanced_squeeze(points, normals, np.zeros(3))
+        forces = balanced_forces(points, normals, np.zeros(3))
         balanced = np.linalg.lstsq(a.T, np.einsum("ki,kij->j", forces, jac), rcond=None)[0]
         used = {name: dexopt.squeeze_friction(points, normals, jac, a.T @ f, np.zeros(3))
                 for name, f in (("unit", unit), ("balanced", balanced))}

@@ -93,6 +93,24 @@ def test_a_finger_with_one_closing_servo_keeps_the_floor_even_if_others_of_it_do
     assert model.actuator_forcerange[0, 1] == pytest.approx(FLOOR * force0[0], rel=1e-3)
 
 
+def test_given_forces_are_pressed_both_ways_within_each_servos_limit() -> None:
+    """`engage(forces=...)` (the balanced hold): a held servo presses the force given, opening as well as closing,
+    within its own 0.6 N m; NaN leaves a servo as engaged; release gives the model's force ranges back."""
+    model, data = _pressed()
+    force0 = data.actuator_force.copy()
+    hold = FingerHold(model, np.arange(3), gain=20.0, fingers=np.array([0, 0, 1]))
+    hold.engage(data, CLOSING, (0, 1), forces=np.array([0.2, -0.9, np.nan]))
+    np.testing.assert_allclose(model.actuator_forcerange[:2], [[-0.6, 0.6], [-0.6, 0.6]])
+    assert model.actuator_forcerange[2, 1] == pytest.approx(FLOOR * force0[2], rel=1e-3)
+    mujoco.mj_forward(model, data)
+    np.testing.assert_allclose(data.actuator_force[:2], [0.2, -0.6], atol=1e-9)  # -0.9 clipped to the limit
+    assert data.actuator_force[2] == pytest.approx(force0[2], rel=1e-3)
+    hold.release()
+    np.testing.assert_array_equal(model.actuator_forcerange, [[-0.6, 0.6]] * 3)
+    with pytest.raises(Exception, match="forces must be"):
+        hold.engage(data, CLOSING, (0, 1), forces=np.zeros(2))
+
+
 def test_fingers_must_match_the_actuators() -> None:
     from manigrasp.errors import ConfigError
 
@@ -152,10 +170,12 @@ class _TurnInHand:
         pass
 
 
-@pytest.mark.parametrize("mode", ["fingertips", "floor"])
-def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift(mode: str) -> None:
+@pytest.mark.parametrize("mode", ["fingertips", "floor", "balanced"])
+def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift(mode: str, monkeypatch) -> None:
     """By default (`finger_hold: fingertips`) the grasp's fingers, touching with their tips only, keep their joints:
-    under 5 deg of turn (2.9 deg measured); with the floor on every joint they curl on and roll the mug (10.2)."""
+    under 5 deg of turn (2.9 deg measured); with the floor on every joint they curl on and roll the mug (10.2).
+    "balanced" holds it as well, its fingers pressing the least-friction forces (`phases.balanced_torques`), each
+    joint within the servo's 0.7 N m."""
     pytest.importorskip("cmeel", reason="the Allegro hand needs the 'allegro' extra (example-robot-data)")
     from manigrasp.objects import catalog
     from manigrasp.planners.base import GraspCandidate
@@ -167,14 +187,23 @@ def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift(mode: 
     np.testing.assert_array_equal(scene.actuator_fingers, [1] * 4 + [2] * 4 + [3] * 4 + [0] * 4)
     object_pose = settle_object(scene)
     watch = _TurnInHand()
+    from manigrasp.protocol import phases
+
+    pressed = []
+    balanced = phases.balanced_torques
+    monkeypatch.setattr(phases, "balanced_torques", lambda *a: pressed.append(balanced(*a)) or pressed[-1])
     result = PROTOCOLS.load("standard", grip_force=10.0, finger_hold=mode).run(
         scene, GraspCandidate(pose=MUG_POSE, score=1.0, preshape=0.0, joints=MUG_JOINTS), np.random.default_rng(0),
         deadline=time.monotonic() + 300, object_pose=object_pose, observer=watch, seed=0)
     assert np.isfinite(watch.turn), result.detail  # the grasp was lifted and held
-    if mode == "fingertips":
-        assert watch.turn < 5.0
+    if mode == "floor":
+        assert watch.turn > 7.0 and not pressed
     else:
-        assert watch.turn > 7.0
+        assert watch.turn < 5.0
+    if mode == "balanced":
+        (torques,) = pressed
+        given = torques[np.isfinite(torques)]
+        assert len(given) >= 8 and np.all(np.abs(given) <= 0.7 + 1e-9) and np.abs(given).max() > 0.05
 
 
 def test_distal_bodies_of_the_hands() -> None:

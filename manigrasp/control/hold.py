@@ -112,7 +112,8 @@ class FingerHold:
         self.held = np.zeros(0, dtype=int)
         self.engaged = False
 
-    def engage(self, data: mujoco.MjData, closing: np.ndarray, joint_fingers: Collection[int] = ()) -> np.ndarray:
+    def engage(self, data: mujoco.MjData, closing: np.ndarray, joint_fingers: Collection[int] = (),
+               forces: np.ndarray | None = None) -> np.ndarray:
         """Hold the servos that close with the squeeze; returns the new commands of all servos (`ids` order).
 
         Args:
@@ -122,6 +123,10 @@ class FingerHold:
                 left alone).
             joint_fingers: the fingers (indices as in `fingers`) to hold in their joint configuration if
                 several of their servos close.
+            forces: (n,) force [N or N m] each of the `actuators` should press with instead of the one it had
+                (NaN: as it had; e.g. `protocol.phases.balanced_torques`): its command becomes L + force / kp (its
+                held stiffness if it closes with the squeeze, else its own) and its force range the servo's own
+                limit both ways, so a joint-held finger may press in any direction.
 
         Each held servo keeps its current spring force f = kp (u - L) (clamped to its force range): its command
         becomes u' = L + f / kp' (clamped to the control range), its stiffness kp' = gain kp, its damping
@@ -159,9 +164,28 @@ class FingerHold:
         ctrl_limited = m.actuator_ctrllimited[ids].astype(bool)
         ctrl = np.where(ctrl_limited, np.clip(ctrl, m.actuator_ctrlrange[ids, 0], m.actuator_ctrlrange[ids, 1]), ctrl)
         data.ctrl[ids] = ctrl
+        if forces is not None:
+            self._press(data, np.asarray(forces, dtype=float))
         self.held = ids
         self.engaged = True
         return data.ctrl[self.ids].copy()
+
+    def _press(self, data: mujoco.MjData, forces: np.ndarray) -> None:
+        """`engage`'s `forces`: each servo given a finite force presses it, within its own limit both ways."""
+        if forces.shape != self.actuators.shape:
+            raise ConfigError(f"forces must be ({len(self.actuators)},), got shape {forces.shape}")
+        m, given = self.model, np.isfinite(forces[self.servo])
+        ids, force = self.ids[given], forces[self.servo][given]
+        low, high = self.forcerange[given, 0], self.forcerange[given, 1]
+        limit = np.where(self.forcelimited[given].astype(bool), np.minimum(-low, high), np.inf)
+        force = np.clip(force, -limit, limit)
+        ctrl = data.actuator_length[ids] + force / m.actuator_gainprm[ids, 0]
+        ctrl_limited = m.actuator_ctrllimited[ids].astype(bool)
+        data.ctrl[ids] = np.where(ctrl_limited, np.clip(ctrl, m.actuator_ctrlrange[ids, 0],
+                                                        m.actuator_ctrlrange[ids, 1]), ctrl)
+        big = np.where(np.isfinite(limit), limit, np.finfo(float).max)
+        m.actuator_forcelimited[ids] = 1
+        m.actuator_forcerange[ids] = np.column_stack([-big, big])
 
     def release(self) -> None:
         """Restore the closing gains and force ranges (idempotent)."""

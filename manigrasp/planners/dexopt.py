@@ -343,7 +343,7 @@ def friction_pyramid(normals: np.ndarray, mu: float, edges: int = PYRAMID_EDGES)
     weight's direction) and the horizontal; elsewhere it keeps at least cos(pi / edges) of the cone's
     friction (conservative). The generators are `contact.cone_edges` with its first tangent u_i."""
     from manigrasp.contact import cone_edges
-    from manigrasp.planners.geometry import perpendicular_basis
+    from manigrasp.geometry import perpendicular_basis
 
     n = np.atleast_2d(np.asarray(normals, float))
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
@@ -509,64 +509,3 @@ def squeeze_friction(points: np.ndarray, normals: np.ndarray, jacobians: np.ndar
     if not pressed > 0:
         return float("inf")
     return float(tangential.sum() / pressed)
-
-
-TANGENT_SIDES = 8  # sides of the polygon bounding each tangential force in `balanced_squeeze`'s LP
-
-
-def balanced_squeeze(points: np.ndarray, normals: np.ndarray, center: np.ndarray, floor: float = 0.3
-                     ) -> np.ndarray | None:
-    """(k, 3) contact forces that balance the object among themselves (internal forces: sum_i f_i = 0 and
-    sum_i (x_i - c) x f_i = 0 about `center` (3,)) with the least friction: the least sum_i |t_i| of their
-    tangential parts, each contact's normal part a_i = f_i . n_i at least `floor` and their mean 1 (so the
-    least friction ratio sum_i |t_i| / sum_i a_i, `squeeze_friction`'s measure). None if no such forces exist
-    (fewer than two contacts, or normals that cannot oppose each other).
-
-    Grasp force optimisation over the internal forces (Kerr and Roth, "Analysis of multifingered hands", IJRR
-    1986; Buss, Hashimoto and Moore, "Dextrous hand grasping force optimization", IEEE T-RA 1996), as one linear
-    programme: each |t_i| is bounded by a `TANGENT_SIDES`-gon circumscribing its circle (within cos(pi / 8) =
-    0.92 of the true norm). The squeeze that presses along the unit normals alone (the planner's first) is this
-    only when the normals balance; otherwise the object is pushed until friction takes up the rest
-    (`squeeze_friction`). `points` (k, 3) [m], `normals` (k, 3) inward, unit.
-    """
-    from scipy.optimize import linprog
-
-    from manigrasp.planners.geometry import perpendicular_basis
-
-    x = np.atleast_2d(np.asarray(points, float))
-    n = np.atleast_2d(np.asarray(normals, float))
-    n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    k = len(x)
-    if k < 2 or not 0 <= floor < 1:
-        return None
-    u, v = perpendicular_basis(n)
-    arm = x - np.asarray(center, float)
-    arm = arm / max(float(np.linalg.norm(arm, axis=1).max()), 1e-9)
-    # Variables: a (k), p (k), q (k), s (k); f_i = a_i n_i + p_i u_i + q_i v_i, |(p_i, q_i)| <= s_i.
-    columns = np.concatenate([n, u, v], axis=0)  # (3k, 3): the force direction of each of a, p, q
-    force = np.zeros((3, 4 * k))
-    torque = np.zeros((3, 4 * k))
-    for block in range(3):
-        for i in range(k):
-            direction = columns[block * k + i]
-            force[:, block * k + i] = direction
-            torque[:, block * k + i] = np.cross(arm[i], direction)
-    total = np.zeros((1, 4 * k))
-    total[0, :k] = 1.0
-    a_eq = np.concatenate([force, torque, total])
-    b_eq = np.concatenate([np.zeros(6), [float(k)]])
-    angles = 2 * np.pi * np.arange(TANGENT_SIDES) / TANGENT_SIDES
-    rows = []
-    for i in range(k):
-        for angle in angles:  # cos(t) p_i + sin(t) q_i - cos(pi / sides) s_i <= 0
-            row = np.zeros(4 * k)
-            row[k + i], row[2 * k + i], row[3 * k + i] = np.cos(angle), np.sin(angle), -np.cos(np.pi / TANGENT_SIDES)
-            rows.append(row)
-    cost = np.concatenate([np.zeros(3 * k), np.ones(k)])
-    bounds = [(floor, None)] * k + [(None, None)] * (2 * k) + [(0, None)] * k
-    found = linprog(cost, A_ub=np.array(rows), b_ub=np.zeros(len(rows)), A_eq=a_eq, b_eq=b_eq, bounds=bounds,
-                    method="highs")
-    if found.status != 0:
-        return None
-    a, p, q = found.x[:k], found.x[k:2 * k], found.x[2 * k:3 * k]
-    return a[:, None] * n + p[:, None] * u + q[:, None] * v

@@ -70,7 +70,7 @@
    force at every pad: tried on the dexterous config, standard 10 N, seed 0, with the fixes of steps 3-4: Allegro
    40 -> 43, Fourier 64 -> 64, Inspire 53 -> 48/70; not kept.)
    With `balanced_squeeze` (opt-in) the torques may instead be those of the internal forces at the pads that need
-   the least friction (`dexopt.balanced_squeeze`: grasp force optimisation over forces that balance the object
+   the least friction (`grasp.forces.balanced_forces`: grasp force optimisation over forces that balance the object
    among themselves, each pad pressed at least `min_force_share` of the mean), taken where the actuators turn them
    into a squeeze using less friction than the unit pushes (`dexopt.squeeze_friction` of the torques A^T f each
    produces; in one planning call 32-74 of 42-80 candidates, Allegro mug, Inspire mug, Fourier can; the median
@@ -190,7 +190,9 @@ import trimesh
 from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
 from manigrasp.control.hold import HOLD_GAIN
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import perpendicular_basis
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
+from manigrasp.grasp.forces import balanced_forces
 from manigrasp.hands.base import Hand
 from manigrasp.objects.pipeline import DEFAULT_DENSITY
 from manigrasp.planners.base import PREGRASP_OFFSET, GraspCandidate, Observation, ObservationKind
@@ -199,14 +201,13 @@ from manigrasp.planners.context import PlanContext, resolve
 from manigrasp.planners.dexopt import (
     EnergyWeights,
     GridSdf,
-    balanced_squeeze,
     grasp_stiffness,
     hold_margin,
     load_rotation,
     squeeze_friction,
 )
 from manigrasp.planners.dexopt_hand import HandKinematics
-from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
+from manigrasp.planners.geometry import tcp_frames
 from manigrasp.planners.hold import loads
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
@@ -325,7 +326,7 @@ class DexOptPlanner:
             dexterous config it raised the successes from 22, 11, 5/80 to 26, 18, 8/80 (Inspire, Fourier,
             Allegro; fewer stalled closes), README.
         balanced_squeeze: the squeeze may press the pads with the internal forces that need the least friction
-            (`dexopt.balanced_squeeze`) instead of equal pushes along their normals, where the actuators turn
+            (`grasp.forces.balanced_forces`) instead of equal pushes along their normals, where the actuators turn
             them into a squeeze using less friction (module docstring, step 5). Off (the default): measured no
             better beyond noise, and worse on the Inspire.
         min_force_share: smallest force of a pad relative to the mean in the force-closure term (1: all
@@ -799,7 +800,7 @@ class DexOptPlanner:
         """(n_act,) the squeeze's actuator forces (relative; module docstring, step 5): those that best produce
         (least squares through the joint -> command map `a`) the joint torques of unit inward pushes at every pad
         (`rows`), or, with `balanced_squeeze` and the object's `center`, of the internal forces that need the
-        least friction (`dexopt.balanced_squeeze`, pads pressed at least `min_force_share`), whichever of the two
+        least friction (`grasp.forces.balanced_forces`, pads pressed at least `min_force_share`), whichever of the two
         the hand's actuators turn into the squeeze using less friction (`dexopt.squeeze_friction` of the torques
         they produce); with `close_only`, no actuator pushes against the hand's closing direction."""
         closing = np.sign(hk.hand.closed_ctrl - hk.hand.open_ctrl)
@@ -811,7 +812,7 @@ class DexOptPlanner:
         force = actuated(rows.sum(axis=0))  # joint torques of unit inward pushes at every pad
         if not self.balanced_squeeze or center is None:
             return force
-        internal = balanced_squeeze(x, normal, center, self.min_force_share)
+        internal = balanced_forces(x, normal, center, self.min_force_share)
         if internal is None:
             return force
         balanced = actuated(np.einsum("ki,kij->j", internal, jac))

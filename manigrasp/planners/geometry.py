@@ -102,14 +102,6 @@ def first_hits(mesh: trimesh.Trimesh, origins: np.ndarray, directions: np.ndarra
     return faces, dist
 
 
-def perpendicular_basis(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors (n, 3) each, orthogonal to unit `axes` (n, 3) and to each other (a, b, axis right-handed)."""
-    helper = np.where(np.abs(axes[:, [2]]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
-    a = np.cross(helper, axes)
-    a /= np.linalg.norm(a, axis=1, keepdims=True)
-    return a, np.cross(axes, a)
-
-
 def tcp_frames(positions: np.ndarray, approach: np.ndarray, closing: np.ndarray) -> np.ndarray:
     """(n, 4, 4) TCP poses: z = `approach`, y = `closing` (orthogonalised against z), x = y cross z."""
     z = approach / np.linalg.norm(approach, axis=1, keepdims=True)

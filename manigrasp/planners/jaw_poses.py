@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
+from manigrasp.geometry import perpendicular_basis
+from manigrasp.planners.geometry import tcp_frames
 from manigrasp.planners.pairs import Pairs
 
 

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from manigrasp.planners.geometry import SmoothNormals, barycentric_of, first_hits, perpendicular_basis
+from manigrasp.geometry import perpendicular_basis
+from manigrasp.planners.geometry import SmoothNormals, barycentric_of, first_hits
 from manigrasp.planners.nms import first_nonzero_sign
 
 RAY_OFFSET = 1e-5  # [m], rays start this far along their direction (no self-hit)

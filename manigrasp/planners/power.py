@@ -46,13 +46,14 @@ from typing import ClassVar
 import numpy as np
 
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import perpendicular_basis
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
 from manigrasp.hands.base import Hand
 from manigrasp.planners.base import GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.closing import ClosingPath, Closure, FingerSweep, closing_path
 from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
 from manigrasp.planners.context import PlanContext, resolve
-from manigrasp.planners.geometry import fibonacci_sphere, perpendicular_basis, tcp_frames
+from manigrasp.planners.geometry import fibonacci_sphere, tcp_frames
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
 from manigrasp.planners.wrap import palm_gaps

@@ -16,10 +16,11 @@ from typing import ClassVar
 import numpy as np
 
 from manigrasp.errors import ConfigError
+from manigrasp.geometry import perpendicular_basis
 from manigrasp.hands.base import Hand
 from manigrasp.planners.base import GraspCandidate, Observation, ObservationKind
 from manigrasp.planners.context import PlanContext, resolve
-from manigrasp.planners.geometry import perpendicular_basis, tcp_frames
+from manigrasp.planners.geometry import tcp_frames
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ from manigrasp.protocol.sampling import Sampler
 from manigrasp.sim import Scene, current_grip_force, grip_force, read_hand_contacts
 
 CLOSE_MODES = ("synergy", "per_finger")  # `GraspParams.close_mode`
-FINGER_HOLDS = ("fingertips", "joints", "floor")  # `GraspParams.finger_hold`
+FINGER_HOLDS = ("fingertips", "balanced", "joints", "floor")  # `GraspParams.finger_hold`
 
 Trajectory = Callable[[float], tuple[np.ndarray, np.ndarray]]
 """A set-point as a function of the time since its phase began [s]: (TCP pose (4, 4), twist (6,)), world."""
@@ -99,8 +99,10 @@ class GraspParams:
             force where the object yields), "joints" (the finger's joint configuration held, no push) or
             "fingertips" (the default: in a grasp the palm does not touch, "joints" for a finger that touches the
             object with its distal phalanx only, or not at all, "floor" for one that wraps it with inner links
-            too; "floor" for every finger of a grasp pressed into the palm). A finger one actuator
-            closes (the five-finger hands' tendons) keeps the floor in every mode; see `control.hold`.
+            too; "floor" for every finger of a grasp pressed into the palm) or "balanced" (opt-in: as
+            "fingertips", and where every finger touching is so held, they press the forces that hold the object's
+            weight with the least friction at the contacts the close reached, `phases.balanced_torques`). A finger
+            one actuator closes (the five-finger hands' tendons) keeps the floor in every mode; see `control.hold`.
         metric_edges: edges of the linearised friction cones in the metrics.
         metric_friction_tol: tolerance of the smallest-friction-for-closure bisection [-].
         simulated_min_friction: also compute the smallest friction for closure of the simulated

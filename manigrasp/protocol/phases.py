@@ -23,6 +23,10 @@ from manigrasp.protocol.result import Phase, Status
 from manigrasp.sim import HandContacts, Scene, grip_force, read_hand_contacts
 
 CLOSED_SYNERGY = 0.995  # [-] hand synergy (0 open, 1 closed) past which a position-mode close has finished
+# `balanced_torques`: the least normal force of a link, in units of the mean [-], and the largest friction ratio
+# of its contacts, as a share of their friction coefficient [-] (a margin below the cone).
+BALANCED_FLOOR = 0.3
+BALANCED_FRICTION = 0.8
 
 # One `FingerHold` per scene, with the gain it was made for (its model's gains are edited while a dexterous grasp
 # is held).
@@ -41,18 +45,82 @@ def finger_hold(run: TrialRun, gain: float) -> FingerHold:
 
 def joint_held_fingers(scene: Scene, contacts: HandContacts, mode: str) -> tuple[int, ...]:
     """The fingers `FingerHold.engage` holds in their joint configuration under the protocols' `finger_hold`
-    `mode`: none ("floor"), all ("joints"), or ("fingertips") in a grasp the palm does not touch (a precision
-    grasp; one pressed into the palm is a power grasp: none), the fingers that touch the object with their distal
-    phalanx only (`Scene.distal_body`) or not at all (a finger that also touches with an inner link wraps it).
+    `mode`: none ("floor"), all ("joints"), or ("fingertips", "balanced") in a grasp the palm does not touch (a
+    precision grasp; one pressed into the palm is a power grasp: none), the fingers that touch the object with
+    their distal phalanx only (`Scene.distal_body`) or not at all (a finger that also touches with an inner link
+    wraps it).
     Any contact of a hand body outside the fingers (`finger` -1: the palm, or a link `Hand.finger_bodies` does
     not reach) counts as the palm's."""
     every = range(len(scene.hand.finger_bodies))
-    if mode == "floor" or (mode == "fingertips" and np.any(contacts.finger < 0)):
+    if mode == "floor" or (mode in ("fingertips", "balanced") and np.any(contacts.finger < 0)):
         return ()
     if mode == "joints":
         return tuple(every)
     wrapping = set(contacts.finger[(contacts.finger >= 0) & ~scene.distal_body[contacts.hand_body]].tolist())
     return tuple(f for f in every if f not in wrapping)
+
+
+def balanced_torques(scene: Scene, contacts: HandContacts, held: tuple[int, ...], closing: np.ndarray
+                     ) -> np.ndarray | None:
+    """(n_act,) the force [N m] each hand actuator should press with so that a fully actuated hand's precision grasp
+    holds the object with the least friction (`finger_hold: balanced`), NaN for the actuators left as they are;
+    None where it does not apply (then the grasp is held as under "fingertips").
+
+    It applies when every finger touching the object is held in its joint configuration (`held`) and has several
+    joint servos that close (`closing` != 0): the Allegro's fingertip grasps (a five-finger hand's tendon finger
+    has one). The contacts are lumped per hand link (normal-force weighted point, summed normal); the forces are
+    `grasp.forces.balanced_forces` with the object's weight as the load (what the lift will ask of them), each
+    link pressing at least `BALANCED_FLOOR` of the mean and none past `BALANCED_FRICTION` of its contacts'
+    friction (without that bound if no such forces exist), scaled to the normal force the close reached (the grip
+    stays what the protocol regulated, or less: all are scaled down together where a servo's share would pass its
+    force limit); the torques are sum_i J_i^T f_i over the links' Jacobians at their points, given to every joint
+    servo (closing, spread and rotation) of those fingers.
+    """
+    import mujoco
+
+    from manigrasp.grasp.forces import balanced_forces
+
+    m, data = scene.model, scene.data
+    fingers, actuators = scene.actuator_fingers, scene.hand_actuators
+    joint = np.isin(m.actuator_trntype[actuators], (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+    closes = joint & (np.asarray(closing) != 0)
+    several = {f for f in held if np.sum(closes & (fingers == f)) > 1}
+    if len(contacts) < 2 or np.any(contacts.finger < 0) or not set(contacts.finger.tolist()) <= several:
+        return None
+    links = np.unique(contacts.hand_body)
+    if len(links) < 2:
+        return None
+    pressed = np.maximum(contacts.normal_force, 1e-9)
+    points = np.array([np.average(contacts.position[contacts.hand_body == b], axis=0,
+                                  weights=pressed[contacts.hand_body == b]) for b in links])
+    normals = np.array([np.sum(contacts.normal[contacts.hand_body == b] * pressed[contacts.hand_body == b, None],
+                               axis=0) for b in links])
+    mu = np.array([contacts.friction[contacts.hand_body == b].min() for b in links])
+    mean = float(np.sum(np.clip(contacts.normal_force, 0.0, None))) / len(links)
+    if not mean > 0:
+        return None
+    weight = m.opt.gravity * float(m.body_subtreemass[scene.object_body]) / mean  # the load: m g, downward
+    center = data.xipos[scene.object_body]
+    forces = balanced_forces(points, normals, center, BALANCED_FLOOR, weight, BALANCED_FRICTION * float(mu.min()))
+    if forces is None:
+        forces = balanced_forces(points, normals, center, BALANCED_FLOOR, weight)
+    if forces is None:
+        return None
+    torque = np.zeros(m.nv)
+    jacp = np.zeros((3, m.nv))
+    for body, point, force in zip(links, points, mean * forces, strict=True):
+        mujoco.mj_jac(m, data, jacp, None, point, int(body))
+        torque += jacp.T @ force
+    out = np.full(len(actuators), np.nan)
+    used = joint & np.isin(fingers, list(several))
+    for i in np.flatnonzero(used):
+        act = actuators[i]
+        out[i] = torque[m.jnt_dofadr[m.actuator_trnid[act, 0]]] / m.actuator_gear[act, 0]
+    # All scaled down together where a servo could not press its share (the balance holds at any scale).
+    low, high = m.actuator_forcerange[actuators[used]].T
+    limit = np.where(m.actuator_forcelimited[actuators[used]].astype(bool), np.minimum(-low, high), np.inf)
+    over = float(np.max(np.abs(out[used]) / limit, initial=0.0))
+    return out / over if over > 1.0 else out
 
 
 def release_hold(run: TrialRun) -> None:
@@ -171,7 +239,8 @@ def _close(run: TrialRun, preshape: float, metrics: bool) -> None:
     if hand.kind == "dexterous" and run.grip is None and p.finger_hold_gain > 0:
         closing = np.diff(run.scene.hand_path, axis=0)[0]
         held = joint_held_fingers(run.scene, contacts, p.finger_hold)
-        finger_hold(run, p.finger_hold_gain).engage(run.scene.data, closing, held)
+        pressed = balanced_torques(run.scene, contacts, held, closing) if p.finger_hold == "balanced" else None
+        finger_hold(run, p.finger_hold_gain).engage(run.scene.data, closing, held, pressed)
     if metrics:
         run.grip_force_n = grip_force(contacts)
         run.simulated = simulated_metrics(run.scene, run.torque_scale, p.metric_edges, p.metric_friction_tol,
