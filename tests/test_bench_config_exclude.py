@@ -190,3 +190,14 @@ def test_scale_and_density_of_an_entry_that_ignores_them_are_refused(entry, phra
     with pytest.raises(ConfigError, match=phrase):
         parse_config({"objects": [entry]})
     assert parse_config({"objects": [{"name": "025_mug", "mass": 0.5}]}).objects[0].mass == 0.5
+
+
+@pytest.mark.parametrize("entry, phrase", [
+    ({"mesh": "box.stl", "mass": 1e-12}, "mass 1e-12 kg is below 1e-06 kg"),
+    ({"mesh": "box.stl", "density": 1e-20}, "density 1e-20 kg/m\\^3 is below 1 kg/m\\^3"),
+])
+def test_an_object_too_light_to_simulate_is_refused_before_anything_runs(entry, phrase):
+    """It passed, and every trial then ended `harness_fault` (the scene's inertia below MuJoCo's floor)."""
+    with pytest.raises(ConfigError, match=phrase):
+        parse_config({"objects": [entry]})
+    assert parse_config({"objects": [{"mesh": "box.stl", "mass": 1e-6}]}).objects[0].mass == 1e-6

@@ -70,6 +70,11 @@ class ObjectEntry:
             value = getattr(self, key)
             if value is not None and not value > 0:
                 raise ConfigError(f"object {self.label}: {key} must be > 0, got {value}")
+        for key, least, unit, what in (("mass", MIN_MASS, "kg", "1 mg"), ("density", MIN_DENSITY, "kg/m^3", "air's")):
+            value = getattr(self, key)
+            if value is not None and value < least:
+                raise ConfigError(f"object {self.label}: {key} {value:g} {unit} is below {least:g} {unit} ({what}): "
+                                  "the simulator cannot integrate so light a body (every trial would fail to set up)")
         unused = [k for k, default in (("scale", 1.0), ("density", DEFAULT_DENSITY)) if getattr(self, k) != default]
         if unused and not self.mesh:
             kind = "a YCB folder" if self.ycb else "a shipped object"
@@ -215,6 +220,11 @@ def _param_text(params: Mapping[str, Any], key: str) -> str:
     readable = len(text) <= 24 and re.fullmatch(r"[\w.+\-=,:\[\]{}]*", text)  # trial ids are paths: no / or spaces
     return text if readable else hashlib.sha256(text.encode()).hexdigest()[:6]
 
+
+# Lightest object mass [kg] and density [kg/m^3] a config may give: below them MuJoCo's inertia falls under its
+# numerical floor and the scene does not compile (an audit's 1e-12 kg made every trial a harness fault).
+MIN_MASS = 1e-6
+MIN_DENSITY = 1.0
 
 MAX_GRASPS_PER_OBJECT = 10_000
 """Upper bound of `grasps_per_object` (each is one planned candidate and one simulated trial)."""
