@@ -401,3 +401,27 @@ def test_ray_records_a_planner_that_crashes_its_worker_and_one_that_hangs(tmp_pa
     assert rows["Segfaults"]["status"] == "planner_error" and "Ray task failed" in rows["Segfaults"]["detail"]
     assert rows["Sleeps"]["status"] == "timeout" and "3 s budget" in rows["Sleeps"]["detail"]
     assert rows["random"]["status"] not in ("planner_error", "harness_fault", "timeout")
+
+
+def test_an_edited_grasp_file_is_refused_on_resume(tmp_path):
+    """A `file` planner's grasps edited between two sessions of one run mixed old and new grasps in one group (the
+    file was not part of the run's identity); a run.json recorded before it was resumes as before."""
+    import json
+
+    from manigrasp.bench.rundir import check, prepare
+
+    grasps = tmp_path / "grasps.json"
+    grasps.write_text('{"grasps": 1}')
+    config = parse_config(dict(ONE, planners=[{"name": "file", "params": {"path": str(grasps)}}, "random"]))
+    meta = prepare(tmp_path / "run", config)
+    assert set(meta["identity"]["grasp_file_sha256"]) == {"file"}
+    assert check(tmp_path / "run", config) is not None  # unchanged: resumes
+    grasps.write_text('{"grasps": 2}')
+    with pytest.raises(ConfigError, match="grasp file of planner 'file' changed since this run started"):
+        check(tmp_path / "run", config)
+    old = json.loads((tmp_path / "run" / "run.json").read_text())
+    del old["identity"]["grasp_file_sha256"]
+    (tmp_path / "run" / "run.json").write_text(json.dumps(old))
+    assert check(tmp_path / "run", config) is not None
+    plain = parse_config(ONE)
+    assert "grasp_file_sha256" not in prepare(tmp_path / "other", plain)["identity"]

@@ -69,7 +69,8 @@ def git_commit() -> str | None:
 
 
 def identity(config: BenchConfig, base: Path | None = None) -> dict:
-    """The run's identity: a hash of the resolved config and the content hash of every mesh file it names.
+    """The run's identity: a hash of the resolved config, the content hash of every mesh file it names and, where
+    a `file` planner reads grasps, of its grasp file (or folder) by planner label (``grasp_file_sha256``, only then).
 
     Two runs with equal identities enumerate the same trials with the same inputs; a run directory
     accepts only its own identity.
@@ -82,7 +83,13 @@ def identity(config: BenchConfig, base: Path | None = None) -> dict:
             if getattr(entry, kind):
                 path = ((base or Path.cwd()) / getattr(entry, kind)).resolve()
                 meshes[entry.name or path.stem] = _content_hash(path)
-    return {"config_sha256": hashlib.sha256(text.encode()).hexdigest(), "mesh_sha256": meshes}
+    out = {"config_sha256": hashlib.sha256(text.encode()).hexdigest(), "mesh_sha256": meshes}
+    grasps = {label: _content_hash(((base or Path.cwd()) / str(entry.params["path"])).resolve())
+              for label, entry in zip(config.planner_labels, config.planners, strict=True)
+              if entry.name == "file" and isinstance(entry.params.get("path"), str | Path)}
+    if grasps:
+        out["grasp_file_sha256"] = grasps
+    return out
 
 
 def recorded_config(config: BenchConfig) -> dict:
@@ -178,6 +185,13 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
         if changed:
             raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
                               "use another --out to start a new run")
+        old_grasps = existing.get("identity", {}).get("grasp_file_sha256", {})
+        changed = sorted(k for k, v in ident.get("grasp_file_sha256", {}).items()
+                         if k in old_grasps and old_grasps[k] != v)
+        if changed:
+            raise ConfigError(f"{run_dir}: the grasp file of planner {', '.join(map(repr, changed))} changed since "
+                              "this run started (its stored trials ran the old grasps); use another --out to start "
+                              "a new run")
         return existing
     stray = [p.name for p in (run_dir / STORE_NAME, run_dir / RECORDINGS_DIR) if p.exists()]
     if stray:
