@@ -67,3 +67,29 @@ def test_the_bars_count_leaves_harness_faults_out_as_the_reports_do(tmp_path, mo
     config = parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 3})
     runner.run_benchmark(config, tmp_path / "run", progress=True)
     assert bar.shown == ["success=1/1", "success=1/1, 1 harness fault(s)", "success=1/2, 1 harness fault(s)"]
+
+
+def test_a_resumed_run_runs_its_harness_faults_again_and_replaces_them(tmp_path, monkeypatch, capsys):
+    """A trial stored as a harness fault (its worker killed from outside, say) was never run again: resumed, it is,
+    and its row is replaced; the other stored trials are not run again, and nothing is stored twice."""
+    import sqlite3
+
+    outcomes = iter([Status.SUCCESS, Status.HARNESS_FAULT, Status.NO_CONTACT, Status.SUCCESS])
+    ran = []
+
+    def tasks(pending, todo, jobs, address, settings):
+        for group in pending:
+            for i in todo[id(group)]:
+                ran.append(i)
+                yield group.key(i), TrialResult(next(outcomes), seed=group.trial_seed(i))
+
+    monkeypatch.setattr(runner, "_iter_local", tasks)
+    config = parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 3})
+    runner.run_benchmark(config, tmp_path / "run", progress=False)
+    summary = runner.run_benchmark(config, tmp_path / "run", progress=False)
+    assert ran == [0, 1, 2, 1] and (summary.already_done, summary.ran, summary.successes) == (2, 1, 1)
+    assert "1 trial(s) stored as harness_fault run again" in capsys.readouterr().err
+    with sqlite3.connect(tmp_path / "run" / "results.sqlite") as db:
+        rows = dict(db.execute("SELECT grasp_index, status FROM trials").fetchall())
+    assert rows == {0: "success", 1: "success", 2: "no_contact"}
+    assert runner.run_benchmark(config, tmp_path / "run", progress=False).ran == 0

@@ -207,6 +207,12 @@ def run_benchmark(
             print(f"manigrasp: {problem}; the trials run and are stored without recordings", file=sys.stderr)
             settings = None
         store, done = _open_store(run_dir)
+        # A trial stored as a harness fault (a bug of manigrasp, or its worker killed from outside: the OOM killer)
+        # is no outcome: it runs again, its row replaced by the new result (`ResultsStore.add`).
+        faulted = store.fault_ids() & {g.key(i).trial_id for g in all_groups for i in range(g.n_grasps)}
+        if faulted:
+            print(f"manigrasp: {len(faulted)} trial(s) stored as harness_fault run again", file=sys.stderr)
+        done = done - faulted
         todo = {id(g): [i for i in range(g.n_grasps) if g.key(i).trial_id not in done] for g in all_groups}
         pending = [g for g in all_groups if todo[id(g)]]
         # A resumed run that stores trials under other code says so, and run.json records it once the first is
@@ -221,7 +227,7 @@ def run_benchmark(
         try:
             tasks = _iter_ray if executor == "ray" else _iter_inline if in_process else _iter_local
             for key, result in tasks(pending, todo, jobs, address, settings):
-                if _add(store, key, result):
+                if _add(store, key, result, key.trial_id in faulted):
                     ran += 1
                     successes += result.success
                     faults += result.status is Status.HARNESS_FAULT
@@ -274,10 +280,11 @@ def _open_store(run_dir: Path) -> tuple[ResultsStore, set[str]]:
                           "use another --out") from None
 
 
-def _add(store: ResultsStore, key: TrialKey, result: TrialResult) -> bool:
-    """Store one trial; a store that cannot be written (a full disk) ends the run with one line."""
+def _add(store: ResultsStore, key: TrialKey, result: TrialResult, replace_fault: bool = False) -> bool:
+    """Store one trial (replacing its stored harness fault with `replace_fault`); a store that cannot be written (a
+    full disk) ends the run with one line."""
     try:
-        return store.add(key, result)
+        return store.add(key, result, replace_fault)
     except sqlite3.OperationalError as exc:
         raise ManigraspError(f"cannot store trial {key.trial_id} in {store.path}: {exc}; the trials stored so "
                              "far are kept, and re-running the same command resumes from there") from None

@@ -90,13 +90,22 @@ class ResultsStore:
         """Ids of the trials already stored."""
         return {row[0] for row in self._db.execute("SELECT trial_id FROM trials")}
 
-    def add(self, key: TrialKey, result: TrialResult) -> bool:
-        """Store one trial (its own transaction); False if it was already stored."""
+    def fault_ids(self) -> set[str]:
+        """Ids of the stored trials that ended as `harness_fault` (a resumed run runs them again)."""
+        return {row[0] for row in self._db.execute("SELECT trial_id FROM trials WHERE status = ?",
+                                                   (Status.HARNESS_FAULT.value,))}
+
+    def add(self, key: TrialKey, result: TrialResult, replace_fault: bool = False) -> bool:
+        """Store one trial (its own transaction); False if it was already stored. With `replace_fault`, a stored
+        `harness_fault` of the same trial is replaced (its re-run), nothing else."""
         flat = result.flat()
         values = [key.trial_id, key.object, key.hand, key.planner, key.observation, key.protocol, key.grasp_index]
         values += [_sql_value(flat[name]) for name, _ in self._columns]
         marks = ", ".join("?" * len(values))
-        with self._db:
+        with self._db:  # one transaction: a fault replaced is either still there or its re-run is
+            if replace_fault:
+                self._db.execute("DELETE FROM trials WHERE trial_id = ? AND status = ?",
+                                 (key.trial_id, Status.HARNESS_FAULT.value))
             names = ", ".join(("trial_id", *KEY_COLUMNS[1:], *(n for n, _ in self._columns)))
             cursor = self._db.execute(f"INSERT OR IGNORE INTO trials ({names}) VALUES ({marks})", values)
         return cursor.rowcount == 1
