@@ -125,7 +125,8 @@ def _close(
         else:
             raise MeshError(
                 f"{source}: mesh is open ({_boundary_edges(mesh)} boundary edges) and hole filling failed; "
-                "fix the mesh, or accept its convex hull with --convex-hull"
+                "close its holes, or give its convex hull as the mesh file (`manigrasp objects build --mesh FILE "
+                "--convex-hull` builds one object from its hull; a benchmark config has no such option)"
             )
     if mesh.volume < 0:
         mesh.invert()
