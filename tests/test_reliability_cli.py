@@ -197,3 +197,13 @@ def test_run_json_records_dm_env_and_the_installed_extras():
     for name in ("h5py", "pyarrow", "example-robot-data"):
         assert (name in found) == (extras._installed({"h5py": "datasets", "pyarrow": "parquet",
                                                        "example-robot-data": "allegro"}[name]))
+
+
+@pytest.mark.parametrize("command", [["bench", "quick"], ["label", "quick"], ["evaluate", "grasps.json"]])
+def test_an_empty_run_directory_is_refused(command, capsys, tmp_path, monkeypatch):
+    """`--out ""` wrote the run into the current folder."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exit_:
+        main([*command, "--out", ""])
+    assert exit_.value.code == 2 and "the run directory must not be empty" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -11,6 +11,7 @@ import argparse
 import importlib
 import sys
 import warnings
+from pathlib import Path
 
 from manigrasp import __version__
 from manigrasp.errors import ManigraspError
@@ -31,6 +32,13 @@ def build_parser() -> argparse.ArgumentParser:
         module = importlib.import_module(f"manigrasp.cli.{group}")
         module.add_parser(subparsers)
     return parser
+
+
+def run_dir_path(text: str) -> Path:
+    """argparse type of a run directory: an empty path (`--out ""`) is refused (it named the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the run directory must not be empty")
+    return Path(text)
 
 
 def check_jobs(jobs: int) -> None:

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from manigrasp.cli import check_jobs
+from manigrasp.cli import check_jobs, run_dir_path
 from manigrasp.errors import ConfigError
 
 
@@ -48,7 +48,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         "side and replaces the config's protocol: (protocol=NAME replaces its protocols:); "
                         "hands=[...] names the hands of the run and drops the config's exclusions (an object's "
                         "exclude:) of the others")
-    p.add_argument("--out", required=True, type=Path, metavar="RUN_DIR", help="run directory")
+    p.add_argument("--out", required=True, type=run_dir_path, metavar="RUN_DIR", help="run directory")
     p.add_argument("--jobs", type=int, default=1,
                    help="worker processes (default 1; capped at the cores of this machine)")
     p.add_argument("--executor", choices=("local", "ray"), default="local",

@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from manigrasp.cli import run_dir_path
+
 FORMATS_HELP = """\
 grasp files:
   native (.json, .npz): per grasp the TCP pose in the object's frame (origin at the centre of mass),
@@ -38,7 +40,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                     "config the same is planners: [{name: file, params: {path: GRASPS}}].",
         epilog=FORMATS_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("grasps", type=Path, metavar="GRASPS", help="the grasp file")
-    p.add_argument("--out", required=True, type=Path, metavar="RUN_DIR", help="run directory")
+    p.add_argument("--out", required=True, type=run_dir_path, metavar="RUN_DIR", help="run directory")
     p.add_argument("--object", help="a shipped object name or a mesh file (default: the object the file names)")
     p.add_argument("--name", help="name of a mesh --object (default: the object name the file gives, else the "
                                   "mesh file's stem); one of its own when the file names a shipped object")

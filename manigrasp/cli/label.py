@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
+from manigrasp.cli import run_dir_path
 from manigrasp.cli.evaluate import FORMATS_HELP
 
 
@@ -24,7 +24,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("config", help="a YAML config file, or the name of a shipped one")
     p.add_argument("overrides", nargs="*", metavar="key=value",
                    help="config overrides (grasps_per_object=2000 protocol=lift)")
-    p.add_argument("--out", required=True, type=Path, metavar="RUN_DIR",
+    p.add_argument("--out", required=True, type=run_dir_path, metavar="RUN_DIR",
                    help="run directory (the dataset goes to RUN_DIR/grasps)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--executor", choices=("local", "ray"), default="local", help="local process pool or Ray")
