@@ -27,9 +27,10 @@ what slipped: the rotation of the contact points on the fingers (each contact's 
 of the lift, seen in the hand frame; their best-fit rotation), the largest slip of a contact (its point on the object
 against its point on the finger) [mm], and the largest motion of a hand joint [rad]. `--finger-hold MODE` replays with
 the protocol's `finger_hold` set to MODE: "floor" (every held servo pushes on with the force floor), "joints" (a
-finger with several closing servos held in its joint configuration, no floor) or "fingertips" (the default since 4 Dec
-2026: "joints" for the fingers of a grasp the palm does not touch that touch with their distal phalanx only, or not at
-all); without it, the run's own parameters. Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x
+finger with several closing servos held in its joint configuration, no floor), "fingertips" ("joints" for the fingers
+of a grasp the palm does not touch that touch with their distal phalanx only, or not at all) or "balanced" (the default
+since 4 Dec 2026: as "fingertips", the held fingers pressing least-friction forces; `control.hold`); without it, the
+run's own parameters. Measured (2 Dec 2026; RUN: tomato soup can, potted meat can, mug, banana x
 allegro_right, inspire_right x dexopt x 5 grasps, `standard` with grip_force 10, seed 0, planned at fd0aae5):
 allegro_right, floor on every joint (the default then, `--finger-hold floor`): 12/20, the 5 `dropped_perturb` turned
 8.7 deg (median), 4.8 deg of it carried by the fingers, largest slip 4.5 mm, largest joint motion 0.116 rad (the 12

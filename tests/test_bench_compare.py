@@ -204,7 +204,7 @@ def test_a_parameter_written_out_at_its_default_is_the_same_config(tmp_path, cap
     recorded, and any other value still differs."""
     payload = json.loads(BASELINE.read_text())
     config = payload["run"]["config"]
-    config["protocol"]["params"].update(lift_height=0.1, finger_hold="fingertips")
+    config["protocol"]["params"].update(lift_height=0.1, finger_hold="balanced")
     config["planners"][0]["params"].update(n_samples=2048, depth_fractions=[0.0, 0.4, 0.8])
     other = tmp_path / "other.json"
     other.write_text(json.dumps(payload))

@@ -172,9 +172,9 @@ class _TurnInHand:
 
 @pytest.mark.parametrize("mode", ["fingertips", "floor", "balanced"])
 def test_allegro_fingertip_grasp_of_the_mug_does_not_roll_during_the_lift(mode: str, monkeypatch) -> None:
-    """By default (`finger_hold: fingertips`) the grasp's fingers, touching with their tips only, keep their joints:
-    under 5 deg of turn (2.9 deg measured); with the floor on every joint they curl on and roll the mug (10.2).
-    "balanced" holds it as well, its fingers pressing the least-friction forces (`phases.balanced_torques`), each
+    """Under `finger_hold: fingertips` the grasp's fingers, touching with their tips only, keep their joints: under
+    5 deg of turn (2.9 deg measured); with the floor on every joint they curl on and roll the mug (10.2). "balanced"
+    (the default) holds it as well, its fingers pressing the least-friction forces (`phases.balanced_torques`), each
     joint within the servo's 0.7 N m."""
     pytest.importorskip("cmeel", reason="the Allegro hand needs the 'allegro' extra (example-robot-data)")
     from manigrasp.objects import catalog

@@ -30,8 +30,19 @@ The floor suits a finger that closes along one path: a tendon or linkage that on
 five-finger hands), which follows the object along the path it closed on. A finger with several servoed joints that
 close (the Allegro's fingers: three, its thumb: two) named in `engage`'s `joint_fingers` has its joint configuration
 held instead (floor 0: stiff against opening, pushing nothing where the object yields). Which fingers, the protocols'
-`finger_hold` says (`protocol.phases.joint_held_fingers`): by default ("fingertips") those of a grasp the palm does
-not touch that touch the object with their distal phalanx only (or not at all). Holding every finger that way
+`finger_hold` says (`protocol.phases.joint_held_fingers`): by default ("balanced", and "fingertips") those of a grasp
+the palm does not touch that touch the object with their distal phalanx only (or not at all). Under "balanced" (the
+default since 4 Dec 2026), where every finger touching is so held, `engage` is given the force each of their servos
+should press (`forces`, `protocol.phases.balanced_torques`): the least-friction contact forces that hold the object's
+weight at the contacts the close reached (grasp force optimisation, `grasp.forces.balanced_forces`), at the grip the
+close regulated. Why: the Allegro's close leaves the squeeze's contacts on their friction cones (a replayed banana
+pinch, `benchmarks/diagnose_dexterous.py`: thumb and middle finger at cone 1.00 with 34 N pressed on the 66 g banana,
+which turned out of the grip during the lift), so the heavy objects had no friction to spare for their weight.
+Measured (allegro_right, dexopt, the dexterous config's 7 objects x 10, `standard` at 10 N, seeds 0-4, paired:
+`manigrasp bench` with `protocol.params.finger_hold=MODE`), "fingertips" -> "balanced": 238 -> 249/350 (held only
+with it 13, only without 2, exact McNemar p = 0.007); sugar box 22 -> 27/50, mustard bottle 6 -> 10/50, banana
+20 -> 22/50, the rest within 1. power seed 0: 22 -> 22/70 (2 statuses swapped). The five-finger hands are held
+alike in both modes (no finger of theirs has several servos). Holding every finger that way
 ("joints") trades planners: it helps fingertip grasps and costs wraps (allegro_right, the dexterous config's 7 objects
 x 10, `standard` at 10 N, seed 0, floor on every joint -> held per finger: dexopt 32 -> 37/70, power 19 -> 11/70, the
 power wraps of the soup can 8 -> 1/10, pressed into the palm at 37 N; a floor of 0.2 on such fingers: 35 and 14/70);

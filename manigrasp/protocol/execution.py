@@ -46,7 +46,7 @@ from manigrasp.protocol.sampling import Sampler
 from manigrasp.sim import Scene, current_grip_force, grip_force, read_hand_contacts
 
 CLOSE_MODES = ("synergy", "per_finger")  # `GraspParams.close_mode`
-FINGER_HOLDS = ("fingertips", "balanced", "joints", "floor")  # `GraspParams.finger_hold`
+FINGER_HOLDS = ("balanced", "fingertips", "joints", "floor")  # `GraspParams.finger_hold`
 
 Trajectory = Callable[[float], tuple[np.ndarray, np.ndarray]]
 """A set-point as a function of the time since its phase began [s]: (TCP pose (4, 4), twist (6,)), world."""
@@ -96,13 +96,15 @@ class GraspParams:
             power 19 -> 23, 53 -> 57, 54 -> 50; see `control.fingers`).
         finger_hold: how a finger with several closing servos (the Allegro's) is held after the close:
             "floor" (each servo as a finger of its own: stiff against opening, still pushing with `FLOOR` of its
-            force where the object yields), "joints" (the finger's joint configuration held, no push) or
-            "fingertips" (the default: in a grasp the palm does not touch, "joints" for a finger that touches the
-            object with its distal phalanx only, or not at all, "floor" for one that wraps it with inner links
-            too; "floor" for every finger of a grasp pressed into the palm) or "balanced" (opt-in: as
+            force where the object yields), "joints" (the finger's joint configuration held, no push),
+            "fingertips" (in a grasp the palm does not touch, "joints" for a finger that touches the object with its
+            distal phalanx only, or not at all, "floor" for one that wraps it with inner links too; "floor" for
+            every finger of a grasp pressed into the palm) or "balanced" (the default since 4 Dec 2026: as
             "fingertips", and where every finger touching is so held, they press the forces that hold the object's
-            weight with the least friction at the contacts the close reached, `phases.balanced_torques`). A finger
-            one actuator closes (the five-finger hands' tendons) keeps the floor in every mode; see `control.hold`.
+            weight with the least friction at the contacts the close reached, `phases.balanced_torques`; Allegro
+            dexopt 238 -> 249/350 over "fingertips", `control.hold`). A finger one actuator closes (the five-finger
+            hands' tendons) keeps the floor in every mode, and they are held alike under "fingertips" and
+            "balanced"; see `control.hold`.
         metric_edges: edges of the linearised friction cones in the metrics.
         metric_friction_tol: tolerance of the smallest-friction-for-closure bisection [-].
         simulated_min_friction: also compute the smallest friction for closure of the simulated
@@ -111,7 +113,7 @@ class GraspParams:
     """
 
     RENAMED: ClassVar[dict[str, str]] = {
-        "finger_hold_joints": "use finger_hold (true: joints, false: floor; the default is now fingertips)"}
+        "finger_hold_joints": "use finger_hold (true: joints, false: floor; the default is now balanced)"}
 
     pregrasp_offset: float = PREGRASP_OFFSET
     approach_speed: float = 0.10
@@ -134,7 +136,7 @@ class GraspParams:
     check_period_s: float = 0.02
     regulate_grip_after_close: bool = False
     finger_hold_gain: float = HOLD_GAIN
-    finger_hold: str = "fingertips"
+    finger_hold: str = "balanced"
     close_mode: str = "synergy"
     metric_edges: int = 8
     metric_friction_tol: float = 0.01

@@ -63,7 +63,8 @@ def joint_held_fingers(scene: Scene, contacts: HandContacts, mode: str) -> tuple
 def balanced_torques(scene: Scene, contacts: HandContacts, held: tuple[int, ...], closing: np.ndarray
                      ) -> np.ndarray | None:
     """(n_act,) the force [N m] each hand actuator should press with so that a fully actuated hand's precision grasp
-    holds the object with the least friction (`finger_hold: balanced`), NaN for the actuators left as they are;
+    holds the object with the least friction (`finger_hold: balanced`, the default; why and what it gave:
+    `control.hold`), NaN for the actuators left as they are;
     None where it does not apply (then the grasp is held as under "fingertips").
 
     It applies when every finger touching the object is held in its joint configuration (`held`) and has several
