@@ -181,7 +181,7 @@ def failure_modes(report: Report, path: Path) -> Path:
         for yi, li, si in zip(y, left, share, strict=True):
             if si >= 0.06:
                 ax.text(li + si / 2, yi, f"{si:.0%}", ha="center", va="center", fontsize=7,
-                        color="white" if mode in ("success", "unstable", "pregrasp_collision") else "black")
+                        color=_label_colour(colour))
         left = left + share
     ax.set_yticks(y, [f"{label_of(report, m)}\n(n = {report.by_method[m].trials})"
                       for m in methods])
@@ -190,6 +190,16 @@ def failure_modes(report: Report, path: Path) -> Path:
     ax.set_xlabel("share of trials")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), title="outcome", title_fontsize=8)
     return _save(fig, path)
+
+
+def _label_colour(fill: str) -> str:
+    """Black or white, whichever contrasts more with `fill` (WCAG 2's contrast ratio of relative luminances); a
+    fixed list of dark outcomes left the navy `timeout` bar's figure black."""
+    from matplotlib.colors import to_rgb
+
+    linear = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in to_rgb(fill)]
+    luminance = 0.2126 * linear[0] + 0.7152 * linear[1] + 0.0722 * linear[2]
+    return "white" if 1.05 / (luminance + 0.05) > (luminance + 0.05) / 0.05 else "black"
 
 
 def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path, methods: list[Method] | None = None
