@@ -165,3 +165,17 @@ def test_a_key_given_twice_in_a_config_file_is_refused(tmp_path):
         load_config(path)
     path.write_text("objects: [mug]\nseed: 7\n")
     assert load_config(path).seed == 7
+
+
+def test_a_mesh_given_on_the_command_line_is_found_where_the_command_runs(tmp_path, monkeypatch):
+    """`manigrasp bench quick objects=[{mesh: block.stl}]` looked for block.stl in the package's configs folder (a
+    config file's paths are relative to its folder); an override's path is relative to the current folder."""
+    from manigrasp.cli.bench import resolve_config
+
+    monkeypatch.chdir(tmp_path)
+    config = load_config(resolve_config("quick"), ["objects=[{mesh: block.stl, name: block}, mug]", "seed=3"])
+    assert config.objects[0].mesh == str(tmp_path / "block.stl") and config.objects[1].name == "mug"
+    assert config.seed == 3
+    given = tmp_path / "elsewhere.yaml"
+    given.write_text("objects: [{mesh: sub/block.stl, name: block}]\n")
+    assert load_config(given).objects[0].mesh == "sub/block.stl"  # a file's own paths: relative to its folder

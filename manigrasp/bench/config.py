@@ -528,7 +528,31 @@ def load_config(path: str | Path, overrides: Sequence[str] = ()) -> BenchConfig:
         raise ConfigError(f"config {path} is not valid YAML: {' '.join(str(exc).split())}") from exc
     except RecursionError:
         raise ConfigError(f"config {path} is nested too deeply") from None
+    overrides = [_cwd_paths(item) for item in overrides]
     return resolve_paths(parse_config({} if data is None else data, overrides, where=path.name), path.parent)
+
+
+def _cwd_paths(item: str) -> str:
+    """An ``objects=[...]`` override with each relative ``mesh`` or ``ycb`` path made absolute against the current
+    folder, where the person typing it is (a config file's own paths are relative to its folder, and a shipped
+    config's folder is inside the package). Anything else, or a value that does not parse, is returned as given."""
+    key, sep, raw = item.partition("=")
+    if not sep or key.strip() != "objects":
+        return item
+    try:
+        value = yaml.safe_load(raw)
+    except yaml.YAMLError:
+        return item  # (apply_overrides says what is wrong with it)
+    if not isinstance(value, list):
+        return item
+    changed = False
+    for entry in value:
+        for kind in ("mesh", "ycb"):
+            path = entry.get(kind) if isinstance(entry, dict) else None
+            if isinstance(path, str) and path and not Path(path).is_absolute():
+                entry[kind] = str(Path.cwd() / path)
+                changed = True
+    return f"{key}={yaml.safe_dump(value, default_flow_style=True, width=1 << 20).strip()}" if changed else item
 
 
 def resolve_paths(config: BenchConfig, folder: Path) -> BenchConfig:
