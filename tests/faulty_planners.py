@@ -187,3 +187,15 @@ class LocalSubclass:
 
         return [Mine(**{f.name: getattr(c, f.name) for f in dataclasses.fields(c) if f.init})
                 for c in RandomPlanner().plan(observation, hand, n, rng)]
+
+
+class KilledFromOutside:
+    """A planner whose worker process receives SIGKILL while it plans (as from the OOM killer)."""
+
+    needs = "mesh"
+
+    def plan(self, observation, hand, n, rng):
+        import os
+        import signal
+
+        os.kill(os.getpid(), signal.SIGKILL)

@@ -425,3 +425,16 @@ def test_an_edited_grasp_file_is_refused_on_resume(tmp_path):
     assert check(tmp_path / "run", config) is not None
     plain = parse_config(ONE)
     assert "grasp_file_sha256" not in prepare(tmp_path / "other", plain)["identity"]
+
+
+@pytest.mark.slow
+def test_a_planning_worker_killed_from_outside_is_a_harness_fault_that_a_resume_retries(tmp_path):
+    """SIGKILL (the OOM killer, a person) while planning filed the group as the planner's error, counted against it
+    and never run again; a segfault stays the planner's (`test_crashing_and_malformed_planners...`)."""
+    data = dict(ONE, planners=["faulty_planners:KilledFromOutside"])
+    first = run_benchmark(parse_config(data), tmp_path / "run", jobs=1, progress=False)
+    rows = _rows(tmp_path / "run")
+    assert first.ran == len(rows) > 0
+    assert all(r["status"] == "harness_fault" and "SIGKILL" in r["detail"] for r in rows), rows[0]
+    again = run_benchmark(parse_config(data), tmp_path / "run", jobs=1, progress=False)
+    assert again.ran == first.ran and again.already_done == 0 and len(_rows(tmp_path / "run")) == len(rows)

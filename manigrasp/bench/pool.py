@@ -40,13 +40,16 @@ class Task:
 class Outcome:
     """How a task ended: "done" (`value` is its return value), "error" (it raised: `detail`),
     "timeout" (it overran its budget and its worker was killed) or "died" (its worker died);
-    `started`: whether its budgeted part had begun (`timed_start`)."""
+    `started`: whether its budgeted part had begun (`timed_start`); `killed`: it died of SIGKILL, which the pool
+    sends only to a worker that overran (a "timeout"), so something outside killed it (the OOM killer, a person).
+    """
 
     task: Task
     kind: str
     value: object = None
     detail: str = ""
     started: bool = False
+    killed: bool = False
 
 
 def _serve(conn: Connection, parent: int) -> None:  # pragma: no cover - runs in the worker process
@@ -184,14 +187,14 @@ class Pool(_Queued):
             try:
                 kind, value = w.conn.recv()
             except (EOFError, OSError):
-                return self._replace(w, Outcome(task, "died", detail=_death(w)))
+                return self._replace(w, _died(task, w))
             if kind == "start":
                 w.deadline, w.started = time.monotonic() + task.budget_s, True
                 return None
             w.task = None
             return Outcome(task, "done", value) if kind == "done" else Outcome(task, "error", detail=str(value))
         if w.process.sentinel in ready or not w.process.is_alive():
-            return self._replace(w, Outcome(task, "died", detail=_death(w)))
+            return self._replace(w, _died(task, w))
         if time.monotonic() > w.deadline:
             return self._replace(w, Outcome(task, "timeout", detail=f"overran its {task.budget_s:g} s budget; "
                                                                      "its worker process was ended"))
@@ -215,6 +218,12 @@ class Pool(_Queued):
                 w.process.join(2.0)
             w.kill()
         self._workers = []
+
+
+def _died(task: Task, w: _Worker) -> Outcome:
+    """The outcome of a task whose worker died (`Outcome.killed` if by SIGKILL)."""
+    detail = _death(w)
+    return Outcome(task, "died", detail=detail, killed=w.process.exitcode == -signal.SIGKILL)
 
 
 def _death(w: _Worker) -> str:

@@ -365,7 +365,8 @@ def _failed_plan(group: Group, outcome: Outcome) -> Plan:
     if outcome.kind == "timeout":
         return Plan.failed(group, Status.TIMEOUT, f"planning {outcome.detail}", group.timeout_s)
     if outcome.kind == "died":  # in the planner's call: the planner's; before it (scene, settling): the harness's
-        status = Status.PLANNER_ERROR if outcome.started else Status.HARNESS_FAULT
+        # (killed from outside, SIGKILL: no outcome of the planner's, a harness fault that a resumed run retries)
+        status = Status.PLANNER_ERROR if outcome.started and not outcome.killed else Status.HARNESS_FAULT
         return Plan.failed(group, status, f"while {'planning' if outcome.started else 'preparing to plan'}, "
                                           f"{outcome.detail}")
     return Plan.failed(group, Status.HARNESS_FAULT, f"planning failed: {outcome.detail}")
