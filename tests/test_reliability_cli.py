@@ -207,3 +207,15 @@ def test_an_empty_run_directory_is_refused(command, capsys, tmp_path, monkeypatc
         main([*command, "--out", ""])
     assert exit_.value.code == 2 and "the run directory must not be empty" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_ctrl_c_while_the_commands_load_is_one_line_not_a_traceback(capsys, monkeypatch):
+    """A Ctrl-C while `build_parser` imported the commands' modules printed an import traceback."""
+    import manigrasp.cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(manigrasp.cli, "build_parser", interrupted)
+    assert main(["bench", "quick"]) == 130
+    assert capsys.readouterr().err == "manigrasp: interrupted\n"

@@ -55,8 +55,12 @@ def _one_line_warning(message: Warning | str, category: type[Warning], *_: objec
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the `manigrasp` console script; returns the exit code."""
-    parser = build_parser()
+    """Entry point of the `manigrasp` console script; returns the exit code (130 on Ctrl-C, at any point)."""
+    try:
+        parser = build_parser()  # (imports every command's module: a Ctrl-C there printed an import traceback)
+    except KeyboardInterrupt:
+        print("manigrasp: interrupted", file=sys.stderr)
+        return 130
     args = parser.parse_args(argv)
     if not hasattr(args, "func"):
         parser.print_help()
