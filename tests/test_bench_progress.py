@@ -24,20 +24,28 @@ class _Bar:
         pass
 
 
-def test_each_step_of_the_bar_shows_the_successes_of_the_trials_it_counts(tmp_path, monkeypatch):
-    """Trials 0, 1, 2 of the mug: success, failure, success. Before, the bar drew each step before it updated
-    the count, so after 2 trials it read success=1/1 (and after the first, an empty count)."""
-    outcomes = [Status.SUCCESS, Status.NO_CONTACT, Status.SUCCESS]
-
+def _run_with(monkeypatch, outcomes, bar=None, ran=None):
+    """The 3-grasp mug config, run with the trials' statuses taken from `outcomes` (by grasp index, or in the order
+    the trials run if an iterator); `ran` collects the grasp indices run; a `bar` replaces the progress bar."""
     def tasks(pending, todo, jobs, address, settings):
         for group in pending:
             for i in todo[id(group)]:
-                yield group.key(i), TrialResult(outcomes[i], seed=group.trial_seed(i))
+                if ran is not None:
+                    ran.append(i)
+                status = next(outcomes) if hasattr(outcomes, "__next__") else outcomes[i]
+                yield group.key(i), TrialResult(status, seed=group.trial_seed(i))
 
-    bar = _Bar()
     monkeypatch.setattr(runner, "_iter_local", tasks)
-    monkeypatch.setattr(runner, "_progress_bar", lambda total, initial, enabled: bar)
-    config = parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 3})
+    if bar is not None:
+        monkeypatch.setattr(runner, "_progress_bar", lambda total, initial, enabled: bar)
+    return parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 3})
+
+
+def test_each_step_of_the_bar_shows_the_successes_of_the_trials_it_counts(tmp_path, monkeypatch):
+    """Trials 0, 1, 2 of the mug: success, failure, success. Before, the bar drew each step before it updated
+    the count, so after 2 trials it read success=1/1 (and after the first, an empty count)."""
+    bar = _Bar()
+    config = _run_with(monkeypatch, [Status.SUCCESS, Status.NO_CONTACT, Status.SUCCESS], bar)
     summary = runner.run_benchmark(config, tmp_path / "run", progress=True)
     assert (summary.ran, summary.successes) == (3, 2)
     assert bar.shown == ["success=1/1", "success=1/2", "success=2/3"]
@@ -54,17 +62,8 @@ def test_each_step_of_the_bar_shows_the_successes_of_the_trials_it_counts(tmp_pa
 
 def test_the_bars_count_leaves_harness_faults_out_as_the_reports_do(tmp_path, monkeypatch):
     """Success, harness fault, failure: the bar read success=1/2 after the fault, a rate no report gives."""
-    outcomes = [Status.SUCCESS, Status.HARNESS_FAULT, Status.NO_CONTACT]
-
-    def tasks(pending, todo, jobs, address, settings):
-        for group in pending:
-            for i in todo[id(group)]:
-                yield group.key(i), TrialResult(outcomes[i], seed=group.trial_seed(i))
-
     bar = _Bar()
-    monkeypatch.setattr(runner, "_iter_local", tasks)
-    monkeypatch.setattr(runner, "_progress_bar", lambda total, initial, enabled: bar)
-    config = parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 3})
+    config = _run_with(monkeypatch, [Status.SUCCESS, Status.HARNESS_FAULT, Status.NO_CONTACT], bar)
     runner.run_benchmark(config, tmp_path / "run", progress=True)
     assert bar.shown == ["success=1/1", "success=1/1, 1 harness fault(s)", "success=1/2, 1 harness fault(s)"]
 
@@ -74,17 +73,9 @@ def test_a_resumed_run_runs_its_harness_faults_again_and_replaces_them(tmp_path,
     and its row is replaced; the other stored trials are not run again, and nothing is stored twice."""
     import sqlite3
 
-    outcomes = iter([Status.SUCCESS, Status.HARNESS_FAULT, Status.NO_CONTACT, Status.SUCCESS])
     ran = []
-
-    def tasks(pending, todo, jobs, address, settings):
-        for group in pending:
-            for i in todo[id(group)]:
-                ran.append(i)
-                yield group.key(i), TrialResult(next(outcomes), seed=group.trial_seed(i))
-
-    monkeypatch.setattr(runner, "_iter_local", tasks)
-    config = parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 3})
+    config = _run_with(monkeypatch, iter([Status.SUCCESS, Status.HARNESS_FAULT, Status.NO_CONTACT, Status.SUCCESS]),
+                       ran=ran)
     runner.run_benchmark(config, tmp_path / "run", progress=False)
     summary = runner.run_benchmark(config, tmp_path / "run", progress=False)
     assert ran == [0, 1, 2, 1] and (summary.already_done, summary.ran, summary.successes) == (2, 1, 1)
