@@ -165,6 +165,13 @@ def test_a_key_given_twice_in_a_config_file_is_refused(tmp_path):
         load_config(path)
     path.write_text("objects: [mug]\nseed: 7\n")
     assert load_config(path).seed == 7
+    # anchors and merge keys still read (the first version of the check refused `<<`)
+    path.write_text("base: &p {grip_force: 5}\nobjects: [mug]\nprotocol: {name: standard, params: {<<: *p}}\n")
+    with pytest.raises(ConfigError, match="base"):  # (an unknown top-level key, as before)
+        load_config(path)
+    path.write_text("objects: [mug]\nprotocol: {name: standard, params: {grip_force: 5}}\n"
+                    "scene: {<<: {timestep: 0.001}}\n")
+    assert load_config(path).scene.timestep == 0.001
 
 
 def test_a_mesh_given_on_the_command_line_is_found_where_the_command_runs(tmp_path, monkeypatch):

@@ -77,6 +77,11 @@ def test_a_resumed_run_runs_its_harness_faults_again_and_replaces_them(tmp_path,
     config = _run_with(monkeypatch, iter([Status.SUCCESS, Status.HARNESS_FAULT, Status.NO_CONTACT, Status.SUCCESS]),
                        ran=ran)
     runner.run_benchmark(config, tmp_path / "run", progress=False)
+    from manigrasp.record.policy import trial_file_name
+
+    stale = tmp_path / "run" / "recordings" / trial_file_name(config_key(config, 1))
+    stale.parent.mkdir()
+    stale.write_bytes(b"a recording of the faulted attempt")  # (it was listed under the re-run's status)
     summary = runner.run_benchmark(config, tmp_path / "run", progress=False)
     assert ran == [0, 1, 2, 1] and (summary.already_done, summary.ran, summary.successes) == (2, 1, 1)
     assert "1 trial(s) stored as harness_fault run again" in capsys.readouterr().err
@@ -84,3 +89,12 @@ def test_a_resumed_run_runs_its_harness_faults_again_and_replaces_them(tmp_path,
         rows = dict(db.execute("SELECT grasp_index, status FROM trials").fetchall())
     assert rows == {0: "success", 1: "success", 2: "no_contact"}
     assert runner.run_benchmark(config, tmp_path / "run", progress=False).ran == 0
+    assert not stale.exists()
+
+
+def config_key(config, index: int) -> str:
+    """The trial id of grasp `index` of the config's one group."""
+    from manigrasp.bench.trials import groups
+
+    (group,) = groups(config)
+    return group.key(index).trial_id

@@ -296,9 +296,11 @@ class RayPool(_Queued):
                     yield Outcome(run.task, "done", ray.get(ref), started=run.started)
                 except ray.exceptions.RayTaskError as exc:  # the task raised
                     yield Outcome(run.task, "error", detail=_ray_reason(exc), started=run.started)
-                except ray.exceptions.RayError as exc:  # its worker died
+                except ray.exceptions.RayError as exc:  # its worker died (of memory or its node: killed from outside)
+                    outside = tuple(getattr(ray.exceptions, name) for name in ("OutOfMemoryError", "NodeDiedError")
+                                    if hasattr(ray.exceptions, name))
                     yield Outcome(run.task, "died", detail=f"its Ray task failed: {_ray_reason(exc)}",
-                                  started=run.started)
+                                  started=run.started, killed=isinstance(exc, outside))
             for ref in [r for r, run in self._running.items() if now > run.deadline]:
                 run = self._running.pop(ref)
                 ray.cancel(ref, force=True)

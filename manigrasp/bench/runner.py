@@ -31,8 +31,8 @@ from manigrasp.bench.trials import Group, groups
 from manigrasp.bench.worker import Plan, plan_group, run_trial
 from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.protocol.result import Status, TrialResult
-from manigrasp.record.policy import RecordPolicy, RecordSettings, recording_problem
-from manigrasp.runfiles import STORE_NAME
+from manigrasp.record.policy import RecordPolicy, RecordSettings, recording_problem, trial_file_name
+from manigrasp.runfiles import RECORDINGS_DIR, STORE_NAME
 
 EXECUTORS = ("local", "ray")
 
@@ -212,6 +212,8 @@ def run_benchmark(
         faulted = store.fault_ids() & {g.key(i).trial_id for g in all_groups for i in range(g.n_grasps)}
         if faulted:
             print(f"manigrasp: {len(faulted)} trial(s) stored as harness_fault run again", file=sys.stderr)
+            for trial_id in faulted:  # a recording of the faulted attempt would be listed under the new status
+                (run_dir / RECORDINGS_DIR / trial_file_name(trial_id)).unlink(missing_ok=True)
         done = done - faulted
         todo = {id(g): [i for i in range(g.n_grasps) if g.key(i).trial_id not in done] for g in all_groups}
         pending = [g for g in all_groups if todo[id(g)]]

@@ -136,8 +136,8 @@ class FingerHold:
                 several of their servos close.
             forces: (n,) force [N or N m] each of the `actuators` should press with instead of the one it had
                 (NaN: as it had; e.g. `protocol.phases.balanced_torques`): its command becomes L + force / kp (its
-                held stiffness if it closes with the squeeze, else its own) and its force range the servo's own
-                limit both ways, so a joint-held finger may press in any direction.
+                held stiffness if it closes with the squeeze, else its own), the force clipped to the servo's own
+                force range, which it gets back whole (both ways: a joint-held finger may press in any direction).
 
         Each held servo keeps its current spring force f = kp (u - L) (clamped to its force range): its command
         becomes u' = L + f / kp' (clamped to the control range), its stiffness kp' = gain kp, its damping
@@ -187,16 +187,16 @@ class FingerHold:
             raise ConfigError(f"forces must be ({len(self.actuators)},), got shape {forces.shape}")
         m, given = self.model, np.isfinite(forces[self.servo])
         ids, force = self.ids[given], forces[self.servo][given]
-        low, high = self.forcerange[given, 0], self.forcerange[given, 1]
-        limit = np.where(self.forcelimited[given].astype(bool), np.minimum(-low, high), np.inf)
-        force = np.clip(force, -limit, limit)
+        limited = self.forcelimited[given].astype(bool)
+        low = np.where(limited, self.forcerange[given, 0], -np.inf)
+        high = np.where(limited, self.forcerange[given, 1], np.inf)
+        force = np.clip(force, low, high)
         ctrl = data.actuator_length[ids] + force / m.actuator_gainprm[ids, 0]
         ctrl_limited = m.actuator_ctrllimited[ids].astype(bool)
         data.ctrl[ids] = np.where(ctrl_limited, np.clip(ctrl, m.actuator_ctrlrange[ids, 0],
                                                         m.actuator_ctrlrange[ids, 1]), ctrl)
-        big = np.where(np.isfinite(limit), limit, np.finfo(float).max)
-        m.actuator_forcelimited[ids] = 1
-        m.actuator_forcerange[ids] = np.column_stack([-big, big])
+        m.actuator_forcelimited[ids] = self.forcelimited[given]
+        m.actuator_forcerange[ids] = self.forcerange[given]
 
     def release(self) -> None:
         """Restore the closing gains and force ranges (idempotent)."""

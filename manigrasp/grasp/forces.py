@@ -16,7 +16,8 @@ TANGENT_SIDES = 8  # sides of the polygon bounding each tangential force in `bal
 
 
 def balanced_forces(points: np.ndarray, normals: np.ndarray, center: np.ndarray, floor: float = 0.3,
-                    load: np.ndarray | None = None, friction: float | None = None) -> np.ndarray | None:
+                    load: np.ndarray | None = None, friction: float | np.ndarray | None = None
+                    ) -> np.ndarray | None:
     """(k, 3) contact forces on the object that balance it with the least friction: sum_i f_i + load = 0 and
     sum_i (x_i - c) x f_i = 0 about `center` (3,) (the load acts there: a weight at the centre of mass), with the
     least sum_i |t_i| of their tangential parts, each contact's normal part a_i = f_i . n_i at least `floor` and
@@ -32,7 +33,8 @@ def balanced_forces(points: np.ndarray, normals: np.ndarray, center: np.ndarray,
         floor: least normal part of each contact, in units of their mean [-], in [0, 1).
         load: (3,) force on the object besides the contacts (e.g. its weight m g), in units of the mean normal
             force (None: none).
-        friction: largest friction ratio |t_i| / a_i of any contact [-] (None: unbounded).
+        friction: largest friction ratio |t_i| / a_i of each contact [-] (a scalar for all, or (k,); None:
+            unbounded).
 
     One linear programme (HiGHS): each |t_i| is bounded by a `TANGENT_SIDES`-gon circumscribing its circle
     (within cos(pi / 8) = 0.92 of the true norm).
@@ -43,8 +45,9 @@ def balanced_forces(points: np.ndarray, normals: np.ndarray, center: np.ndarray,
     n = np.atleast_2d(np.asarray(normals, float))
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
     k = len(x)
-    if k < 2 or not 0 <= floor < 1:
+    if k < 2 or not 0 <= floor < 1 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(n))):
         return None
+    bound = None if friction is None else np.broadcast_to(np.asarray(friction, float), (k,))
     u, v = perpendicular_basis(n)
     arm = x - np.asarray(center, float)
     arm = arm / max(float(np.linalg.norm(arm, axis=1).max()), 1e-9)
@@ -69,9 +72,9 @@ def balanced_forces(points: np.ndarray, normals: np.ndarray, center: np.ndarray,
             row = np.zeros(4 * k)
             row[k + i], row[2 * k + i], row[3 * k + i] = np.cos(angle), np.sin(angle), -np.cos(np.pi / TANGENT_SIDES)
             rows.append(row)
-        if friction is not None:  # s_i - friction a_i <= 0
+        if bound is not None:  # s_i - friction_i a_i <= 0
             row = np.zeros(4 * k)
-            row[3 * k + i], row[i] = 1.0, -float(friction)
+            row[3 * k + i], row[i] = 1.0, -float(bound[i])
             rows.append(row)
     cost = np.concatenate([np.zeros(3 * k), np.ones(k)])
     bounds = [(floor, None)] * k + [(None, None)] * (2 * k) + [(0, None)] * k

@@ -64,24 +64,23 @@ def balanced_torques(scene: Scene, contacts: HandContacts, held: tuple[int, ...]
                      ) -> np.ndarray | None:
     """(n_act,) the force [N m] each hand actuator should press with so that a fully actuated hand's precision grasp
     holds the object with the least friction (`finger_hold: balanced`, the default; why and what it gave:
-    `control.hold`), NaN for the actuators left as they are;
-    None where it does not apply (then the grasp is held as under "fingertips").
+    `control.hold`), NaN for the actuators left as they are; None where it does not apply or no such forces exist
+    (then the grasp is held as under "fingertips").
 
     It applies when every finger touching the object is held in its joint configuration (`held`) and has several
     joint servos that close (`closing` != 0): the Allegro's fingertip grasps (a five-finger hand's tendon finger
     has one). The contacts are lumped per hand link (normal-force weighted point, summed normal); the forces are
     `grasp.forces.balanced_forces` with the object's weight as the load (what the lift will ask of them), each
-    link pressing at least `BALANCED_FLOOR` of the mean and none past `BALANCED_FRICTION` of its contacts'
-    friction (without that bound if no such forces exist), scaled to the normal force the close reached (the grip
-    stays what the protocol regulated, or less: all are scaled down together where a servo's share would pass its
-    force limit); the torques are sum_i J_i^T f_i over the links' Jacobians at their points, given to every joint
-    servo (closing, spread and rotation) of those fingers.
+    link pressing at least `BALANCED_FLOOR` of the mean and none past `BALANCED_FRICTION` of its own contacts'
+    friction (then, if no forces meet that, past the friction itself: never outside a cone), at the normal force
+    the close reached (the grip the protocol regulated). The torques are sum_i J_i^T f_i over the links'
+    Jacobians at their points, given to every joint servo (closing, spread and rotation) of those fingers; where a
+    servo's share would pass its force range, the forces are solved again at a total normal force that much
+    smaller (the weight then a larger share of it), and if a servo is still past its range, None.
     """
     import mujoco
 
-    from manigrasp.grasp.forces import balanced_forces
-
-    m, data = scene.model, scene.data
+    m = scene.model
     fingers, actuators = scene.actuator_fingers, scene.hand_actuators
     joint = np.isin(m.actuator_trntype[actuators], (mujoco.mjtTrn.mjTRN_JOINT, mujoco.mjtTrn.mjTRN_JOINTINPARENT))
     closes = joint & (np.asarray(closing) != 0)
@@ -89,22 +88,57 @@ def balanced_torques(scene: Scene, contacts: HandContacts, held: tuple[int, ...]
     if len(contacts) < 2 or np.any(contacts.finger < 0) or not set(contacts.finger.tolist()) <= several:
         return None
     links = np.unique(contacts.hand_body)
-    if len(links) < 2:
-        return None
     pressed = np.maximum(contacts.normal_force, 1e-9)
     points = np.array([np.average(contacts.position[contacts.hand_body == b], axis=0,
                                   weights=pressed[contacts.hand_body == b]) for b in links])
     normals = np.array([np.sum(contacts.normal[contacts.hand_body == b] * pressed[contacts.hand_body == b, None],
                                axis=0) for b in links])
+    # A link pressing from opposite sides of itself has no net normal: no contact of its own to balance.
+    if len(links) < 2 or not np.all(np.linalg.norm(normals, axis=1) > 1e-9 * float(pressed.sum())):
+        return None
     mu = np.array([contacts.friction[contacts.hand_body == b].min() for b in links])
-    mean = float(np.sum(np.clip(contacts.normal_force, 0.0, None))) / len(links)
+    used = joint & np.isin(fingers, list(several))
+    low, high = m.actuator_forcerange[actuators[used]].T
+    limited = m.actuator_forcelimited[actuators[used]].astype(bool)
+    low, high = np.where(limited, low, -np.inf), np.where(limited, high, np.inf)
+    total = float(np.sum(np.clip(contacts.normal_force, 0.0, None)))
+    for _ in range(2):
+        torques = _link_torques(scene, links, points, normals, mu, total)
+        if torques is None:
+            return None
+        out = np.full(len(actuators), np.nan)
+        for i in np.flatnonzero(used):
+            act = actuators[i]
+            out[i] = torques[m.jnt_dofadr[m.actuator_trnid[act, 0]]] / m.actuator_gear[act, 0]
+        share = out[used]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            over = float(np.max(np.where(share > 0, share / high, np.where(share < 0, share / low, 0.0)),
+                                initial=0.0))
+        if over <= 1.0 + 1e-9:
+            return out
+        total /= over
+    return None
+
+
+def _link_torques(scene: Scene, links: np.ndarray, points: np.ndarray, normals: np.ndarray, mu: np.ndarray,
+                  total: float) -> np.ndarray | None:
+    """`balanced_torques`' joint torques (nv,) [N m]: the least-friction forces holding the object's weight at the
+    lumped contacts, pressing `total` [N] of normal force in all; None if no forces inside the friction cones."""
+    import mujoco
+
+    from manigrasp.grasp.forces import balanced_forces
+
+    m, data = scene.model, scene.data
+    mean = total / len(links)
     if not mean > 0:
         return None
     weight = m.opt.gravity * float(m.body_subtreemass[scene.object_body]) / mean  # the load: m g, downward
     center = data.xipos[scene.object_body]
-    forces = balanced_forces(points, normals, center, BALANCED_FLOOR, weight, BALANCED_FRICTION * float(mu.min()))
-    if forces is None:
-        forces = balanced_forces(points, normals, center, BALANCED_FLOOR, weight)
+    forces = None
+    for bound in (BALANCED_FRICTION * mu, mu):
+        forces = balanced_forces(points, normals, center, BALANCED_FLOOR, weight, bound)
+        if forces is not None:
+            break
     if forces is None:
         return None
     torque = np.zeros(m.nv)
@@ -112,16 +146,7 @@ def balanced_torques(scene: Scene, contacts: HandContacts, held: tuple[int, ...]
     for body, point, force in zip(links, points, mean * forces, strict=True):
         mujoco.mj_jac(m, data, jacp, None, point, int(body))
         torque += jacp.T @ force
-    out = np.full(len(actuators), np.nan)
-    used = joint & np.isin(fingers, list(several))
-    for i in np.flatnonzero(used):
-        act = actuators[i]
-        out[i] = torque[m.jnt_dofadr[m.actuator_trnid[act, 0]]] / m.actuator_gear[act, 0]
-    # All scaled down together where a servo could not press its share (the balance holds at any scale).
-    low, high = m.actuator_forcerange[actuators[used]].T
-    limit = np.where(m.actuator_forcelimited[actuators[used]].astype(bool), np.minimum(-low, high), np.inf)
-    over = float(np.max(np.abs(out[used]) / limit, initial=0.0))
-    return out / over if over > 1.0 else out
+    return torque
 
 
 def release_hold(run: TrialRun) -> None:
