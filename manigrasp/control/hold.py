@@ -39,29 +39,29 @@ close regulated. Why: the Allegro's close leaves the squeeze's contacts on their
 pinch, `benchmarks/diagnose_dexterous.py`: thumb and middle finger at cone 1.00 with 34 N pressed on the 66 g banana,
 which turned out of the grip during the lift), so the heavy objects had no friction to spare for their weight.
 Measured (allegro_right, dexopt, the dexterous config's 7 objects x 10, `standard` at 10 N, seeds 0-4, paired:
-`manigrasp bench` with `protocol.params.finger_hold=MODE`), "fingertips" -> "balanced": 238 -> 249/350 (held only
-with it 13, only without 2, exact McNemar p = 0.007); sugar box 22 -> 27/50, mustard bottle 6 -> 10/50, banana
-20 -> 22/50, the rest within 1. power seed 0: 22 -> 22/70 (2 statuses swapped). The five-finger hands are held
-alike in both modes (no finger of theirs has several servos). Holding every finger that way
-("joints") trades planners: it helps fingertip grasps and costs wraps (allegro_right, the dexterous config's 7 objects
-x 10, `standard` at 10 N, seed 0, floor on every joint -> held per finger: dexopt 32 -> 37/70, power 19 -> 11/70, the
-power wraps of the soup can 8 -> 1/10, pressed into the palm at 37 N; a floor of 0.2 on such fingers: 35 and 14/70);
-"fingertips" keeps both (4 Dec 2026, the dexterous config's 7 objects x 10 on the Allegro, `standard` at 10 N, paired
-seeds, floor -> fingertips: dexopt seed 0 41 -> 50/70, seed 1 47 -> 50/70, as "joints"; power seed 0 24 -> 22/70,
+`manigrasp bench` with `protocol.params.finger_hold=MODE`), "fingertips" -> "balanced": 238 -> 248/350 (held only with
+it 12, only without 2, exact McNemar p = 0.013); sugar box 22 -> 27/50, mustard bottle 6 -> 10/50, banana 20 -> 21/50,
+the rest within 1. power seed 0: 22 -> 22/70 (1 status changed). The five-finger hands are held alike in both modes (no
+finger of theirs has several servos; Inspire dexopt seed 0: 53/70 under both, trial for trial). Holding every finger
+that way ("joints") trades planners: it helps fingertip grasps and costs wraps (allegro_right, the dexterous config's 7
+objects x 10, `standard` at 10 N, seed 0, floor on every joint -> held per finger: dexopt 32 -> 37/70, power 19 ->
+11/70, the power wraps of the soup can 8 -> 1/10, pressed into the palm at 37 N; a floor of 0.2 on such fingers: 35 and
+14/70); "fingertips" keeps both (4 Dec 2026, the dexterous config's 7 objects x 10 on the Allegro, `standard` at 10 N,
+paired seeds, floor -> fingertips: dexopt seed 0 41 -> 50/70, seed 1 47 -> 50/70, as "joints"; power seed 0 24 -> 22/70,
 where "joints" gave 15). For fingertip grasps: with a floor on each joint, a finger the object moves away from keeps
-pushing on every joint in a ratio that no longer matches the contact it held, so it curls on along the object and
-rolls it. Measured on the Allegro's dexopt grasps (tomato soup can, potted meat can, mug, banana x 5, `standard` at 10
-N; replayed with an observer, from the start of the lift to the first perturbation): with the floor on every joint,
-12/20 succeeded; the 5 that dropped in the perturbations had turned 8.7 deg in the hand (median; successes 1.3 deg),
-4.8 deg of it carried by the fingers' own motion (the rotation of their contact points in the hand; the rest slip,
-largest 4.5 mm), their fingers curled on by up to 0.12 rad (median of the largest joint motion; successes 0.02 rad;
+pushing on every joint in a ratio that no longer matches the contact it held, so it curls on along the object and rolls
+it. Measured on the Allegro's dexopt grasps (tomato soup can, potted meat can, mug, banana x 5, `standard` at 10 N;
+replayed with an observer, from the start of the lift to the first perturbation): with the floor on every joint, 12/20
+succeeded; the 5 that dropped in the perturbations had turned 8.7 deg in the hand (median; successes 1.3 deg), 4.8 deg
+of it carried by the fingers' own motion (the rotation of their contact points in the hand; the rest slip, largest 4.5
+mm), their fingers curled on by up to 0.12 rad (median of the largest joint motion; successes 0.02 rad;
 `benchmarks/bench_grip_hold.py --run`). Held per finger: 15/20, largest joint motion 0.008 rad in the successes, 0.028
 in the 2 drops; two mug grasps that dropped turn 2.2 and 2.3 deg instead of 8.7 and 9.2 deg. Not the cause there: the
-thumb at its 0.7 N m limit (1.4 N m in a replay: 12/20), the grip level (7 or 8 N: 13, 12/20), a slower lift (0.03
-m/s: 11/20), the hold gain (10 or 200 with the floor: 12, 11/20; 10, 20, 80 held per finger: 16, 16, 15/20); without
-the hold 6/20, with the full force as the floor 4/20 (fingers that follow at full force roll the object further). The
-five-finger hands' tendon fingers keep the floor: without it, inspire_right's dexopt grasps of the same objects held
-14/20, with it 17/20.
+thumb at its 0.7 N m limit (1.4 N m in a replay: 12/20), the grip level (7 or 8 N: 13, 12/20), a slower lift (0.03 m/s:
+11/20), the hold gain (10 or 200 with the floor: 12, 11/20; 10, 20, 80 held per finger: 16, 16, 15/20); without the hold
+6/20, with the full force as the floor 4/20 (fingers that follow at full force roll the object further). The five-finger
+hands' tendon fingers keep the floor: without it, inspire_right's dexopt grasps of the same objects held 14/20, with it
+17/20.
 
 The closing direction of each actuator is given to `engage` (the closed row of the hand's path minus its open
 row); actuators that do not move with the squeeze (finger spread, thumb rotation: they hold the pre-shape and

@@ -102,7 +102,7 @@ class GraspParams:
             every finger of a grasp pressed into the palm) or "balanced" (the default since 4 Dec 2026: as
             "fingertips", and where every finger touching is so held, they press the forces that hold the object's
             weight with the least friction at the contacts the close reached, `phases.balanced_torques`; Allegro
-            dexopt 238 -> 249/350 over "fingertips", `control.hold`). A finger one actuator closes (the five-finger
+            dexopt 238 -> 248/350 over "fingertips", `control.hold`). A finger one actuator closes (the five-finger
             hands' tendons) keeps the floor in every mode, and they are held alike under "fingertips" and
             "balanced"; see `control.hold`.
         metric_edges: edges of the linearised friction cones in the metrics.
