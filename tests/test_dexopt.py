@@ -382,6 +382,14 @@ def test_balanced_forces_carry_a_load_by_friction_shared_between_a_pinch() -> No
     assert balanced_forces(points, normals, np.zeros(3), load=np.array([0.0, 0.0, -0.5]), friction=0.2) is None
 
 
+def test_balanced_forces_of_a_contact_without_a_normal_is_none_not_an_lp_error() -> None:
+    """A link pressing from opposite sides of itself has no net normal: its NaN direction reached the LP, which
+    raised (a harness fault on every resume)."""
+    points = np.array([[0.03, 0.0, 0.0], [-0.03, 0.0, 0.0]])
+    normals = np.array([[np.nan, np.nan, np.nan], [1.0, 0.0, 0.0]])
+    assert balanced_forces(points, normals, np.zeros(3)) is None
+
+
 def test_balanced_squeeze_is_none_where_the_normals_cannot_oppose() -> None:
     points = np.array([[0.0, 0.0, 0.0], [0.02, 0.0, 0.0]])
     normals = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])  # both pushing up: no internal force presses them

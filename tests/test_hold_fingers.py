@@ -111,6 +111,20 @@ def test_given_forces_are_pressed_both_ways_within_each_servos_limit() -> None:
         hold.engage(data, CLOSING, (0, 1), forces=np.zeros(2))
 
 
+def test_given_forces_keep_a_lopsided_servo_range_as_it_is() -> None:
+    """A servo of range [-0.2, 0.6] given -0.5 presses -0.2 and keeps its 0.6 closing strength (the first version cut
+    such a range to +-0.2, and a one-sided one to nothing)."""
+    model = mujoco.MjModel.from_xml_string(LINKS.replace('forcerange="-0.6 0.6"', 'forcerange="-0.2 0.6"', 1))
+    data = mujoco.MjData(model)
+    data.ctrl[:] = -1.0
+    mujoco.mj_step(model, data, nstep=2000)
+    FingerHold(model, np.arange(3), gain=20.0, fingers=np.array([0, 0, 1])).engage(
+        data, CLOSING, (0, 1), forces=np.array([-0.5, 0.5, np.nan]))
+    np.testing.assert_allclose(model.actuator_forcerange[:2], [[-0.2, 0.6], [-0.6, 0.6]])
+    mujoco.mj_forward(model, data)
+    np.testing.assert_allclose(data.actuator_force[:2], [-0.2, 0.5], atol=1e-9)
+
+
 def test_fingers_must_match_the_actuators() -> None:
     from manigrasp.errors import ConfigError
 
