@@ -33,13 +33,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from manigrasp.bench.completeness import completeness
+from manigrasp.bench.config import effective_entry
 from manigrasp.bench.report import Group, Rate, Report, load_results, pooled_rate, report_from_json, summarize
 from manigrasp.bench.stats import (
     ProportionTest,
     lower_than_baseline,
     stratified_lower_than_baseline,
 )
-from manigrasp.errors import ConfigError, ManigraspError
+from manigrasp.errors import ConfigError
 
 POOLED_GROUP = "pooled (groups in both)"
 METHOD_WORDS = "hand x planner x observation x protocol"
@@ -281,55 +282,6 @@ def _recorded_effective(record: object, kind: str, label: str) -> dict | None:
     entry = entries.get(label) if isinstance(entries, dict) else None
     params = entry.get("params") if isinstance(entry, dict) else None
     return params if isinstance(params, dict) else None
-
-
-def effective_entry(entry: object, kind: str, ran_with: dict | None = None) -> dict | None:
-    """A recorded protocol or planner entry ({name, params} or a name) as {name, params} with every parameter it
-    leaves out at its default, so that a config writing out a default value compares equal to one that leaves it
-    out. The defaults are those the run recorded it ran with (`ran_with`: run.json's ``effective``, for the
-    parameters this code knows), else this code's: a baseline recorded without them is read as if it had run
-    this code's, as when neither side writes the parameter out; a parameter this code added since is at its
-    default on both sides. None for an entry this code cannot build (a parameter it no longer knows, say) and
-    for a ``module:attribute`` entry (not imported to be compared)."""
-    name = entry.get("name") if isinstance(entry, dict) else entry
-    params = entry.get("params") if isinstance(entry, dict) else {}
-    if not isinstance(name, str) or ":" in name or not isinstance(params, dict):
-        return None
-    params = _built_params(name, params, kind)
-    if params is None:
-        return None
-    for key, value in (ran_with or {}).items():
-        if key in params:
-            params[key] = value
-    return {"name": name, "params": params}
-
-
-def _built_params(name: str, params: dict, kind: str) -> dict | None:
-    """Every parameter of the protocol or planner `name` built here with `params`, as run.json writes a dataclass
-    (nested ones, dexopt's `weights`, by their fields) and JSON reads it; None if it cannot be built here."""
-    from manigrasp.config import to_mapping
-    from manigrasp.planners import PLANNERS
-    from manigrasp.protocol import PROTOCOLS
-
-    try:
-        built = (PROTOCOLS.load(name, **params).params if kind == "protocol" else PLANNERS.load(name, **params))
-        return json.loads(json.dumps(to_mapping(built), default=str))
-    except (ManigraspError, TypeError, ValueError, OSError):  # unknown or invalid here: compared as recorded
-        return None
-
-
-def effective_entries(config: object) -> dict:
-    """What a run records in run.json as ``effective``: each built-in protocol and planner of `config` (a
-    `BenchConfig`) by label with every parameter at the value this code runs it with (`_built_params`), so a
-    later comparison reads the defaults the run had, not those of the code that compares. A ``module:attribute``
-    entry, or one that does not build, is left out."""
-    out: dict[str, dict] = {}
-    for kind, entries, names in (("protocol", config.protocol_entries, config.protocol_labels),
-                                 ("planner", config.planners, config.planner_labels)):
-        built = {label: effective_entry({"name": e.name, "params": dict(e.params)}, kind)
-                 for label, e in zip(names, entries, strict=True)}
-        out[f"{kind}s"] = {label: entry for label, entry in built.items() if entry is not None}
-    return out
 
 
 def _entries(value: object) -> dict[str, object]:

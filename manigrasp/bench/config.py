@@ -27,8 +27,8 @@ from typing import Any
 
 import yaml
 
-from manigrasp.config import OMIT_DEFAULT, apply_overrides, from_mapping
-from manigrasp.errors import ConfigError
+from manigrasp.config import OMIT_DEFAULT, apply_overrides, from_mapping, to_mapping
+from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.objects import catalog
 from manigrasp.objects.pipeline import DEFAULT_DENSITY
 from manigrasp.perception.setup import CameraSetup
@@ -96,8 +96,6 @@ class ObjectEntry:
         """The object's name in trial ids and reports: its source's name (a shipped alias "mug" is "025_mug", a
         mesh given no name its file's stem), or its `label` when the source cannot be resolved here (a YCB
         folder or a shipped name of another machine or version); `base` resolves relative paths."""
-        from manigrasp.errors import ManigraspError
-
         try:
             return self.source(base).name
         except (ManigraspError, OSError):
@@ -197,8 +195,6 @@ def labels(entries: Sequence[NamedEntry], kind: str = "planner") -> tuple[str, .
 def _refuse_same_effective(entries: Sequence[NamedEntry], kind: str) -> None:
     """Refuse two built-in entries that run the same (every parameter at its effective value equal: one writes
     out a default the other leaves out): the same trials would run twice under two labels and be pooled twice."""
-    from manigrasp.bench.compare import effective_entry
-
     seen: dict[str, int] = {}
     for i, entry in enumerate(entries):
         effective = effective_entry({"name": entry.name, "params": dict(entry.params)}, kind)
@@ -369,8 +365,6 @@ def camera_labels(setups: Sequence[CameraSetup]) -> tuple[str, ...]:
     """
     if len(setups) <= 1:
         return ("",) * len(setups)
-    from manigrasp.config import to_mapping
-
     fields = [to_mapping(s) for s in setups]
     for i, f in enumerate(fields):
         if f in fields[:i]:
@@ -567,3 +561,51 @@ def resolve_paths(config: BenchConfig, folder: Path) -> BenchConfig:
             entry = replace(entry, params={**dict(entry.params), "path": str(Path(folder).resolve() / path)})
         planners.append(entry)
     return replace(config, planners=tuple(planners))
+
+
+def effective_entry(entry: object, kind: str, ran_with: dict | None = None) -> dict | None:
+    """A recorded protocol or planner entry ({name, params} or a name) as {name, params} with every parameter it
+    leaves out at its default, so that a config writing out a default value compares equal to one that leaves it
+    out. The defaults are those the run recorded it ran with (`ran_with`: run.json's ``effective``, for the
+    parameters this code knows), else this code's: a baseline recorded without them is read as if it had run
+    this code's, as when neither side writes the parameter out; a parameter this code added since is at its
+    default on both sides. None for an entry this code cannot build (a parameter it no longer knows, say) and
+    for a ``module:attribute`` entry (not imported to be compared)."""
+    name = entry.get("name") if isinstance(entry, dict) else entry
+    params = entry.get("params") if isinstance(entry, dict) else {}
+    if not isinstance(name, str) or ":" in name or not isinstance(params, dict):
+        return None
+    params = _built_params(name, params, kind)
+    if params is None:
+        return None
+    for key, value in (ran_with or {}).items():
+        if key in params:
+            params[key] = value
+    return {"name": name, "params": params}
+
+
+def _built_params(name: str, params: dict, kind: str) -> dict | None:
+    """Every parameter of the protocol or planner `name` built here with `params`, as run.json writes a dataclass
+    (nested ones, dexopt's `weights`, by their fields) and JSON reads it; None if it cannot be built here."""
+    from manigrasp.planners import PLANNERS
+    from manigrasp.protocol import PROTOCOLS
+
+    try:
+        built = (PROTOCOLS.load(name, **params).params if kind == "protocol" else PLANNERS.load(name, **params))
+        return json.loads(json.dumps(to_mapping(built), default=str))
+    except (ManigraspError, TypeError, ValueError, OSError):  # unknown or invalid here: compared as recorded
+        return None
+
+
+def effective_entries(config: BenchConfig) -> dict:
+    """What a run records in run.json as ``effective``: each built-in protocol and planner of `config` (a
+    `BenchConfig`) by label with every parameter at the value this code runs it with (`_built_params`), so a
+    later comparison reads the defaults the run had, not those of the code that compares. A ``module:attribute``
+    entry, or one that does not build, is left out."""
+    out: dict[str, dict] = {}
+    for kind, entries, names in (("protocol", config.protocol_entries, config.protocol_labels),
+                                 ("planner", config.planners, config.planner_labels)):
+        built = {label: effective_entry({"name": e.name, "params": dict(e.params)}, kind)
+                 for label, e in zip(names, entries, strict=True)}
+        out[f"{kind}s"] = {label: entry for label, entry in built.items() if entry is not None}
+    return out

@@ -28,7 +28,7 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from manigrasp import __version__
-from manigrasp.bench.config import BenchConfig
+from manigrasp.bench.config import BenchConfig, effective_entries
 from manigrasp.config import to_mapping
 from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.runfiles import META_NAME, RECORDINGS_DIR, STORE_NAME
@@ -179,15 +179,12 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
             keys = differing_keys(old_config, resolved)
             raise ConfigError(f"{run_dir} holds a run with a different config ({_describe(keys, old_config, resolved)}"
                               "); use another --out to start a new run")
-        old_meshes = existing.get("identity", {}).get("mesh_sha256", {})
-        ident = identity(config, base)
-        changed = sorted(k for k, v in ident["mesh_sha256"].items() if k in old_meshes and old_meshes[k] != v)
+        old, ident = existing.get("identity", {}), identity(config, base)
+        changed = _changed_files(old, ident, "mesh_sha256")
         if changed:
             raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
                               "use another --out to start a new run")
-        old_grasps = existing.get("identity", {}).get("grasp_file_sha256", {})
-        changed = sorted(k for k, v in ident.get("grasp_file_sha256", {}).items()
-                         if k in old_grasps and old_grasps[k] != v)
+        changed = _changed_files(old, ident, "grasp_file_sha256")
         if changed:
             raise ConfigError(f"{run_dir}: the grasp file of planner {', '.join(map(repr, changed))} changed since "
                               "this run started (its stored trials ran the old grasps); use another --out to start "
@@ -200,6 +197,13 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
     return None
 
 
+def _changed_files(old: dict, new: dict, key: str) -> list[str]:
+    """The names under identity `key` (``mesh_sha256``, ``grasp_file_sha256``) whose content hash differs between
+    a recorded identity `old` and `new` (a name recorded on one side only is not a change: older run.json files)."""
+    recorded = old.get(key, {})
+    return sorted(k for k, v in new.get(key, {}).items() if k in recorded and recorded[k] != v)
+
+
 def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None,
             grip_limits: dict[str, float] | None = None) -> dict:
     """Create `run_dir` with run.json, or check that an existing one holds the same run (`check`) and add the
@@ -208,7 +212,7 @@ def prepare(run_dir: Path, config: BenchConfig, base: Path | None = None,
     `grip_limits` (each hand's `Hand.max_grip_force` [N], `runner.grip_limits`) is recorded in a new run.json as
     ``hand_grip_limits``, so that its report says which hands closed below an asked grip force with the forces
     of the hands that ran, not of the hand models installed when the report is made. A new run.json also records
-    as ``effective`` every parameter its built-in protocols and planners run with (`compare.effective_entries`),
+    as ``effective`` every parameter its built-in protocols and planners run with (`config.effective_entries`),
     so that a comparison made by later code reads the defaults this code ran with. A resumed run keeps what it
     recorded (an older run.json without them stays without).
 
@@ -247,8 +251,6 @@ def start(run_dir: Path, config: BenchConfig, existing: dict | None, base: Path 
     }
     if grip_limits is not None:
         meta["hand_grip_limits"] = {hand: float(force) for hand, force in grip_limits.items()}
-    from manigrasp.bench.compare import effective_entries
-
     meta["effective"] = effective_entries(config)
     _write_json(meta_path, meta)
     return meta

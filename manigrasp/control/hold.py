@@ -171,10 +171,7 @@ class FingerHold:
         big = np.where(np.isfinite(limit), limit, np.finfo(float).max)
         m.actuator_forcerange[ids] = np.where((sign > 0)[:, None], np.column_stack([floor, big]),
                                               np.column_stack([-big, -floor]))
-        ctrl = length + sign * push / kp
-        ctrl_limited = m.actuator_ctrllimited[ids].astype(bool)
-        ctrl = np.where(ctrl_limited, np.clip(ctrl, m.actuator_ctrlrange[ids, 0], m.actuator_ctrlrange[ids, 1]), ctrl)
-        data.ctrl[ids] = ctrl
+        data.ctrl[ids] = _within_ctrlrange(m, ids, length + sign * push / kp)
         if forces is not None:
             self._press(data, np.asarray(forces, dtype=float))
         self.held = ids
@@ -182,7 +179,7 @@ class FingerHold:
         return data.ctrl[self.ids].copy()
 
     def _press(self, data: mujoco.MjData, forces: np.ndarray) -> None:
-        """`engage`'s `forces`: each servo given a finite force presses it, within its own limit both ways."""
+        """`engage`'s `forces`: each servo given a finite force presses it, within its own force range."""
         if forces.shape != self.actuators.shape:
             raise ConfigError(f"forces must be ({len(self.actuators)},), got shape {forces.shape}")
         m, given = self.model, np.isfinite(forces[self.servo])
@@ -191,10 +188,7 @@ class FingerHold:
         low = np.where(limited, self.forcerange[given, 0], -np.inf)
         high = np.where(limited, self.forcerange[given, 1], np.inf)
         force = np.clip(force, low, high)
-        ctrl = data.actuator_length[ids] + force / m.actuator_gainprm[ids, 0]
-        ctrl_limited = m.actuator_ctrllimited[ids].astype(bool)
-        data.ctrl[ids] = np.where(ctrl_limited, np.clip(ctrl, m.actuator_ctrlrange[ids, 0],
-                                                        m.actuator_ctrlrange[ids, 1]), ctrl)
+        data.ctrl[ids] = _within_ctrlrange(m, ids, data.actuator_length[ids] + force / m.actuator_gainprm[ids, 0])
         m.actuator_forcelimited[ids] = self.forcelimited[given]
         m.actuator_forcerange[ids] = self.forcerange[given]
 
@@ -208,3 +202,9 @@ class FingerHold:
         m.actuator_forcelimited[ids] = self.forcelimited
         self.held = np.zeros(0, dtype=int)
         self.engaged = False
+
+
+def _within_ctrlrange(model: mujoco.MjModel, ids: np.ndarray, ctrl: np.ndarray) -> np.ndarray:
+    """Commands `ctrl` of actuators `ids`, each clamped to its control range where it has one."""
+    limited = model.actuator_ctrllimited[ids].astype(bool)
+    return np.where(limited, np.clip(ctrl, model.actuator_ctrlrange[ids, 0], model.actuator_ctrlrange[ids, 1]), ctrl)

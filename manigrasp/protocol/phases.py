@@ -98,19 +98,19 @@ def balanced_torques(scene: Scene, contacts: HandContacts, held: tuple[int, ...]
         return None
     mu = np.array([contacts.friction[contacts.hand_body == b].min() for b in links])
     used = joint & np.isin(fingers, list(several))
-    low, high = m.actuator_forcerange[actuators[used]].T
-    limited = m.actuator_forcelimited[actuators[used]].astype(bool)
+    acts = actuators[used]
+    dofs, gear = m.jnt_dofadr[m.actuator_trnid[acts, 0]], m.actuator_gear[acts, 0]
+    low, high = m.actuator_forcerange[acts].T
+    limited = m.actuator_forcelimited[acts].astype(bool)
     low, high = np.where(limited, low, -np.inf), np.where(limited, high, np.inf)
     total = float(np.sum(np.clip(contacts.normal_force, 0.0, None)))
     for _ in range(2):
         torques = _link_torques(scene, links, points, normals, mu, total)
         if torques is None:
             return None
+        share = torques[dofs] / gear
         out = np.full(len(actuators), np.nan)
-        for i in np.flatnonzero(used):
-            act = actuators[i]
-            out[i] = torques[m.jnt_dofadr[m.actuator_trnid[act, 0]]] / m.actuator_gear[act, 0]
-        share = out[used]
+        out[used] = share
         with np.errstate(divide="ignore", invalid="ignore"):
             over = float(np.max(np.where(share > 0, share / high, np.where(share < 0, share / low, 0.0)),
                                 initial=0.0))
