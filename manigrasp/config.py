@@ -155,10 +155,11 @@ def _plain(value: Any, where: str, depth: int = 0) -> Any:
 
 def to_mapping(obj: Any) -> Any:
     """A dataclass (recursively) as plain dicts, lists and scalars (for run.json); a field marked `OMIT_DEFAULT`
-    is left out while it holds its default."""
+    is left out while it holds its default, and so is one not set at construction (``init=False``: a planner's
+    caches are not its parameters)."""
     if dataclasses.is_dataclass(obj):
         return {f.name: to_mapping(getattr(obj, f.name)) for f in dataclasses.fields(obj)
-                if not (f.metadata.get(OMIT_DEFAULT) and getattr(obj, f.name) == f.default)}
+                if f.init and not (f.metadata.get(OMIT_DEFAULT) and getattr(obj, f.name) == f.default)}
     if isinstance(obj, Mapping):
         return {k: to_mapping(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -398,3 +399,15 @@ def test_a_baselines_harness_faults_are_noted_as_a_runs_are(tmp_path, capsys):
     assert any("5 trial(s) ended as harness_fault" in w for w in load_side(baseline).warnings)
     clean = load_side(make_run(tmp_path / "clean", _results({("025_mug", "antipodal"): 10})))
     assert not any("harness_fault" in w for w in clean.warnings)
+
+
+def test_recorded_parameters_are_the_planners_own_not_its_caches():
+    """A partial `weights` of dexopt changes only the terms it names (the others keep the planner's defaults, not
+    `EnergyWeights`' own: `weights: {centroid: 10}` ran with penetration 100 instead of 1000), and the planner's
+    caches (fields not set at construction) are not recorded as parameters."""
+    from manigrasp.bench.config import effective_entry
+    from manigrasp.planners.dexopt_planner import DEFAULT_WEIGHTS
+
+    params = effective_entry({"name": "dexopt", "params": {"weights": {"centroid": 10}}}, "planner")["params"]
+    assert "_hands" not in params and "last" not in params
+    assert params["weights"] == {**dataclasses.asdict(DEFAULT_WEIGHTS), "centroid": 10}

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
@@ -16,6 +18,7 @@ from manigrasp.planners.dexopt import Box, GridSdf, Sphere
 from manigrasp.planners.dexopt_hand import HandKinematics
 from manigrasp.planners.dexopt_planner import (
     CLOSE_DEFECTS,
+    DEFAULT_WEIGHTS,
     DexOptPlanner,
     _hand_q,
     _mat_quats,
@@ -190,6 +193,8 @@ def test_bad_parameters_are_refused() -> None:
         DexOptPlanner(weights={"nonsense": 1.0})
     planner = planner_registry.load("dexopt", weights={"distance": 50.0})
     assert planner.weights.distance == 50.0 and planner.name == "dexopt"
+    # the terms not named keep the planner's defaults (not EnergyWeights' own: penetration 1000, not 100)
+    assert dataclasses.replace(planner.weights, distance=DEFAULT_WEIGHTS.distance) == DEFAULT_WEIGHTS
 
 
 @pytest.mark.slow

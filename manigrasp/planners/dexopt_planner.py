@@ -399,9 +399,10 @@ class DexOptPlanner:
     last: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        if isinstance(self.weights, dict):
+        if isinstance(self.weights, dict):  # the terms named change, the others keep the planner's defaults
             try:
-                object.__setattr__(self, "weights", EnergyWeights(**self.weights))
+                object.__setattr__(self, "weights",
+                                   EnergyWeights(**{**dataclasses.asdict(DEFAULT_WEIGHTS), **self.weights}))
             except TypeError as exc:
                 raise ConfigError(f"dexopt: bad weights {sorted(self.weights)}; valid: "
                                   f"{[f.name for f in dataclasses.fields(EnergyWeights)]}") from exc
