@@ -261,3 +261,28 @@ def test_the_file_planner_knows_a_mesh_frame_set_of_the_objects_own_mesh_by_its_
     other = SimpleNamespace(visual_path=tmp_path / "cache" / "visual.obj", metadata={"source": "recipe (ycb)"})
     assert same_mesh(grasps, built) and not same_mesh(grasps, other)
     assert not same_mesh(replace(grasps, frame="object"), built)  # an object-frame set names its object by name
+
+
+def test_each_set_of_an_object_with_a_dot_in_its_name_gets_its_own_file(tmp_path):
+    """`Path.with_suffix` took ``.v2__parallel_jaw__random`` of ``box.v2`` for a suffix: every set of the object
+    went to ``box.json`` over the one before, and an empty group's clean-up deleted another set's file."""
+    import trimesh
+
+    mesh = tmp_path / "box.stl"
+    trimesh.creation.box((0.05, 0.06, 0.08)).export(mesh)
+    config = parse_config({"objects": [{"mesh": str(mesh), "name": "box.v2"}], "planners": ["random", "antipodal"],
+                           "grasps_per_object": 2, "protocol": "lift"})
+    run = tmp_path / "run"
+    run.mkdir()
+    with ResultsStore(run / "results.sqlite") as store:
+        for planner, status in (("random", Status.SUCCESS), ("antipodal", Status.SLIPPED_LIFT)):
+            for i in range(2):
+                key = TrialKey("box.v2", "parallel_jaw", planner, "ground_truth", "lift", i)
+                store.add(key, TrialResult(status=status, grasp=PoseRecord.of(_top_down(0.02 + 0.01 * i)),
+                                           object_pose=PoseRecord.of(np.eye(4)), seed=i))
+    items, _ = export_dataset(run, config)
+    files = {f.name for item in items for f in item.files if f.suffix == ".json"}
+    assert files == {"box.v2__parallel_jaw__random.json", "box.v2__parallel_jaw__antipodal.json"}
+    for item in items:
+        labels = read(next(f for f in item.files if f.suffix == ".json")).labels["status"]
+        assert set(labels) == {"success" if "random" in item.files[0].name else "slipped_lift"}

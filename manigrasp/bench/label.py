@@ -161,13 +161,13 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
                 without_grasp[str(row["status"])] += 1
         stem = run_dir / DATASET_DIR / names[group]
         if not kept:  # no file: and none left of an earlier export (which wrote such trials as NaN grasps)
-            for stale in (stem.with_suffix(native_suffix), stem.with_suffix(".h5")):
+            for stale in (_with_suffix(stem, native_suffix), _with_suffix(stem, ".h5")):
                 stale.unlink(missing_ok=True)
             continue
         first = kept[0]
         hand = hands.load(str(first["hand"]))
         grasps = grasp_set(kept, hand.kind)
-        files = [native.write(grasps, stem.with_suffix(native_suffix))]
+        files = [native.write(grasps, _with_suffix(stem, native_suffix))]
         source = sources.get(object_name(first))
         note = ""
         if hand.kind != "parallel":
@@ -178,11 +178,17 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
         elif not _has_h5py():
             note = "no ACRONYM file: h5py is not installed (the `datasets` extra)"
         else:
-            files.append(acronym.write(_in_visual_frame(grasps, source), stem.with_suffix(".h5")))
+            files.append(acronym.write(_in_visual_frame(grasps, source), _with_suffix(stem, ".h5")))
         successes = int(np.sum(grasps.labels["success"]))
         out.append(Exported(group, str(first["object"]), str(first["hand"]), len(grasps), successes, tuple(files),
                             note, tuple(str(r["trial_id"]) for r in kept)))
     return out, dict(without_grasp)
+
+
+def _with_suffix(stem: Path, suffix: str) -> Path:
+    """`stem` with `suffix` appended (`Path.with_suffix` would replace the part after a dot in an object's name:
+    every set of ``box.v2`` written to ``box.json``, each over the one before)."""
+    return stem.with_name(stem.name + suffix)
 
 
 def grasp_set(rows: list[dict], hand_kind: str) -> GraspSet:
