@@ -49,7 +49,7 @@ def broken_meshes(tmp_path: Path) -> dict[str, Path]:
     ("empty", MeshError, "file is empty"),
     ("garbage", MeshError, "cannot read mesh"),
     ("nan", MeshError, "NaN or infinite"),
-    ("millimetre", MeshUnitsError, "try --scale 0.001"),
+    ("millimetre", MeshUnitsError, "in millimetres, `--scale 0.001`"),
     ("zero_volume", MeshError, "no volume"),
     ("open_sheet", MeshError, "hole filling failed"),
 ])
@@ -62,7 +62,7 @@ def test_broken_mesh_at_the_cli_is_one_line_and_exit_2(broken_meshes, isolated_c
     code = main(["objects", "build", "--mesh", str(broken_meshes["millimetre"])])
     err = capsys.readouterr().err
     assert code == 1
-    assert "try --scale 0.001" in err and "Traceback" not in err
+    assert "--scale 0.001" in err and "Traceback" not in err
     assert main(["objects", "show", "no_such_object"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "available:" in err
@@ -99,6 +99,40 @@ def test_debris_is_dropped_and_recorded():
     mesh, report = validate_and_repair(trimesh.util.concatenate([body, speck]))
     assert mesh.volume == pytest.approx(1e-3)
     assert report.pieces == 2 and any("dropped 1 small" in r for r in report.repairs)
+
+
+def test_overlapping_shells_count_their_shared_volume_once_and_a_cavity_stays():
+    """Two closed boxes sharing 30 mm of length were concatenated: 4.8e-4 m^3 where the solid is 3.36e-4 (its
+    mass and inertia with it); a box inside a box counted both. A cavity (an inward-facing inner shell) is kept."""
+    a = trimesh.creation.box((0.05, 0.06, 0.08))
+    b = trimesh.creation.box((0.05, 0.06, 0.08)).apply_translation([0.02, 0.0, 0.0])
+    mesh, report = validate_and_repair(trimesh.util.concatenate([a, b]))
+    assert mesh.volume == pytest.approx(0.07 * 0.06 * 0.08, rel=1e-5)  # manifold3d works in single precision
+    assert mesh.center_mass == pytest.approx([0.01, 0.0, 0.0], abs=1e-6)
+    assert any("merged into their union" in r for r in report.repairs)
+    inner = trimesh.creation.box((0.08, 0.08, 0.08))
+    mesh, _ = validate_and_repair(trimesh.util.concatenate([trimesh.creation.box((0.1, 0.1, 0.1)), inner]))
+    assert mesh.volume == pytest.approx(1e-3, rel=1e-5)  # the outer box: the inner one lies inside it
+    inner.invert()  # now a cavity
+    mesh, report = validate_and_repair(trimesh.util.concatenate([trimesh.creation.box((0.1, 0.1, 0.1)), inner]))
+    assert mesh.volume == pytest.approx(1e-3 - 0.08**3, rel=1e-9)
+    assert not any("union" in r for r in report.repairs)
+
+
+@pytest.mark.parametrize(("size", "phrases", "absent"), [
+    (30.0, ["in millimetres, `--scale 0.001` (0.03 m)", "in centimetres, `--scale 0.01` (0.3 m)"], []),
+    (600.0, ["in millimetres, `--scale 0.001` (0.6 m)"], ["centimetres"]),
+    (1e7, ["scale it to metres"], ["millimetres"]),
+])
+def test_a_mesh_not_in_metres_is_given_the_scale_of_each_unit_it_fits(size, phrases, absent):
+    """The power of ten nearest 0.15 m was suggested: a 30 mm part in mm got 0.01 (30 cm), a 600 mm crate
+    0.0001 (6 cm)."""
+    with pytest.raises(MeshUnitsError) as error:
+        validate_and_repair(trimesh.creation.box((size, size / 2, size / 3)))
+    for phrase in phrases:
+        assert phrase in str(error.value)
+    for phrase in absent:
+        assert phrase not in str(error.value)
 
 
 def test_mass_inertia_and_frame_of_a_box():

@@ -24,6 +24,11 @@ from manigrasp.errors import MeshError, MeshUnitsError
 MAX_EXTENT_M = 1.5
 MIN_EXTENT_M = 0.005
 DEBRIS_VOLUME_FRACTION = 0.01
+# Pieces whose union is smaller than their summed volume by more than this fraction overlap [-] (manifold3d
+# computes in single precision: disjoint pieces lose up to about 1e-7).
+OVERLAP_TOLERANCE = 1e-4
+# Mesh units other than metres, by their factor to metres (STL and OBJ carry none).
+UNITS = {0.001: "millimetres", 0.01: "centimetres", 0.0254: "inches"}
 
 
 @dataclass
@@ -66,20 +71,22 @@ def validate_and_repair(
 
 
 def check_units(mesh: trimesh.Trimesh, source: str = "mesh") -> None:
-    """Refuse extents that say the mesh is not in metres; suggest a scale."""
+    """Refuse extents that say the mesh is not in metres; say the scale of each usual unit it fits."""
     extent = float(np.max(mesh.extents))
     if MIN_EXTENT_M <= extent <= MAX_EXTENT_M:
         return
-    scale = suggest_scale(extent)
+    options = "; ".join(f"in {UNITS[f]}, `--scale {f:g}` ({extent * f:.3g} m)" for f in suggest_scales(extent))
     raise MeshUnitsError(
-        f"{source}: largest extent is {extent:g} m, outside [{MIN_EXTENT_M:g}, {MAX_EXTENT_M:g}] m; "
-        f"the mesh is probably not in metres: try --scale {scale:g}"
+        f"{source}: largest extent is {extent:g} m, outside [{MIN_EXTENT_M:g}, {MAX_EXTENT_M:g}] m; the mesh is "
+        f"probably not in metres: " + (f"{options} (in a config: `scale:`)" if options else
+                                       "scale it to metres (`--scale`, in a config `scale:`)")
     )
 
 
-def suggest_scale(extent: float) -> float:
-    """The power of ten that brings `extent` [m] closest to a hand-sized 0.15 m."""
-    return float(10.0 ** np.round(np.log10(0.15 / extent)))
+def suggest_scales(extent: float) -> list[float]:
+    """The factors of the usual mesh units (`UNITS`: mm, cm, inch, in that order) that bring `extent` [m] within
+    the extents accepted (a 30-unit part is 3 cm in mm, 30 cm in cm: the file cannot say which)."""
+    return [f for f in UNITS if MIN_EXTENT_M <= extent * f <= MAX_EXTENT_M]
 
 
 def _clean(mesh: trimesh.Trimesh, source: str, report: MeshReport) -> trimesh.Trimesh:
@@ -184,6 +191,24 @@ def _drop_debris(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
     dropped = int((~keep).sum())
     if dropped:
         report.repairs.append(f"dropped {dropped} small disconnected pieces (<1% of the largest volume)")
-    if keep.sum() > 1:
-        report.repairs.append(f"{int(keep.sum())} disconnected pieces kept as one rigid body")
-    return trimesh.util.concatenate([p for p, k in zip(pieces, keep, strict=True) if k])
+    kept = [p for p, k in zip(pieces, keep, strict=True) if k]
+    if len(kept) > 1:
+        report.repairs.append(f"{len(kept)} disconnected pieces kept as one rigid body")
+        kept = _merge_overlaps(kept, report)
+    return trimesh.util.concatenate(kept)
+
+
+def _merge_overlaps(pieces: list[trimesh.Trimesh], report: MeshReport) -> list[trimesh.Trimesh]:
+    """The closed outward-facing `pieces` that overlap (two shells sharing volume, a box inside a box) replaced
+    by their union (manifold3d): concatenated, the shared volume counts twice in the volume, mass, centre of mass
+    and inertia. An inward-facing shell (a cavity: negative volume) or an open piece is kept as it is."""
+    solid = [p for p in pieces if p.is_watertight and p.volume > 0]
+    if len(solid) < 2:
+        return pieces
+    union = trimesh.boolean.union(solid, engine="manifold")
+    summed = float(sum(p.volume for p in solid))
+    if not (union.is_watertight and union.volume < summed * (1.0 - OVERLAP_TOLERANCE)):
+        return pieces
+    report.repairs.append(f"overlapping pieces merged into their union (volume {union.volume:.3g} m^3, "
+                          f"{summed:.3g} summed)")
+    return [union] + [p for p in pieces if not any(p is q for q in solid)]
