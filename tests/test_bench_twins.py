@@ -104,3 +104,22 @@ def test_resting_poses_are_pooled_not_paired_by_rank() -> None:
     assert row.gap_points == pytest.approx(30.0)
     expected = rate(1, 10)
     assert (row.scan_rate.ci_low, row.scan_rate.ci_high) == pytest.approx((expected.ci_low, expected.ci_high))
+
+
+def test_a_ycb_download_is_named_apart_from_its_recipe_and_paired_with_it(tmp_path) -> None:
+    """A YCB folder was named as the folder (`025_mug`), the shipped recipe's name: its trials, reports and
+    grasp sets passed for the recipe's, and a config could not run both (nor did it take a `name` for it)."""
+    import trimesh
+
+    from manigrasp.bench.config import parse_config
+
+    folder = tmp_path / "025_mug"
+    (folder / "google_16k").mkdir(parents=True)
+    trimesh.creation.cylinder(0.04, 0.09).export(folder / "google_16k" / "textured.obj")
+    config = parse_config({"objects": ["025_mug", {"ycb": str(folder)}, {"ycb": str(folder), "name": "mug_real"}],
+                           "planners": ["random"]})
+    assert [o.trial_name() for o in config.objects] == ["025_mug", "025_mug_ycb", "mug_real"]
+    groups = {("parallel_jaw", "antipodal", "ground_truth", "025_mug"): rate(15),
+              ("parallel_jaw", "antipodal", "ground_truth", "025_mug_ycb"): rate(9)}
+    (row,) = twin_rows(groups)
+    assert (row.scan, row.recipe, row.gap_points) == ("025_mug_ycb", "025_mug", pytest.approx(30.0))

@@ -43,7 +43,8 @@ class ObjectEntry:
     """One object of a config: a shipped `name`, or a `mesh` file, or a `ycb` folder.
 
     Attributes:
-        name: shipped object name ("025_mug" or "mug"), or the name given to a mesh.
+        name: shipped object name ("025_mug" or "mug"), or the name given to a mesh or a YCB folder (default: the
+            mesh's file stem, the folder's name + "_ycb").
         mesh: path of a mesh file (OBJ, STL, PLY, GLB/GLTF), relative to the config file.
         ycb: one object folder of a real YCB download.
         scale: factor applied to a mesh's vertices (0.001 for millimetres).
@@ -126,7 +127,7 @@ class ObjectEntry:
             return catalog.ObjectSource(name=name, mesh=str(path), scale=self.scale,
                                         mass=self.mass, density=self.density)
         if self.ycb:
-            return catalog.from_ycb_folder((base / self.ycb).resolve(), mass=self.mass)
+            return catalog.from_ycb_folder((base / self.ycb).resolve(), mass=self.mass, name=self.name)
         if not self.name:
             raise ConfigError("object entry needs 'name', 'mesh' or 'ycb'")
         source = catalog.shipped(self.name)

@@ -1,7 +1,8 @@
 """Scan vs recipe: one physical object as a real scan and as its clean recipe twin, side by side.
 
 A scan is paired with its twin by name: object ``<stem>_scan`` (the shipped scans,
-`manigrasp.objects.scans`, or a user's mesh named that way) with object ``<stem>``
+`manigrasp.objects.scans`, or a user's mesh named that way) or ``<stem>_ycb`` (a real
+YCB download's folder, `manigrasp.objects.catalog.from_ycb_folder`) with object ``<stem>``
 in the same hand x planner x observation (x protocol). The same physical object should
 get the same verdict whatever the mesh's fidelity; the gap between the two rates says
 how far it does not.
@@ -21,6 +22,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from manigrasp.bench.report import Rate, Report, format_rate, pooled_rate
+from manigrasp.objects.catalog import YCB_SUFFIX
 from manigrasp.objects.scans import SCAN_SUFFIX
 
 GAP_POINTS = 10.0  # [percentage points], the largest scan-recipe gap the benchmark accepts
@@ -64,9 +66,10 @@ def twin_rows(groups: Mapping[tuple[str, ...], Rate]) -> list[TwinRow]:
     pooled = _pooled_over_rest(groups)
     rows = []
     for (*method, obj), rate in sorted(pooled.items()):
-        if not obj.endswith(SCAN_SUFFIX):
+        suffix = next((s for s in (SCAN_SUFFIX, YCB_SUFFIX) if obj.endswith(s)), None)
+        if suffix is None:
             continue
-        twin = obj[: -len(SCAN_SUFFIX)]
+        twin = obj[: -len(suffix)]
         twin_rate = pooled.get((*method, twin))
         if twin_rate is not None:
             rows.append(TwinRow(tuple(method), obj, twin, rate, twin_rate))

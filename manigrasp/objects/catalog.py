@@ -3,8 +3,9 @@
 An object is named in one of three ways (`ObjectSource`): a shipped name (a
 recipe, "025_mug" or "mug", or a shipped real scan, "003_cracker_box_scan"), a
 mesh file (with name, scale, mass), or one object folder of a real YCB
-download. `build_many` builds a list of them in parallel worker processes with
-a progress bar; CoACD results are cached on disk.
+download (named ``<folder>_ycb`` unless given a name). `build_many` builds a
+list of them in parallel worker processes with a progress bar; CoACD results
+are cached on disk.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ from manigrasp.objects.meshio import ycb_mesh_file
 from manigrasp.objects.pipeline import DEFAULT_DENSITY, BuildResult, build_object, entry_is_intact
 from manigrasp.paths import cache_dir
 from manigrasp.registry import unknown_name_message
+
+YCB_SUFFIX = "_ycb"  # appended to a YCB download's folder name (`from_ycb_folder`)
 
 
 def default_mesh_name(path: str | Path) -> str:
@@ -124,11 +127,14 @@ def _user_mesh_hint(name: str, cache_root: Path | None = None) -> str:
     return ""
 
 
-def from_ycb_folder(folder: str | Path, mass: float | None = None) -> ObjectSource:
-    """The source of one object folder of a real YCB download (e.g. .../025_mug)."""
+def from_ycb_folder(folder: str | Path, mass: float | None = None, name: str | None = None) -> ObjectSource:
+    """The source of one object folder of a real YCB download (e.g. .../025_mug), named `name` or by default
+    the folder's name with `YCB_SUFFIX` (``025_mug_ycb``: the folder's own name is the shipped recipe's, whose
+    trials, reports and grasp sets it would pass for; the report pairs the two as scan and recipe)."""
     folder = Path(folder)
     ycb_mesh_file(folder)  # fail early with a clear message
-    return ObjectSource(name=folder.name, ycb_folder=str(folder), mass=mass)
+    return ObjectSource(name=name if name is not None else folder.name + YCB_SUFFIX, ycb_folder=str(folder),
+                        mass=mass)
 
 
 def recipe_params(name: str) -> DecompositionParams:
