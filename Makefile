@@ -28,13 +28,14 @@ bench: setup
 
 # Regression gate: fresh runs of quick (parallel jaw) and regression_dexterous (a five-finger hand) compared
 # with their committed baselines; both verdicts are printed, then the worse exit code (1: a significantly lower
-# success rate, 2: not comparable). CI runs it.
+# success rate, 2: not comparable), each compare at alpha 0.025 so that the two together fail a run as good as
+# its baselines by chance less than 5 % of the time. CI runs it.
 regression: setup
 	rm -rf runs/regression runs/regression_dexterous
 	$(BIN)/manigrasp bench quick --out runs/regression --jobs $(JOBS) --quiet
 	$(BIN)/manigrasp bench regression_dexterous --out runs/regression_dexterous --jobs $(JOBS) --quiet
-	$(BIN)/manigrasp compare runs/regression benchmarks/baselines/quick.json; quick=$$?; \
-	$(BIN)/manigrasp compare runs/regression_dexterous benchmarks/baselines/dexterous.json; dexterous=$$?; \
+	$(BIN)/manigrasp compare runs/regression benchmarks/baselines/quick.json --alpha 0.025; quick=$$?; \
+	$(BIN)/manigrasp compare runs/regression_dexterous benchmarks/baselines/dexterous.json --alpha 0.025; dexterous=$$?; \
 	exit $$(( quick > dexterous ? quick : dexterous ))
 
 # The whole suite (what CI runs), on $(JOBS) worker processes (pytest-xdist), each taking whole test files so that
