@@ -286,3 +286,29 @@ def test_each_set_of_an_object_with_a_dot_in_its_name_gets_its_own_file(tmp_path
     for item in items:
         labels = read(next(f for f in item.files if f.suffix == ".json")).labels["status"]
         assert set(labels) == {"success" if "random" in item.files[0].name else "slipped_lift"}
+
+
+def test_a_directory_of_a_resting_pose_dataset_gives_each_pose_its_file(tmp_path):
+    """Under rest: stable_k label names its files '<object>_rest<i>__...'; the file planner looked only for
+    '<object>__<hand>*' and '<object>__*', so one config with the same scene could not evaluate the directory."""
+    from manigrasp import hands
+    from manigrasp.objects import catalog
+    from manigrasp.planners import Observation, plan
+    from manigrasp.planners.context import PlanContext
+    from manigrasp.planners.file import FilePlanner, grasp_file_for
+    from manigrasp.sim.config import SceneConfig
+
+    config = parse_config(dict(CONFIG, scene={"rest": "stable_k", "rest_k": 2}))
+    _store(tmp_path, [Status.SUCCESS, Status.NO_CONTACT], label=f"{CAN}@rest0", rest_index=0)
+    _store(tmp_path, [Status.SUCCESS], label=f"{CAN}@rest1", rest_index=1)
+    exported, _ = export_dataset(tmp_path, config)
+    files = {item.object: Path(item.files[0]) for item in exported}
+    folder = tmp_path / "grasps"
+    for rest in (0, 1):
+        assert grasp_file_for(folder, CAN, "parallel_jaw", rest) == files[f"{CAN}@rest{rest}"]
+    context = PlanContext(0.1, None, 0.5, 0.0, scene=SceneConfig(rest="stable_k", rest_k=2, rest_index=1))
+    assert context.rest_index == 1 and context.scene.rest == "file"
+    observation = Observation.from_asset(catalog.build(catalog.shipped(CAN)).asset, np.eye(4))
+    result = plan(FilePlanner(str(folder)), observation, hands.load("parallel_jaw"), 2, np.random.default_rng(0),
+                  context=context)
+    assert len(result.candidates) == 1  # rest1's one grasp, not rest0's two

@@ -57,6 +57,9 @@ class PlanContext:
             run (compliant or rigid pads). Its object-rest settings (``rest``, ``rest_k``, ``rest_index``) are
             reset to their defaults: a planner's scene puts the object at its observed pose itself, and a
             probe's stand-in object (a point cloud's hull) may not have the run's stable poses.
+        rest_index: the rank of the stable pose the trials place the object in under ``rest: stable_k`` (taken
+            from `scene` before its reset; the group's ``<object>@rest<i>``), else None. The `file` planner picks
+            that pose's file of a `manigrasp label` dataset directory by it.
     """
 
     pregrasp_offset: float
@@ -65,6 +68,7 @@ class PlanContext:
     perturbation: float
     contact_friction: float | None = None
     scene: SceneConfig | None = None
+    rest_index: int | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.pregrasp_offset) and self.pregrasp_offset >= 0):
@@ -81,6 +85,8 @@ class PlanContext:
         if self.scene is not None:
             if not isinstance(self.scene, SceneConfig):
                 raise ConfigError(f"scene must be a SceneConfig or None, got {type(self.scene).__name__}")
+            if self.scene.rest == "stable_k" and self.rest_index is None:
+                object.__setattr__(self, "rest_index", self.scene.rest_index)
             placed = replace(self.scene, rest="file", rest_k=None, rest_index=0)
             if placed != self.scene:
                 object.__setattr__(self, "scene", placed)

@@ -10,9 +10,10 @@ hand) is returned
 marked `invalid`: its trial is recorded as `invalid_grasp`, never dropped. The `n` best grasps by
 score are returned (equal scores keep file order).
 
-`path` may be a directory: the file named ``<object>__<hand>*`` (or ``<object>.*``) with a grasp-file
+`path` may be a directory: the file named ``<object>__<hand>*`` (or ``<object>.*``, ``<object>__*``) with a grasp-file
 suffix is used (the native one when a native and an ACRONYM file share a name), so one config can
-evaluate a whole dataset written by `manigrasp label`.
+evaluate a whole dataset written by `manigrasp label`. Under ``scene: {rest: stable_k}`` each resting pose's
+group takes the file `label` wrote for it, ``<object>_rest<i>__<hand>*`` (`grasp_file_for`), before a plain one.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from manigrasp.graspsets import SUFFIXES, GraspSet, mesh_path, placement_defect,
 from manigrasp.graspsets.model import translation
 from manigrasp.hands.base import Hand
 from manigrasp.planners.base import GraspCandidate, Observation
+from manigrasp.planners.context import PlanContext
 
 
 @functools.lru_cache(maxsize=16)
@@ -47,8 +49,14 @@ def load_grasps(path: str | Path) -> GraspSet:
     return _read_cached(str(path), path.stat().st_mtime_ns)
 
 
-def grasp_file_for(path: str | Path, object_name: str | None, hand_name: str) -> Path:
-    """`path` itself, or in a directory the one grasp file for `object_name` and `hand_name`."""
+def grasp_file_for(path: str | Path, object_name: str | None, hand_name: str, rest_index: int | None = None) -> Path:
+    """`path` itself, or in a directory the one grasp file for `object_name` and `hand_name`: named
+    ``<object>__<hand>*`` or ``<object>__*``; with `rest_index` (``rest: stable_k``) first the one `manigrasp label`
+    writes for that resting pose's group, ``<object>_rest<i>__<hand>*`` (the group ``<object>@rest<i>``, its
+    '@' made safe for a file name), then ``<object>_rest<i>__*``, then the plain names."""
+    from manigrasp.bench.trials import REST_LABEL
+    from manigrasp.record.policy import safe_name
+
     path = Path(path)
     if not path.is_dir():
         return path
@@ -59,7 +67,10 @@ def grasp_file_for(path: str | Path, object_name: str | None, hand_name: str) ->
         if candidate.suffix.lower() in SUFFIXES:
             by_stem.setdefault(candidate.stem, candidate)
     files = sorted(by_stem.values())
-    for stem in (f"{object_name}__{hand_name}", object_name):
+    objects = [safe_name(f"{object_name}{REST_LABEL}{rest_index}")] if rest_index is not None else []
+    objects += [object_name, safe_name(object_name)]
+    stems = [s for obj in objects for s in (f"{obj}__{safe_name(hand_name)}", obj)]
+    for stem in dict.fromkeys(stems):
         found = [p for p in files if p.stem == stem or p.stem.startswith(stem + "__")]
         if len(found) == 1:
             return found[0]
@@ -67,7 +78,7 @@ def grasp_file_for(path: str | Path, object_name: str | None, hand_name: str) ->
             raise PlannerError(f"file planner: {len(found)} grasp files in {path} match {stem!r}: "
                                f"{', '.join(p.name for p in found)}; give one as path")
     raise PlannerError(f"file planner: no grasp file for object {object_name!r} and hand {hand_name!r} in {path} "
-                       f"(expected {object_name}__{hand_name}.json or similar)")
+                       f"(expected {stems[0]}.json or similar)")
 
 
 def _preference(path: Path) -> int:
@@ -96,14 +107,16 @@ class FilePlanner:
     name: ClassVar[str] = "file"
     needs: ClassVar[str] = "mesh"
 
-    def plan(self, observation: Observation, hand: Hand, n: int,
-             rng: np.random.Generator) -> Sequence[GraspCandidate]:
-        """The `n` best grasps of the file on `observation`'s object pose (`rng` is not used)."""
+    def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
+             context: PlanContext | None = None) -> Sequence[GraspCandidate]:
+        """The `n` best grasps of the file on `observation`'s object pose (`rng` is not used; `context` names the
+        resting pose under ``rest: stable_k``, which picks that pose's file of a directory)."""
         from manigrasp.objects import catalog  # a file may name a shipped object by its short name ("mug")
 
         asset = observation.asset
         object_name = asset.name if asset is not None else None
-        grasps = load_grasps(grasp_file_for(self.path, object_name, hand.name))
+        rest_index = context.rest_index if context is not None else None
+        grasps = load_grasps(grasp_file_for(self.path, object_name, hand.name, rest_index))
         if self.check_object and object_name and grasps.object.name \
                 and catalog.full_name(grasps.object.name) != object_name and not same_mesh(grasps, asset):
             raise PlannerError(f"file planner: {grasps.source} holds grasps of object {grasps.object.name!r}, "

@@ -91,11 +91,16 @@ def should_record(policy: RecordPolicy | str, index: int, result: TrialResult | 
     return True if result is None else policy.keeps(result.status)
 
 
+def safe_name(text: str) -> str:
+    """`text` with every character unsafe in a file name (not a letter, digit, '.', '_' or '-') as '_'."""
+    return _UNSAFE.sub("_", text)
+
+
 def trial_file_name(trial_id: str) -> str:
-    """A safe file name for `trial_id`: '/' becomes '__', other unsafe characters '_' (plus a short
-    hash of the id when any were replaced, so distinct ids never share a file)."""
+    """A safe file name for `trial_id`: '/' becomes '__', other unsafe characters '_' (`safe_name`; plus a
+    short hash of the id when any were replaced, so distinct ids never share a file)."""
     joined = trial_id.replace("/", "__")
-    safe = _UNSAFE.sub("_", joined)
+    safe = safe_name(joined)
     if safe != joined or not safe:
         safe += "-" + hashlib.sha1(trial_id.encode()).hexdigest()[:8]
     return safe + SUFFIX
