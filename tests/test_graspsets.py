@@ -291,3 +291,18 @@ def test_a_file_naming_a_shipped_object_by_its_short_name_is_that_object(shifted
         else:
             with pytest.raises(PlannerError, match="holds grasps of object '048_hammer', not '025_mug'"):
                 FilePlanner(str(path)).plan(observation, hand, 1, np.random.default_rng(0))
+
+
+def test_an_acronym_file_records_its_hand_and_claims_the_panda_only_for_the_panda(tmp_path):
+    """write() always wrote gripper/type 'panda' and no hand; read() set no hand, so `evaluate` of a robotiq_2f85
+    dataset ran silently on parallel_jaw."""
+    from manigrasp.graspsets import GraspSet, ObjectRef
+
+    for hand in ("robotiq_2f85", "panda", None):
+        grasps = GraspSet(TOP_DOWN[None], np.array([0.03]), np.zeros(1), np.ones(1), frame="mesh", hand=hand,
+                          hand_kind="parallel", object=ObjectRef(mesh="m.obj"))
+        path = acronym.write(grasps, tmp_path / f"{hand}.h5")
+        assert read(path).hand == hand
+        with h5py.File(path) as handle:
+            gripper = handle["gripper/type"][()].decode() if "gripper/type" in handle else None
+        assert gripper == ("panda" if hand == "panda" else None)

@@ -23,7 +23,8 @@ grasp files:
     scaled by object/scale (a relative object/file is looked for beside the .h5 file, then in its
     parent and grandparent folders: ACRONYM's meshes/ beside grasps/). manigrasp's TCP =
     transform @ [Rz(-90 deg), 0.1034 m along z] for every parallel jaw (manigrasp/graspsets/acronym.py).
-    Its object is named by object/file's stem (a file `manigrasp label` wrote: object/manigrasp/name).
+    Its object is named by object/file's stem (a file `manigrasp label` wrote: object/manigrasp/name;
+    its hand: gripper/manigrasp/hand).
     Needs h5py (`make setup EXTRAS=dev,datasets`).
   Grasps are placed on the object's settled pose. One that cannot be placed (another hand, NaN, not a
   rotation, a width the hand cannot open to) is recorded as invalid_grasp, never dropped. A file with

@@ -22,11 +22,14 @@ they are `invalid_grasp`.
 
 Files written by manigrasp add ``grasps/qualities/manigrasp/*`` (the planner's score as ``planner_score``
 and the set's labels: from `manigrasp label` status, success (1 = the protocol's success; no ``flex/*`` key,
-which would claim ACRONYM's FleX physics), trial id, seed, measures), ``grasps/manigrasp/widths`` and
-``object/manigrasp/name``, the manigrasp object's name (ACRONYM's own keys are as above, so ACRONYM's
-tools read the file). `manigrasp label` sets ``object/file`` to the object's built visual mesh, whose
-frame is manigrasp's object frame, and ``object/manigrasp/built`` to 1: a reader then names the object by
-``object/manigrasp/name`` (`ObjectRef.built`), where a file without it is named by its mesh file's stem.
+which would claim ACRONYM's FleX physics), trial id, seed, measures), ``grasps/manigrasp/widths``,
+``object/manigrasp/name``, the manigrasp object's name, and ``gripper/manigrasp/hand``, the hand the grasps were
+made for (`GraspSet.hand`, read back; ACRONYM's ``gripper/type`` is written, as ``panda``, only when that hand
+is the Panda: the transforms are always in the Panda gripper's frame, the widths and labels are the named hand's).
+ACRONYM's own keys are as above, so ACRONYM's tools read the file. `manigrasp label` sets ``object/file`` to
+the object's built visual mesh, whose frame is manigrasp's object frame, and ``object/manigrasp/built`` to 1: a
+reader then names the object by ``object/manigrasp/name`` (`ObjectRef.built`), where a file without it is named
+by its mesh file's stem.
 """
 
 from __future__ import annotations
@@ -50,6 +53,8 @@ SCORE_KEY = "manigrasp/planner_score"
 WIDTH_KEY = "grasps/manigrasp/widths"
 NAME_KEY = "object/manigrasp/name"
 BUILT_KEY = "object/manigrasp/built"
+HAND_KEY = "gripper/manigrasp/hand"
+PANDA = "panda"  # ACRONYM's gripper/type of the Franka Panda hand, and manigrasp's name of that hand
 
 
 def tcp_from_acronym(transforms: np.ndarray) -> np.ndarray:
@@ -95,11 +100,13 @@ def read(path: str | Path) -> GraspSet:
         widths = handle[WIDTH_KEY][()].astype(float) if WIDTH_KEY in handle else np.full(n, np.nan)
         name = _string(handle[NAME_KEY][()]) if NAME_KEY in handle else None
         built = bool(np.asarray(handle[BUILT_KEY][()]).item()) if BUILT_KEY in handle else False
+        hand = _string(handle[HAND_KEY][()]) if HAND_KEY in handle else None
     scores = labels.get(SCORE_KEY, np.zeros(n)).astype(float)
     mesh_path = _string(mesh)
+    ref = ObjectRef(name=name or Path(mesh_path).stem, mesh=mesh_path, scale=scale, mass=mass,
+                    built=built and bool(name))
     return GraspSet(tcp_from_acronym(transforms.astype(float)), widths, np.zeros(n), scores, frame="mesh",
-                    hand_kind="parallel", object=ObjectRef(name=name or Path(mesh_path).stem, mesh=mesh_path,
-                                                           scale=scale, mass=mass, built=built and bool(name)),
+                    hand=hand, hand_kind="parallel", object=ref,
                     labels=labels, source=str(path))
 
 
@@ -152,7 +159,8 @@ def _text(value: np.ndarray) -> np.ndarray:
 def write(grasps: GraspSet, path: str | Path) -> Path:
     """Write a parallel-jaw `grasps` set in ACRONYM's layout. Its poses must be in the frame of
     ``grasps.object.mesh`` (scaled by ``object.scale``); labels go to ``grasps/qualities/manigrasp/``, the
-    object's name (and `ObjectRef.built`) to ``object/manigrasp/``."""
+    object's name (and `ObjectRef.built`) to ``object/manigrasp/``, the hand to ``gripper/manigrasp/hand``
+    (``gripper/type`` is ``panda`` for the Panda's set only)."""
     h5py = _h5py()
     path = Path(path)
     if grasps.object.mesh is None:
@@ -178,5 +186,8 @@ def write(grasps: GraspSet, path: str | Path) -> Path:
         handle["object/scale"] = float(grasps.object.scale)
         if grasps.object.mass is not None:
             handle["object/mass"] = float(grasps.object.mass)
-        handle["gripper/type"] = "panda"
+        if grasps.hand is not None:
+            handle[HAND_KEY] = str(grasps.hand)
+        if grasps.hand == PANDA:
+            handle["gripper/type"] = PANDA
     return path
