@@ -220,7 +220,7 @@ def test_acronym_write_then_read_keeps_poses_and_labels(tmp_path):
     np.testing.assert_allclose(back.poses, poses, atol=1e-12)
     np.testing.assert_array_equal(back.widths, grasps.widths)
     np.testing.assert_array_equal(back.scores, grasps.scores)
-    assert list(back.labels["manigrasp/status"]) == list(grasps.labels["status"])
+    assert list(back.labels["status"]) == list(grasps.labels["status"])
     assert back.object == ObjectRef(name="m", mesh="m.obj", scale=0.5, mass=0.3)
 
 

@@ -50,7 +50,7 @@ def test_label_writes_every_grasp_with_its_label_in_the_object_frame(labelled):
             assert np.linalg.norm(grasps.poses[i][:3, 3] - (world - obj[:3, 3])) < 1e-3  # upright box: ~no rotation
         h5 = read(item.files[1])  # ACRONYM layout: in the built visual mesh's frame, which is the object frame
         np.testing.assert_allclose(h5.poses, grasps.poses, atol=1e-12)
-        np.testing.assert_array_equal(h5.labels["manigrasp/status"], grasps.labels["status"])
+        np.testing.assert_array_equal(h5.labels["status"], grasps.labels["status"])
     ok, n = summary.success_share()["004_sugar_box"]
     assert n == 6 and ok == sum(s == "success" for s in _statuses(run_dir).values())
 

@@ -15,7 +15,7 @@ grasp files:
     "preshape" (synergy in [0, 1]), "joints" (dexterous hands: the grasp's own hand path
     [[pre-shape...], [squeeze target...]], actuator commands in the hand's actuator order, e.g. joint
     angles [rad]), "score" (higher first); the file may name "hand", "hand_kind" and "object"
-    {name | mesh, scale, mass}. TCP: z = approach (hand toward object), y = closing. A quaternion must
+    {name | mesh, scale, mass, built}. TCP: z = approach (hand toward object), y = closing. A quaternion must
     be unit within 1e-5 (else the file is refused, naming the grasp). NPZ: arrays poses (n,4,4) or
     positions + quaternions, widths, preshapes, scores, joints (n,2,n_act; all-NaN: the hand's own
     path). Full layout: manigrasp/graspsets/native.py.

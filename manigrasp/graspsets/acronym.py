@@ -20,9 +20,10 @@ sits between its own pads, where ACRONYM's grasp puts the object. Jaws are symme
 of the closing axis does not matter. ACRONYM grasps are parallel-jaw grasps: on a dexterous hand
 they are `invalid_grasp`.
 
-Files written by manigrasp add ``grasps/qualities/manigrasp/*`` (the planner's score as ``planner_score``
-and the set's labels: from `manigrasp label` status, success (1 = the protocol's success; no ``flex/*`` key,
-which would claim ACRONYM's FleX physics), trial id, seed, measures), ``grasps/manigrasp/widths``,
+Files written by manigrasp add ``grasps/qualities/manigrasp/*`` (the planner's score as ``planner_score``, read
+back as the scores, and the set's labels, read back by their own names, ``status`` not ``manigrasp/status``:
+from `manigrasp label` status, success (1 = the protocol's success; no ``flex/*`` key, which would claim
+ACRONYM's FleX physics), trial id, seed, measures), ``grasps/manigrasp/widths``,
 ``object/manigrasp/name``, the manigrasp object's name, and ``gripper/manigrasp/hand``, the hand the grasps were
 made for (`GraspSet.hand`, read back; ACRONYM's ``gripper/type`` is written, as ``panda``, only when that hand
 is the Panda: the transforms are always in the Panda gripper's frame, the widths and labels are the named hand's).
@@ -49,7 +50,8 @@ ACRONYM_TO_TCP = np.array([[0.0, 1.0, 0.0, 0.0],
                            [0.0, 0.0, 1.0, ACRONYM_TCP_DEPTH],
                            [0.0, 0.0, 0.0, 1.0]])
 SUFFIXES = (".h5", ".hdf5")
-SCORE_KEY = "manigrasp/planner_score"
+LABEL_PREFIX = "manigrasp/"  # under grasps/qualities/: a set's own labels (read back without it)
+SCORE_KEY = f"{LABEL_PREFIX}planner_score"  # under grasps/qualities/: the scores (not a label)
 WIDTH_KEY = "grasps/manigrasp/widths"
 NAME_KEY = "object/manigrasp/name"
 BUILT_KEY = "object/manigrasp/built"
@@ -101,7 +103,8 @@ def read(path: str | Path) -> GraspSet:
         name = _string(handle[NAME_KEY][()]) if NAME_KEY in handle else None
         built = bool(np.asarray(handle[BUILT_KEY][()]).item()) if BUILT_KEY in handle else False
         hand = _string(handle[HAND_KEY][()]) if HAND_KEY in handle else None
-    scores = labels.get(SCORE_KEY, np.zeros(n)).astype(float)
+    scores = np.asarray(labels.pop(SCORE_KEY, np.zeros(n))).astype(float)
+    labels = _unprefixed(labels, path)
     mesh_path = _string(mesh)
     ref = ObjectRef(name=name or Path(mesh_path).stem, mesh=mesh_path, scale=scale, mass=mass,
                     built=built and bool(name))
@@ -150,6 +153,19 @@ def _qualities(handle: Any, n: int, path: Path) -> dict[str, np.ndarray]:
     return out
 
 
+def _unprefixed(labels: dict[str, np.ndarray], path: Path) -> dict[str, np.ndarray]:
+    """The labels by the names `write` was given: ``manigrasp/status`` as ``status`` (ACRONYM's, ``flex/...``, as
+    they are)."""
+    out: dict[str, np.ndarray] = {}
+    for key, value in labels.items():
+        name = key.removeprefix(LABEL_PREFIX)
+        if name in out:
+            raise GraspFileError(f"{path}: label {name!r} is stored twice (grasps/qualities/{name} and "
+                                 f"grasps/qualities/{LABEL_PREFIX}{name})")
+        out[name] = value
+    return out
+
+
 def _text(value: np.ndarray) -> np.ndarray:
     """Strings stored as bytes (fixed or variable length) as a str array."""
     return np.array([v.decode("utf-8") if isinstance(v, bytes) else str(v) for v in value.ravel()]).reshape(
@@ -172,7 +188,9 @@ def write(grasps: GraspSet, path: str | Path) -> Path:
         handle[f"grasps/qualities/{SCORE_KEY}"] = grasps.scores
         for key, value in grasps.labels.items():
             value = np.asarray(value)
-            name = key if "/" in key else f"manigrasp/{key}"
+            name = key if "/" in key else f"{LABEL_PREFIX}{key}"
+            if name == SCORE_KEY:
+                raise GraspFileError(f"{path}: label {key!r} is the name of the scores' key; rename the label")
             if value.dtype.kind == "U":  # UTF-8 variable-length strings (a detail may hold any character)
                 handle.create_dataset(f"grasps/qualities/{name}", data=value.astype(object),
                                       dtype=h5py.string_dtype())

@@ -35,8 +35,9 @@ class ObjectRef:
         scale: factor applied to the mesh file's vertices (ACRONYM's ``object/scale``).
         mass: [kg], or None.
         built: `mesh` is the built visual mesh of the manigrasp object `name` (an ACRONYM file written by
-            `manigrasp label`): its frame is manigrasp's object frame, and the object is resolved by `name`
-            (a shipped object is built by its name, not from the cached mesh, which is named for the cache).
+            `manigrasp label`, or a native file converted from one): its frame is manigrasp's object frame, and
+            the object is resolved by `name` (a shipped object is built by its name, not from the cached mesh,
+            which is named for the cache).
     """
 
     name: str | None = None

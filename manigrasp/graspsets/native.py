@@ -6,7 +6,9 @@ JSON::
      "hand": "parallel_jaw",                 # optional: the hand the grasps were made for
      "hand_kind": "parallel",                # optional: "parallel" or "dexterous"
      "frame": "object",                      # optional: "object" (default) or "mesh"
-     "object": {"name": "box", "mesh": "box.obj", "scale": 1.0, "mass": 0.2},   # optional, any of these
+     "object": {"name": "box", "mesh": "box.obj", "scale": 1.0, "mass": 0.2},   # optional, any of these;
+                                             # "built": true: the mesh is the built visual mesh of the
+                                             # manigrasp object "name" (`ObjectRef.built`, from `label`'s .h5)
      "grasps": [
        {"pose": [[...4...], [...], [...], [0, 0, 0, 1]],   # TCP in the object frame [m], or:
         "position": [x, y, z], "quaternion": [w, x, y, z],
@@ -22,7 +24,8 @@ JSON::
 NPZ: arrays ``poses`` (n, 4, 4) or ``positions`` (n, 3) with ``quaternions`` (n, 4) (w, x, y, z);
 optional ``widths``, ``preshapes``, ``scores`` (n,), ``joints`` (n, 2, n_actuators) (an all-NaN entry: that
 grasp uses the hand's own path); optional scalars ``hand``, ``hand_kind``, ``frame``,
-``object_name``, ``object_mesh``, ``object_scale``, ``object_mass``; labels as ``label_<name>`` (n,).
+``object_name``, ``object_mesh``, ``object_scale``, ``object_mass``, ``object_built``; labels as
+``label_<name>`` (n,).
 
 The object frame is manigrasp's (origin at the object's centre of mass, axes of its mesh); "mesh"
 means the frame of the object's mesh file scaled by ``object.scale``. TCP: z = approach (hand
@@ -53,7 +56,7 @@ VERSION = 1
 SUFFIXES = (".json", ".npz")
 _TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "grasps")
 _GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label", "joints")
-_OBJECT_KEYS = ("name", "mesh", "scale", "mass")
+_OBJECT_KEYS = ("name", "mesh", "scale", "mass", "built")
 
 
 def read(path: str | Path) -> GraspSet:
@@ -174,8 +177,11 @@ def _object(data: Any, where: str) -> ObjectRef:
     _unknown(data, _OBJECT_KEYS, f"{where}: object")
     scale = _number(data.get("scale"), f"{where}: object scale", 1.0)
     mass = data.get("mass")
+    built = data.get("built", False)
+    if not isinstance(built, bool):
+        raise GraspFileError(f"{where}: object built must be true or false, got {built!r}")
     return ObjectRef(name=data.get("name"), mesh=data.get("mesh"), scale=scale,
-                     mass=None if mass is None else _number(mass, f"{where}: object mass", math.nan))
+                     mass=None if mass is None else _number(mass, f"{where}: object mass", math.nan), built=built)
 
 
 def _unknown(data: dict, valid: tuple[str, ...], where: str) -> None:
@@ -226,7 +232,7 @@ def _read_npz(path: Path) -> GraspSet:
     mass = scalar("object_mass")
     ref = ObjectRef(name=scalar("object_name"), mesh=scalar("object_mesh"),
                     scale=float(scalar("object_scale") or 1.0) if "object_scale" in arrays else 1.0,
-                    mass=None if mass is None else float(mass))
+                    mass=None if mass is None else float(mass), built=bool(scalar("object_built") or False))
     labels = {k.removeprefix("label_"): v for k, v in arrays.items() if k.startswith("label_")}
     joints = arrays["joints"].astype(float) if "joints" in arrays else None
     return GraspSet(poses, column("widths", math.nan), column("preshapes", 0.0), column("scores", 0.0),
@@ -251,8 +257,8 @@ def write(grasps: GraspSet, path: str | Path) -> Path:
 
 def _json_payload(grasps: GraspSet) -> dict[str, Any]:
     ref = grasps.object
-    obj = {k: v for k, v in (("name", ref.name), ("mesh", ref.mesh), ("scale", ref.scale), ("mass", ref.mass))
-           if v is not None}
+    obj = {k: v for k, v in (("name", ref.name), ("mesh", ref.mesh), ("scale", ref.scale), ("mass", ref.mass),
+                             ("built", ref.built or None)) if v is not None}
     rows = []
     for i in range(len(grasps)):
         row: dict[str, Any] = {"pose": _nulls(grasps.poses[i].tolist()), "score": float(grasps.scores[i]),
@@ -284,7 +290,7 @@ def _write_npz(grasps: GraspSet, path: Path) -> None:
                               "scores": grasps.scores, "frame": np.array(grasps.frame),
                               "object_scale": np.array(ref.scale)}
     for key, value in (("hand", grasps.hand), ("hand_kind", grasps.hand_kind), ("object_name", ref.name),
-                       ("object_mesh", ref.mesh), ("object_mass", ref.mass)):
+                       ("object_mesh", ref.mesh), ("object_mass", ref.mass), ("object_built", ref.built or None)):
         if value is not None:
             arrays[key] = np.array(value)
     arrays.update({f"label_{k}": v for k, v in grasps.labels.items()})
