@@ -306,3 +306,53 @@ def test_an_acronym_file_records_its_hand_and_claims_the_panda_only_for_the_pand
         with h5py.File(path) as handle:
             gripper = handle["gripper/type"][()].decode() if "gripper/type" in handle else None
         assert gripper == ("panda" if hand == "panda" else None)
+
+
+def _npz(path: Path, **arrays) -> Path:
+    np.savez(path, poses=np.eye(4)[None], **arrays)
+    return path
+
+
+def _h5_group_transforms(path: Path) -> Path:
+    with h5py.File(path, "w") as f:
+        f["grasps/transforms/a"] = np.eye(4)[None]
+        f["object/file"] = "m.obj"
+        f["object/scale"] = 1.0
+    return path
+
+
+@pytest.mark.parametrize(("make", "message"), [
+    (lambda d: _write_json(d / "label_text.json", {"grasps": [{"pose": GOOD_POSE, "label": "success"}]}),
+     "grasp 0: label must be an object"),
+    (lambda d: _write_json(d / "label_list.json", {"grasps": [{"pose": GOOD_POSE, "label": [1, 2]}]}),
+     "grasp 0: label must be an object"),
+    (lambda d: _write_json(d / "label_value.json", {"grasps": [{"pose": GOOD_POSE, "label": {"s": [1, 2]}}]}),
+     "grasp 0: label 's' must be a string, a number"),
+    (lambda d: _write_json(d / "name.json", {"object": {"name": 25}, "grasps": [{"pose": GOOD_POSE}]}),
+     "object name must be a string, got 25"),
+    (lambda d: _write_json(d / "mesh.json", {"object": {"mesh": ["m.obj"]}, "grasps": [{"pose": GOOD_POSE}]}),
+     "object mesh must be a string"),
+    (lambda d: _write_json(d / "hand.json", {"hand": 3, "grasps": [{"pose": GOOD_POSE}]}), "hand must be a string"),
+    (lambda d: _write_json(d / "kind.json", {"hand_kind": "Parallel", "grasps": [{"pose": GOOD_POSE}]}),
+     "hand_kind must be one of parallel, dexterous, got 'Parallel'"),
+    (lambda d: _write_json(d / "version.json", {"version": 2, "grasps": [{"pose": GOOD_POSE}]}),
+     "version is 2; this manigrasp reads version 1"),
+    (lambda d: _write_json(d / "both.json", {"grasps": [{"pose": GOOD_POSE, "position": [0, 0, 0.1]}]}),
+     "grasp 0: give 'pose' or 'position' and 'quaternion', not both"),
+    (lambda d: _npz(d / "frame.npz", frame=np.array(["object", "mesh"])), "'frame' must be one value, a string"),
+    (lambda d: _npz(d / "framenum.npz", frame=np.array(1.0)), "'frame' must be one value, a string"),
+    (lambda d: _npz(d / "scale.npz", object_scale=np.array(0.0)), "object scale must be a finite number > 0"),
+    (lambda d: _npz(d / "kind.npz", hand_kind=np.array("Parallel")), "hand_kind must be one of parallel, dexterous"),
+    (lambda d: _npz(d / "widths.npz", widths=np.array(["wide"])), "'widths' must be numbers"),
+    (lambda d: _h5_group_transforms(d / "group.h5"), "'grasps/transforms' must be a dataset, not a group"),
+    (lambda d: _h5(d / "name.h5", grasps__transforms=np.eye(4)[None], object__file="m.obj", object__scale=1.0,
+                   object__manigrasp__name=np.array([1, 2])), "'object/manigrasp/name' must be one string"),
+])
+def test_malformed_grasp_files_give_the_one_line_grasp_file_error(tmp_path, make, message):
+    """These raised TypeError, IndexError, AttributeError or ValueError tracebacks, or were read silently wrong
+    (an NPZ object_scale of 0 as 1.0, version 2 as version 1, a pose's 'position' ignored, hand_kind 'Parallel'
+    making every grasp invalid_grasp)."""
+    path = make(tmp_path)
+    with pytest.raises(GraspFileError, match=message) as info:
+        read(path)
+    assert "\n" not in str(info.value) and path.name in str(info.value)

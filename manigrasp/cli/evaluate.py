@@ -28,8 +28,9 @@ grasp files:
     Needs h5py (`make setup EXTRAS=dev,datasets`).
   Grasps are placed on the object's settled pose. One that cannot be placed (another hand, NaN, not a
   rotation, a width the hand cannot open to) is recorded as invalid_grasp, never dropped. A file with
-  missing keys, wrong shapes or NaN scores is refused with a one-line error, and so is a file (of either
-  format) whose grasps are of another object than --object (--any-object runs them anyway)."""
+  missing keys, wrong shapes or types, NaN scores, an unknown hand_kind or version, or a grasp with both
+  "pose" and "position" is refused with a one-line error, and so is a file (of either format) whose grasps
+  are of another object than --object (--any-object runs them anyway)."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:

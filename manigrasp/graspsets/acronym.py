@@ -97,33 +97,49 @@ def read(path: str | Path) -> GraspSet:
         n = len(transforms)
         mesh = _dataset(handle, "object/file", path)
         scale = _scalar(_dataset(handle, "object/scale", path), "object/scale", path)
-        mass = _scalar(handle["object/mass"][()], "object/mass", path) if "object/mass" in handle else None
+        mass = _scalar(_dataset(handle, "object/mass", path), "object/mass", path) if "object/mass" in handle \
+            else None
         labels = _qualities(handle, n, path)
-        widths = handle[WIDTH_KEY][()].astype(float) if WIDTH_KEY in handle else np.full(n, np.nan)
-        name = _string(handle[NAME_KEY][()]) if NAME_KEY in handle else None
-        built = bool(np.asarray(handle[BUILT_KEY][()]).item()) if BUILT_KEY in handle else False
-        hand = _string(handle[HAND_KEY][()]) if HAND_KEY in handle else None
-    scores = np.asarray(labels.pop(SCORE_KEY, np.zeros(n))).astype(float)
+        widths = _numbers(_dataset(handle, WIDTH_KEY, path), WIDTH_KEY, path) if WIDTH_KEY in handle \
+            else np.full(n, np.nan)
+        name = _string(_dataset(handle, NAME_KEY, path), NAME_KEY, path) if NAME_KEY in handle else None
+        built = bool(_scalar(_dataset(handle, BUILT_KEY, path), BUILT_KEY, path)) if BUILT_KEY in handle else False
+        hand = _string(_dataset(handle, HAND_KEY, path), HAND_KEY, path) if HAND_KEY in handle else None
+    scores = _numbers(labels.pop(SCORE_KEY, np.zeros(n)), f"grasps/qualities/{SCORE_KEY}", path)
     labels = _unprefixed(labels, path)
-    mesh_path = _string(mesh)
+    mesh_path = _string(mesh, "object/file", path)
     ref = ObjectRef(name=name or Path(mesh_path).stem, mesh=mesh_path, scale=scale, mass=mass,
                     built=built and bool(name))
-    return GraspSet(tcp_from_acronym(transforms.astype(float)), widths, np.zeros(n), scores, frame="mesh",
-                    hand=hand, hand_kind="parallel", object=ref,
+    poses = tcp_from_acronym(_numbers(transforms, "grasps/transforms", path))
+    return GraspSet(poses, widths, np.zeros(n), scores, frame="mesh", hand=hand, hand_kind="parallel", object=ref,
                     labels=labels, source=str(path))
 
 
-def _string(value: Any) -> str:
-    """A scalar string dataset's text (h5py gives bytes)."""
-    item = np.asarray(value).item()
+def _string(value: Any, key: str, path: Path) -> str:
+    """A scalar string dataset's text (h5py gives bytes); `GraspFileError` if it is not one string."""
+    array = np.asarray(value)
+    if array.size != 1 or array.dtype.kind not in "SOU":
+        raise GraspFileError(f"{path}: {key!r} must be one string, got shape {array.shape}, dtype {array.dtype}")
+    item = array.item()
     return item.decode() if isinstance(item, bytes) else str(item)
+
+
+def _numbers(value: Any, key: str, path: Path) -> np.ndarray:
+    """A dataset's values as floats; `GraspFileError` if it holds something else (text)."""
+    array = np.asarray(value)
+    if array.dtype.kind not in "biuf":
+        raise GraspFileError(f"{path}: {key!r} must be numbers, got dtype {array.dtype}")
+    return array.astype(float)
 
 
 def _dataset(handle: Any, key: str, path: Path) -> np.ndarray:
     if key not in handle:
         raise GraspFileError(f"{path}: missing key {key!r} (ACRONYM layout: grasps/transforms, object/file, "
                              "object/scale)")
-    return np.asarray(handle[key][()])
+    item = handle[key]
+    if not hasattr(item, "shape"):  # an HDF5 group, not a dataset
+        raise GraspFileError(f"{path}: {key!r} must be a dataset, not a group of {', '.join(sorted(item))}")
+    return np.asarray(item[()])
 
 
 def _scalar(value: Any, key: str, path: Path) -> float:

@@ -100,6 +100,12 @@ class GraspSet:
                                  "grasps: give finite scores, or none)")
         if self.frame not in FRAMES:
             raise GraspFileError(f"{where}: frame must be one of {', '.join(FRAMES)}, got {self.frame!r}")
+        if self.hand_kind is not None:
+            from manigrasp.hands.base import HAND_KINDS  # the hands' own list (imported when a set names a kind)
+
+            if self.hand_kind not in HAND_KINDS:
+                raise GraspFileError(f"{where}: hand_kind must be one of {', '.join(HAND_KINDS)}, got "
+                                     f"{self.hand_kind!r}")
         labels = {k: np.asarray(v) for k, v in self.labels.items()}
         for key, value in labels.items():
             if value.shape[:1] != (n,):

@@ -2,7 +2,7 @@
 
 JSON::
 
-    {"format": "manigrasp.grasps", "version": 1,
+    {"format": "manigrasp.grasps", "version": 1,   # optional; another version is refused
      "hand": "parallel_jaw",                 # optional: the hand the grasps were made for
      "hand_kind": "parallel",                # optional: "parallel" or "dexterous"
      "frame": "object",                      # optional: "object" (default) or "mesh"
@@ -11,14 +11,15 @@ JSON::
                                              # manigrasp object "name" (`ObjectRef.built`, from `label`'s .h5)
      "grasps": [
        {"pose": [[...4...], [...], [...], [0, 0, 0, 1]],   # TCP in the object frame [m], or:
-        "position": [x, y, z], "quaternion": [w, x, y, z],
+        "position": [x, y, z], "quaternion": [w, x, y, z],   # (not both: refused)
         "width": 0.05,                       # optional jaw opening at contact [m]
         "preshape": 0.0,                     # optional synergy in [0, 1] (dexterous hands)
         "joints": [[...], [...]],            # optional, dexterous hands: the grasp's own hand path, actuator
                                              # commands (joint angles [rad]) in the hand's actuator order:
                                              # [pre-shape row, squeeze-target row]
         "score": 0.9,                        # optional (default 0), higher first
-        "label": {"status": "success", ...}} # optional (written by `manigrasp label`)
+        "label": {"status": "success", ...}} # optional (written by `manigrasp label`): name: text, number,
+                                             # true/false or null
      ]}
 
 NPZ: arrays ``poses`` (n, 4, 4) or ``positions`` (n, 3) with ``quaternions`` (n, 4) (w, x, y, z);
@@ -79,6 +80,10 @@ def _read_json(path: Path) -> GraspSet:
     _unknown(data, _TOP_KEYS, str(path))
     if data.get("format", FORMAT) != FORMAT:
         raise GraspFileError(f"{path}: format is {data.get('format')!r}, expected {FORMAT!r}")
+    if data.get("version", VERSION) != VERSION:
+        raise GraspFileError(f"{path}: version is {data.get('version')!r}; this manigrasp reads version {VERSION}")
+    for key in ("hand", "hand_kind", "frame"):
+        _text(data.get(key), f"{path}: {key}")
     grasps = data.get("grasps")
     if not isinstance(grasps, list):
         raise GraspFileError(f"{path}: missing key 'grasps' (a list of grasps)")
@@ -92,7 +97,7 @@ def _read_json(path: Path) -> GraspSet:
         widths.append(_width(grasp.get("width"), f"{where}: width"))
         preshapes.append(_number(grasp.get("preshape"), f"{where}: preshape", 0.0))
         scores.append(_number(grasp.get("score"), f"{where}: score", 0.0))
-        labels.append(grasp.get("label") or {})
+        labels.append(_label(grasp.get("label"), f"{where}: label"))
         joints.append(None if grasp.get("joints") is None else _array(grasp["joints"], f"{where}: joints"))
     columns = _label_columns(labels, str(path))
     return GraspSet(np.array(poses).reshape(-1, 4, 4), np.array(widths), np.array(preshapes), np.array(scores),
@@ -102,6 +107,8 @@ def _read_json(path: Path) -> GraspSet:
 
 
 def _pose(grasp: dict, where: str) -> np.ndarray:
+    if "pose" in grasp and ("position" in grasp or "quaternion" in grasp):
+        raise GraspFileError(f"{where}: give 'pose' or 'position' and 'quaternion', not both")
     if "pose" in grasp:
         pose = _array(grasp["pose"], f"{where}: pose")
         if pose.shape != (4, 4):
@@ -171,6 +178,25 @@ def _width(value: Any, where: str) -> float:
     return width
 
 
+def _text(value: Any, where: str) -> str | None:
+    """`value` if it is a string or None; else `GraspFileError`."""
+    if value is not None and not isinstance(value, str):
+        raise GraspFileError(f"{where} must be a string, got {value!r}")
+    return value
+
+
+def _label(value: Any, where: str) -> dict:
+    """A grasp's labels: an object of name: text, number, true/false or null ({} when absent)."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise GraspFileError(f"{where} must be an object of name: value, got {value!r}")
+    for key, item in value.items():
+        if item is not None and not isinstance(item, str | int | float):
+            raise GraspFileError(f"{where} {key!r} must be a string, a number, true/false or null, got {item!r}")
+    return value
+
+
 def _object(data: Any, where: str) -> ObjectRef:
     if not isinstance(data, dict):
         raise GraspFileError(f"{where}: 'object' must be an object with name, mesh, scale or mass")
@@ -180,7 +206,8 @@ def _object(data: Any, where: str) -> ObjectRef:
     built = data.get("built", False)
     if not isinstance(built, bool):
         raise GraspFileError(f"{where}: object built must be true or false, got {built!r}")
-    return ObjectRef(name=data.get("name"), mesh=data.get("mesh"), scale=scale,
+    return ObjectRef(name=_text(data.get("name"), f"{where}: object name"),
+                     mesh=_text(data.get("mesh"), f"{where}: object mesh"), scale=scale,
                      mass=None if mass is None else _number(mass, f"{where}: object mass", math.nan), built=built)
 
 
@@ -209,11 +236,11 @@ def _read_npz(path: Path) -> GraspSet:
     except (OSError, ValueError) as exc:
         raise GraspFileError(f"{path}: not a readable NPZ file ({exc})") from exc
     if "poses" in arrays:
-        poses = arrays["poses"].astype(float)
+        poses = _floats(arrays, "poses", path)
         if poses.ndim != 3 or poses.shape[1:] != (4, 4):
             raise GraspFileError(f"{path}: 'poses' must be (n, 4, 4), got shape {poses.shape}")
     elif "positions" in arrays and "quaternions" in arrays:
-        pos, quat = arrays["positions"].astype(float), arrays["quaternions"].astype(float)
+        pos, quat = _floats(arrays, "positions", path), _floats(arrays, "quaternions", path)
         if pos.ndim != 2 or pos.shape[1] != 3 or quat.shape != (len(pos), 4):
             raise GraspFileError(f"{path}: 'positions' must be (n, 3) and 'quaternions' (n, 4), got "
                                  f"{pos.shape} and {quat.shape}")
@@ -224,20 +251,42 @@ def _read_npz(path: Path) -> GraspSet:
     n = len(poses)
 
     def column(key: str, default: float) -> np.ndarray:
-        return arrays[key].astype(float) if key in arrays else np.full(n, default)
+        return _floats(arrays, key, path) if key in arrays else np.full(n, default)
 
-    def scalar(key: str) -> Any:
-        return arrays[key].item() if key in arrays else None
+    def text(key: str) -> str | None:
+        return _npz_scalar(arrays, key, "U", path)
 
-    mass = scalar("object_mass")
-    ref = ObjectRef(name=scalar("object_name"), mesh=scalar("object_mesh"),
-                    scale=float(scalar("object_scale") or 1.0) if "object_scale" in arrays else 1.0,
-                    mass=None if mass is None else float(mass), built=bool(scalar("object_built") or False))
+    def number(key: str) -> float | None:
+        value = _npz_scalar(arrays, key, "biuf", path)
+        return None if value is None else float(value)
+
+    scale = number("object_scale")
+    ref = ObjectRef(name=text("object_name"), mesh=text("object_mesh"), scale=1.0 if scale is None else scale,
+                    mass=number("object_mass"), built=bool(number("object_built") or False))
     labels = {k.removeprefix("label_"): v for k, v in arrays.items() if k.startswith("label_")}
-    joints = arrays["joints"].astype(float) if "joints" in arrays else None
+    joints = _floats(arrays, "joints", path) if "joints" in arrays else None
     return GraspSet(poses, column("widths", math.nan), column("preshapes", 0.0), column("scores", 0.0),
-                    frame=scalar("frame") or "object", hand=scalar("hand"), hand_kind=scalar("hand_kind"),
+                    frame=text("frame") or "object", hand=text("hand"), hand_kind=text("hand_kind"),
                     object=ref, labels=labels, source=str(path), joints=joints)
+
+
+def _floats(arrays: dict[str, np.ndarray], key: str, path: Path) -> np.ndarray:
+    """NPZ array `key` as floats; `GraspFileError` if it holds something else (text)."""
+    try:
+        return arrays[key].astype(float)
+    except (TypeError, ValueError) as exc:
+        raise GraspFileError(f"{path}: {key!r} must be numbers, got dtype {arrays[key].dtype}") from exc
+
+
+def _npz_scalar(arrays: dict[str, np.ndarray], key: str, kinds: str, path: Path) -> Any:
+    """NPZ scalar `key` (a size-1 array of a dtype kind in `kinds`: "U" text, "biuf" a number), or None if absent."""
+    if key not in arrays:
+        return None
+    value = arrays[key]
+    if value.size != 1 or value.dtype.kind not in kinds:
+        want = "a string" if kinds == "U" else "a number"
+        raise GraspFileError(f"{path}: {key!r} must be one value, {want}; got shape {value.shape}, dtype {value.dtype}")
+    return value.item()
 
 
 def write(grasps: GraspSet, path: str | Path) -> Path:

@@ -15,12 +15,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, get_args
 
 import mujoco
 import numpy as np
 
 HandKind = Literal["parallel", "dexterous"]
+HAND_KINDS: tuple[str, ...] = get_args(HandKind)  # ("parallel", "dexterous")
 
 
 @dataclass(frozen=True)

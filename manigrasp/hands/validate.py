@@ -13,9 +13,7 @@ import mujoco
 import numpy as np
 
 from manigrasp.errors import HandError
-from manigrasp.hands.base import Hand
-
-_KINDS = ("parallel", "dexterous")
+from manigrasp.hands.base import HAND_KINDS, Hand
 
 
 def validate_hand(hand: object) -> None:
@@ -34,8 +32,8 @@ def _fail(hand: Hand, message: str) -> HandError:
 
 
 def _check_metadata(hand: Hand) -> None:
-    if hand.kind not in _KINDS:
-        raise _fail(hand, f"kind {hand.kind!r} is not one of {', '.join(_KINDS)}")
+    if hand.kind not in HAND_KINDS:
+        raise _fail(hand, f"kind {hand.kind!r} is not one of {', '.join(HAND_KINDS)}")
     if not hand.tcp_site:
         raise _fail(hand, "no TCP site declared (tcp_site is empty)")
     if not hand.finger_bodies:
