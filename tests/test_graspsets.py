@@ -356,3 +356,17 @@ def test_malformed_grasp_files_give_the_one_line_grasp_file_error(tmp_path, make
     with pytest.raises(GraspFileError, match=message) as info:
         read(path)
     assert "\n" not in str(info.value) and path.name in str(info.value)
+
+
+def test_a_set_naming_its_hand_but_not_its_kind_is_not_transferred_across_kinds():
+    """With transfer, a set made for a dexterous hand that did not state hand_kind ran on parallel_jaw."""
+    from manigrasp.graspsets import GraspSet, placement_defect
+
+    def defect(hand: str) -> str | None:
+        grasps = GraspSet(TOP_DOWN[None], np.full(1, np.nan), np.zeros(1), np.zeros(1), hand=hand, source="g.json")
+        return placement_defect(grasps, 0, "parallel_jaw", "parallel", 0.085, transfer=True)
+
+    assert defect("inspire_right") == ("grasp 0 of g.json is a dexterous grasp (made for hand 'inspire_right'); "
+                                       "hand 'parallel_jaw' is parallel")
+    assert defect("panda") is None  # a parallel hand's set transfers, as before
+    assert defect("my_own_hand") is None  # an unknown hand: its kind is not known, as before

@@ -4,6 +4,7 @@ labelled into the native format and read back by the `file` planner with the sam
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -114,7 +115,10 @@ def test_a_non_unit_quaternion_is_a_file_error_naming_the_grasp(tmp_path):
 
 def test_joints_of_a_set_on_a_parallel_hand_are_invalid_grasp():
     grasps = _set(np.zeros((2, 2, 6)), hand_kind=None)
-    assert "parallel hand" in placement_defect(grasps, 0, "parallel_jaw", "parallel", 0.1, transfer=True)
+    # A set naming its dexterous hand is that hand's kind: refused on a parallel hand by kind.
+    assert "is a dexterous grasp" in placement_defect(grasps, 0, "parallel_jaw", "parallel", 0.1, transfer=True)
+    anyone = replace(grasps, hand=None)  # a set naming no hand nor kind: its joints make it invalid there
+    assert "parallel hand" in placement_defect(anyone, 0, "parallel_jaw", "parallel", 0.1, transfer=True)
     assert placement_defect(grasps, 0, HAND, "dexterous", 0.1, n_actuators=6) is None
     assert "needs (2, 16)" in placement_defect(grasps, 0, "allegro_right", "dexterous", 0.1, True, 16)
 

@@ -152,12 +152,19 @@ def placement_defect(grasps: GraspSet, index: int, hand_name: str, hand_kind: st
     most `max_width` [m]), as a sentence, or None.
 
     `transfer`: accept a set made for another hand of the same kind (the TCP convention is the same
-    for every hand of a kind, so a parallel-jaw set can run on any parallel jaw). `n_actuators`: the
-    hand's, which a grasp's joints must match ((2, n_actuators)); None: not checked.
+    for every hand of a kind, so a parallel-jaw set can run on any parallel jaw). A set that names its hand but
+    not its kind is of that hand's kind when the hand is registered (`manigrasp.hands.registry.registered_kind`);
+    of an unknown hand, of any kind. `n_actuators`: the hand's, which a grasp's joints must match
+    ((2, n_actuators)); None: not checked.
     """
     prefix = f"grasp {index} of {grasps.source or 'the grasp set'}"
-    if grasps.hand_kind is not None and grasps.hand_kind != hand_kind:
-        return f"{prefix} is a {grasps.hand_kind} grasp; hand {hand_name!r} is {hand_kind}"
+    kind, named = grasps.hand_kind, ""
+    if kind is None and grasps.hand is not None and grasps.hand != hand_name:
+        from manigrasp.hands.registry import registered_kind
+
+        kind, named = registered_kind(grasps.hand), f" (made for hand {grasps.hand!r})"
+    if kind is not None and kind != hand_kind:
+        return f"{prefix} is a {kind} grasp{named}; hand {hand_name!r} is {hand_kind}"
     if grasps.hand is not None and grasps.hand != hand_name and not transfer:
         return f"{prefix} was made for hand {grasps.hand!r}, not {hand_name!r} (planner param transfer: true runs it)"
     problem = rotation_defect(grasps.poses[index])

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import cache
 
-from manigrasp.errors import HandError
+from manigrasp.errors import HandError, ManigraspError
 from manigrasp.hands.base import Hand
 from manigrasp.registry import Registry, import_attribute
 
@@ -40,6 +40,18 @@ for _name, _spec in _BUILTIN.items():
 def names() -> tuple[str, ...]:
     """Names of the registered hands."""
     return HANDS.names()
+
+
+@cache
+def registered_kind(name: str) -> str | None:
+    """The kind ("parallel" or "dexterous") of the registered hand `name`, or None if no hand of that name is
+    registered or it cannot be loaded (a missing extra). A ``module:attribute`` name is not imported."""
+    if name not in HANDS:
+        return None
+    try:
+        return HANDS.load(name).kind
+    except ManigraspError:
+        return None
 
 
 def load(name: str) -> Hand:

@@ -94,7 +94,8 @@ class FilePlanner:
         path: the grasp file (.json, .npz: manigrasp's format; .h5, .hdf5: ACRONYM's layout), or a
             directory of them named ``<object>__<hand>...``. Relative paths are relative to the
             working directory.
-        transfer: run a set made for another hand of the same kind (default: such grasps are `invalid_grasp`).
+        transfer: run a set made for another hand of the same kind (default: such grasps are `invalid_grasp`);
+            a set naming a registered hand but no ``hand_kind`` is of that hand's kind (`placement_defect`).
         check_object: refuse a file that names a different object than the one observed (in either frame: a
             mesh-frame set of another object would be placed by the observed object's centre of mass), unless
             it is a mesh-frame set of the observed object's own mesh file (`same_mesh`).
