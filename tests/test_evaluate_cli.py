@@ -148,3 +148,30 @@ def test_a_grasp_with_a_nan_width_runs_as_invalid_grasp(tmp_path):
     with ResultsStore(tmp_path / "run" / "results.sqlite") as store:
         results = [r for _, r in store.results()]
     assert [r.status for r in results] == [Status.INVALID_GRASP] and "width" in results[0].detail
+
+
+def test_scale_of_a_shipped_object_and_a_mass_of_zero_are_refused_not_dropped(tmp_path, capsys, captured):
+    """--scale 0.5 on a shipped object ran at its real size, recording scale 1.0; --mass 0 was dropped (taken as
+    not given)."""
+    path = _grasp_file(tmp_path / "g.json", object={"name": "025_mug"})
+    out = ["--out", str(tmp_path / "run"), "--quiet"]
+    err = _error(capsys, ["evaluate", str(path), "--scale", "0.5", *out])
+    assert "--scale applies to a mesh --object; '025_mug' is a shipped object" in err
+    assert "mass must be > 0, got 0" in _error(capsys, ["evaluate", str(path), "--mass", "0", *out])
+    mesh = tmp_path / "box.obj"
+    trimesh.creation.box(extents=(0.04, 0.04, 0.04)).export(mesh)
+    box = _grasp_file(tmp_path / "box.json", object={"name": "box", "mesh": mesh.name})
+    assert "scale must be > 0, got 0" in _error(capsys, ["evaluate", str(box), "--scale", "0", *out])
+    assert not captured
+    assert main(["evaluate", str(box), "--scale", "0.5", "--mass", "0.3", *out]) == 0
+    assert (captured[0].objects[0].scale, captured[0].objects[0].mass) == (0.5, 0.3)
+
+
+def test_the_help_says_what_a_nan_width_means_in_each_format():
+    """It said a NaN width is invalid; an NPZ NaN width is 'not given'."""
+    from manigrasp.cli.evaluate import FORMATS_HELP
+
+    text = " ".join(FORMATS_HELP.split())
+    assert "NaN: invalid)" not in text
+    assert '"width" (jaw opening [m]; absent or null: not given; NaN or Infinity: invalid_grasp)' in text
+    assert "widths (NaN: not given; +-inf: invalid_grasp)" in text

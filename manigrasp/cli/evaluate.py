@@ -11,14 +11,15 @@ from manigrasp.cli import run_dir_path
 FORMATS_HELP = """\
 grasp files:
   native (.json, .npz): per grasp the TCP pose in the object's frame (origin at the centre of mass),
-    as "pose" (4x4) or "position" + "quaternion" (w, x, y, z) [m]; optional "width" (jaw opening [m]; NaN: invalid),
+    as "pose" (4x4) or "position" + "quaternion" (w, x, y, z) [m]; optional "width" (jaw opening [m]; absent or
+    null: not given; NaN or Infinity: invalid_grasp),
     "preshape" (synergy in [0, 1]), "joints" (dexterous hands: the grasp's own hand path
     [[pre-shape...], [squeeze target...]], actuator commands in the hand's actuator order, e.g. joint
     angles [rad]), "score" (higher first); the file may name "hand", "hand_kind" and "object"
     {name | mesh, scale, mass, built}. TCP: z = approach (hand toward object), y = closing. A quaternion must
     be unit within 1e-5 (else the file is refused, naming the grasp). NPZ: arrays poses (n,4,4) or
-    positions + quaternions, widths, preshapes, scores, joints (n,2,n_act; all-NaN: the hand's own
-    path). Full layout: manigrasp/graspsets/native.py.
+    positions + quaternions, widths (NaN: not given; +-inf: invalid_grasp), preshapes, scores, joints
+    (n,2,n_act; all-NaN: the hand's own path). Full layout: manigrasp/graspsets/native.py.
   ACRONYM (.h5, .hdf5): grasps/transforms (n,4,4) Panda gripper poses in the frame of object/file
     scaled by object/scale (a relative object/file is looked for beside the .h5 file, then in its
     parent and grandparent folders: ACRONYM's meshes/ beside grasps/). manigrasp's TCP =
@@ -49,7 +50,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--any-object", action="store_true",
                    help="run the grasps on --object even if the file names another object (default: refused, "
                         "as their poses are in that object's frame)")
-    p.add_argument("--scale", type=float, help="scale of a mesh --object (default: the file's, else 1)")
+    p.add_argument("--scale", type=float, help="scale of a mesh --object (default: the file's, else 1); refused "
+                                               "for a shipped object, which has its real size")
     p.add_argument("--mass", type=float, help="object mass [kg] (default: the file's, else from density)")
     p.add_argument("--hand", help="hand name (default: the file's hand, else parallel_jaw)")
     p.add_argument("--protocol", default="standard", help="trial protocol (default standard)")
@@ -125,10 +127,15 @@ def _object_entry(args: argparse.Namespace, grasps) -> dict:
         raise ConfigError(f"{args.grasps} names the shipped object {entry['name']!r}, not the mesh {entry['mesh']}: "
                           "give the mesh a name of its own with --name (and --any-object to run the file's grasps "
                           "on it)")
-    if "mesh" in entry and (args.scale or ref.scale != 1.0):
-        entry["scale"] = args.scale or ref.scale
-    if args.mass or ref.mass:
-        entry["mass"] = args.mass or ref.mass
+    if args.scale is not None and "mesh" not in entry:  # as the config refuses `scale` of a shipped object
+        raise ConfigError(f"--scale applies to a mesh --object; {entry['name']!r} is a shipped object, which has its "
+                          "real size (--mass changes its mass)")
+    scale = args.scale if args.scale is not None else ref.scale
+    if "mesh" in entry and scale != 1.0:
+        entry["scale"] = scale  # the config refuses a scale <= 0
+    mass = args.mass if args.mass is not None else ref.mass
+    if mass is not None:
+        entry["mass"] = mass  # the config refuses a mass <= 0 or below 1 mg
     return entry
 
 
