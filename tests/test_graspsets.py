@@ -370,3 +370,32 @@ def test_a_set_naming_its_hand_but_not_its_kind_is_not_transferred_across_kinds(
                                        "hand 'parallel_jaw' is parallel")
     assert defect("panda") is None  # a parallel hand's set transfers, as before
     assert defect("my_own_hand") is None  # an unknown hand: its kind is not known, as before
+
+
+def test_every_file_trial_names_the_files_grasp_index(tmp_path, monkeypatch):
+    """Trials run the file's grasps best score first, so trial i is not the file's grasp i, and some invalid-grasp
+    details named no index: results could not be joined back to the file's grasps."""
+    from types import SimpleNamespace
+
+    from manigrasp.bench import worker
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.trials import groups
+
+    nan = np.full((4, 4), np.nan).tolist()
+    path = _write_json(tmp_path / "g.json", {"object": {"name": "004_sugar_box"}, "grasps": [
+        {"pose": TOP_DOWN.tolist(), "score": 1.0, "joints": [[0.0], [0.0]]},  # joints on a parallel hand
+        {"pose": nan, "score": 3.0}, {"pose": TOP_DOWN.tolist(), "score": 2.0, "preshape": 2.0}]})
+    asset = catalog.build(catalog.shipped("004_sugar_box")).asset
+    candidates = FilePlanner(str(path)).plan(Observation.from_asset(asset), hands.load("parallel_jaw"), 3,
+                                             np.random.default_rng(0))
+    assert [c.source for c in candidates] == ["file grasp 1", "file grasp 2", "file grasp 0"]
+    # Each trial's detail begins with its grasp's source (the file order), whatever the trial's own detail.
+    stub = SimpleNamespace(hand=hands.load("parallel_jaw"), hand_ctrlrange=lambda: None)
+    monkeypatch.setattr(worker, "scene_for", lambda group: stub)
+    (group,) = groups(parse_config({"objects": ["004_sugar_box"], "planners": [{"name": "file",
+                      "params": {"path": str(path)}}], "grasps_per_object": 3, "protocol": "lift"}))
+    plan = worker.Plan(tuple(candidates), None, 0.1, np.eye(4), None)
+    details = [worker._run_trial(group, i, plan, None)[1].detail for i in range(3)]
+    assert [d.split(": ")[0] for d in details] == ["file grasp 1", "file grasp 2", "file grasp 0"], details
+    assert "NaN" in details[0] and "pre-shape" in details[1] and "joints" in details[2]
+    assert worker.with_source("file grasp 4", "") == "file grasp 4"  # a trial without a detail of its own

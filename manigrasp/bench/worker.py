@@ -196,6 +196,13 @@ def as_stored(pose: np.ndarray) -> np.ndarray:
     return stored if np.allclose(stored, pose, rtol=0.0, atol=1e-12) else pose
 
 
+def with_source(source: str, detail: str) -> str:
+    """A trial's `detail` beginning with its candidate's `source` ("file grasp 7: dropped_lift ..."), if any."""
+    if not source:
+        return detail
+    return f"{source}: {detail}" if detail else source
+
+
 def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, TrialResult]:
     key, seed = group.key(index), group.trial_seed(index)
     planning_time = plan.planning_time_s / max(1, len(plan.candidates))
@@ -221,6 +228,8 @@ def _run_trial(group: Group, index: int, plan: Plan, record) -> tuple[TrialKey, 
                                   observer=recording.observer)
     except Exception as exc:  # protocols never raise for the trial's fault: this is the harness's
         result = TrialResult(Status.HARNESS_FAULT, detail=fault_detail(exc))
-    return key, replace(result, seed=seed, planning_time_s=planning_time, score=float(plan.candidates[index].score),
+    candidate = plan.candidates[index]
+    return key, replace(result, detail=with_source(candidate.source, result.detail), seed=seed,
+                        planning_time_s=planning_time, score=float(candidate.score),
                         wall_time_s=time.perf_counter() - start if math.isnan(result.wall_time_s)
                         else result.wall_time_s)

@@ -27,7 +27,8 @@ grasp files:
     Its object is named by object/file's stem (a file `manigrasp label` wrote: object/manigrasp/name;
     its hand: gripper/manigrasp/hand).
     Needs h5py (`make setup EXTRAS=dev,datasets`).
-  Grasps are placed on the object's settled pose. One that cannot be placed (another hand, NaN, not a
+  Grasps are placed on the object's settled pose and run best score first: every trial's detail begins
+  "file grasp i" (i: the grasp's index in the file, from 0). One that cannot be placed (another hand, NaN, not a
   rotation, a width the hand cannot open to) is recorded as invalid_grasp, never dropped. A file with
   missing keys, wrong shapes or types, NaN scores, an unknown hand_kind or version, or a grasp with both
   "pose" and "position" is refused with a one-line error, and so is a file (of either format) whose grasps

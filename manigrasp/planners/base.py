@@ -171,6 +171,9 @@ class GraspCandidate:
             target (the command at synergy 1, past contact). The protocol drives
             ctrl(s) = (1 - s) joints[0] + s joints[1] from s = `preshape`. None: the hand's own
             open/closed synergy. Parallel hands take None.
+        source: where the grasp came from, for joining a trial back to it ("" if nothing to say): the `file`
+            planner's "file grasp 7" (its index in the file). Its trial's detail begins with it
+            (`manigrasp.bench.worker.run_trial`).
     """
 
     pose: np.ndarray
@@ -187,6 +190,7 @@ class GraspCandidate:
     planning_time_s: float = 0.0
     invalid: str = ""
     joints: np.ndarray | None = None
+    source: str = ""
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__

@@ -8,7 +8,9 @@ observes (the settled pose, or the estimated one under ``observation: estimated_
 hand, NaN, not a rotation, a width the hand cannot open to, a pre-shape outside [0, 1], joints on a parallel
 hand) is returned
 marked `invalid`: its trial is recorded as `invalid_grasp`, never dropped. The `n` best grasps by
-score are returned (equal scores keep file order).
+score are returned (equal scores keep file order), so trial i is the i-th best grasp, not the file's grasp i:
+each candidate's `source` is "file grasp j" (j: its index in the file, from 0), and every trial's detail begins
+with it ("file grasp 7", "file grasp 7: <the protocol's detail>"), which joins results back to the file.
 
 `path` may be a directory: the file named ``<object>__<hand>*`` (or ``<object>.*``, ``<object>__*``) with a grasp-file
 suffix is used (the native one when a native and an ACRONYM file share a name), so one config can
@@ -32,6 +34,8 @@ from manigrasp.graspsets.model import translation
 from manigrasp.hands.base import Hand
 from manigrasp.planners.base import GraspCandidate, Observation
 from manigrasp.planners.context import PlanContext
+
+SOURCE = "file grasp"  # a candidate's `source`: "file grasp <its index in the file>"
 
 
 @functools.lru_cache(maxsize=16)
@@ -129,7 +133,7 @@ class FilePlanner:
                                       hand.n_actuators)
             width = float(grasps.widths[index])
             fields = dict(score=float(grasps.scores[index]), width=width if np.isfinite(width) else None,
-                          planner=self.name)
+                          planner=self.name, source=f"{SOURCE} {index}")
             if defect:
                 out.append(GraspCandidate(pose=np.full((4, 4), np.nan), invalid=defect, **fields))
             else:
