@@ -199,7 +199,7 @@ def _label(value: Any, where: str) -> dict:
 
 def _object(data: Any, where: str) -> ObjectRef:
     if not isinstance(data, dict):
-        raise GraspFileError(f"{where}: 'object' must be an object with name, mesh, scale or mass")
+        raise GraspFileError(f"{where}: 'object' must be an object with name, mesh, scale, mass or built")
     _unknown(data, _OBJECT_KEYS, f"{where}: object")
     scale = _number(data.get("scale"), f"{where}: object scale", 1.0)
     mass = data.get("mass")

@@ -96,7 +96,8 @@ class FilePlanner:
 
     Attributes:
         path: the grasp file (.json, .npz: manigrasp's format; .h5, .hdf5: ACRONYM's layout), or a
-            directory of them named ``<object>__<hand>...``. Relative paths are relative to the
+            directory of them named ``<object>__<hand>...`` (``<object>_rest<i>__<hand>...`` per resting pose
+            under ``rest: stable_k``, `grasp_file_for`). Relative paths are relative to the
             working directory.
         transfer: run a set made for another hand of the same kind (default: such grasps are `invalid_grasp`);
             a set naming a registered hand but no ``hand_kind`` is of that hand's kind (`placement_defect`).
