@@ -517,7 +517,7 @@ def test_console_pose_errors_carry_the_symmetry_caveat_of_the_markdown(tmp_path,
     assert main(["report", str(make_run(tmp_path / "run", results))]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
     assert "rotation median 180.0 deg (p90 180.0; not meaningful for symmetric objects)" in line
-    assert "100% of 1 estimated pose (one per object, or object x resting pose) with ADD-S < 5 mm" in line
+    assert "100% of 1 pose estimate (one per object, or object x resting pose) with ADD-S < 5 mm" in line
 
 
 def test_pose_errors_count_estimates_of_resting_poses_not_objects(tmp_path, capsys):
@@ -528,7 +528,39 @@ def test_pose_errors_count_estimates_of_resting_poses_not_objects(tmp_path, caps
                             pose_add_s_mm=1.0)) for obj in ("004_sugar_box", "025_mug") for k in range(2)]
     assert main(["report", str(make_run(tmp_path / "run", results))]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
-    assert "100% of 4 estimated poses (one per object, or object x resting pose)" in line
+    assert "100% of 4 pose estimates (one per object, or object x resting pose)" in line
+
+
+def test_failed_pose_estimates_are_counted_and_not_good(tmp_path, capsys):
+    """Of three objects, two estimates failed (their trials planner_error "perception failed", no pose stored):
+    the table read "share 1.00" over the one estimate left, with nothing saying two had failed."""
+    results = []
+    for obj, ok in (("a", True), ("b", False), ("c", False)):
+        for i in range(2):
+            r = (TrialResult(Status.SUCCESS, pose_rotation_error_deg=1.0, pose_translation_error_mm=0.2,
+                             pose_add_s_mm=1.0) if ok else
+                 TrialResult(Status.PLANNER_ERROR, detail="perception failed: estimated_pose of b: no model fits"))
+            results.append((TrialKey(obj, "parallel_jaw", "antipodal", "estimated_pose", "standard", i), r))
+    report = summarize(results)
+    errors = report.pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
+    assert (errors.objects, errors.failed) == (1, 2)
+    assert errors.share_add_s_5mm_translation_1cm == pytest.approx(1 / 3)
+    assert report_from_json(json.loads(json.dumps(report.to_json()))).pose_errors == report.pose_errors
+    old = json.loads(json.dumps(report.to_json()))
+    del old["pose_errors"][0]["failed"]  # a report written before the count
+    assert report_from_json(old).pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")].failed == 0
+    run = make_run(tmp_path / "run", results)
+    assert main(["report", str(run)]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
+    assert "33% of 3 pose estimates (one per object, or object x resting pose; 2 failed)" in line
+    assert "| 3 (2 failed) |" in (run / "report.md").read_text()
+    every = [(k, r) for k, r in results if k.object != "a"]  # every estimate failed: no figures, still counted
+    errors = summarize(every).pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
+    assert (errors.objects, errors.failed, errors.share_add_s_5mm_translation_1cm) == (0, 2, 0.0)
+    run = make_run(tmp_path / "every", every)
+    assert main(["report", str(run)]) == 0
+    assert "every one of 2 pose estimates failed" in capsys.readouterr().out
+    assert "| 2 (2 failed) | - | - | - | 0.00 |" in (run / "report.md").read_text()
 
 
 def test_harness_faults_are_named_and_left_out_of_the_rates(tmp_path, capsys):

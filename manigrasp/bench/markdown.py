@@ -16,6 +16,7 @@ from manigrasp.bench.report import (
     PLANNING_TIME_HEADER,
     POOLED,
     Method,
+    PoseErrors,
     Rate,
     Report,
     format_auc,
@@ -65,16 +66,22 @@ def _perception(report: Report) -> list[str]:
 
     for m, r in sorted(report.by_method.items(), key=lambda item: order(item[0])):
         e = report.pose_errors.get(m)
-        errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}", f"{e.median_translation_mm:.1f} / "
-                  f"{e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}", f"{e.share_add_s_5mm_translation_1cm:.2f}"
-                  ) if e else ("-", "-", "-", "-")
+        errors = (_estimates(e), f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}",
+                  f"{e.median_translation_mm:.1f} / {e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}",
+                  f"{e.share_add_s_5mm_translation_1cm:.2f}") if e and e.objects else (
+                      (_estimates(e), "-", "-", "-", "0.00") if e else ("-", "-", "-", "-", "-"))
         views = report.views.get(m, 0)
         rows.append([*method_cells(report, m), views or "-", format_rate(r), *errors])
     return ["## Observations side by side (perception in the loop)",
-            _table([*method_headers(report), "camera views", "rate [95% CI]",
+            _table([*method_headers(report), "camera views", "rate [95% CI]", "pose estimates (failed)",
                     "rotation error deg (median / p90; not meaningful for symmetric objects)",
                     "translation error mm (median / p90)", "ADD-S mm (median)",
-                    "share with ADD-S < 5 mm & translation < 1 cm"], rows)]
+                    "share with ADD-S < 5 mm & translation < 1 cm (a failed estimate is not)"], rows)]
+
+
+def _estimates(errors: PoseErrors) -> str:
+    """The pose estimates attempted (one per object, or object x resting pose) and how many failed."""
+    return f"{errors.objects + errors.failed} ({errors.failed} failed)" if errors.failed else str(errors.objects)
 
 
 def auc_rows(report: Report) -> list[list[str]]:

@@ -20,7 +20,7 @@ import numpy as np
 from manigrasp.bench.stats import AUC_INTERVAL_MIN_CLASS, AucEstimate, auc_with_interval, wilson_interval
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.errors import ConfigError
-from manigrasp.protocol.result import PLANNER_FAILURES, Status, TrialResult
+from manigrasp.protocol.result import PERCEPTION_FAILED, PLANNER_FAILURES, Status, TrialResult
 from manigrasp.runfiles import STORE_NAME
 
 # Metrics whose power to predict physical success is reported (column, higher-is-better sign).
@@ -123,11 +123,14 @@ class PoseErrors:
     Attributes:
         objects: estimated poses (groups with one; the JSON field keeps this name).
         median_rotation_deg, p90_rotation_deg, median_translation_mm, p90_translation_mm,
-        median_add_s_mm: statistics over those objects.
-        share_add_s_5mm_translation_1cm: fraction of objects whose pose is good: ADD-S < 5 mm and translation
-            < 1 cm (ADD-S, not the rotation error, so a symmetric object turned onto itself counts as good;
-            the rotation statistics are not meaningful for symmetric objects). An older report named it
-            ``share_within_5deg_1cm``, though no angle is tested; `report_from_json` reads that name too.
+        median_add_s_mm: statistics over those objects (NaN if none).
+        share_add_s_5mm_translation_1cm: fraction of the attempted estimates (`objects` + `failed`) whose pose is
+            good: ADD-S < 5 mm and translation < 1 cm (ADD-S, not the rotation error, so a symmetric object turned
+            onto itself counts as good; the rotation statistics are not meaningful for symmetric objects); a
+            failed estimate is not good. An older report named it ``share_within_5deg_1cm``, though no angle is
+            tested; `report_from_json` reads that name too.
+        failed: estimates that failed (the object not in view, no model fits: the group's trials are
+            `planner_error` "perception failed"); an older report has none recorded (0).
     """
 
     objects: int
@@ -137,14 +140,17 @@ class PoseErrors:
     p90_translation_mm: float
     median_add_s_mm: float
     share_add_s_5mm_translation_1cm: float
+    failed: int = 0
 
     @classmethod
-    def of(cls, per_object: list[tuple[float, float, float]]) -> PoseErrors:
-        """From (rotation [deg], translation [mm], ADD-S [mm]) per object."""
+    def of(cls, per_object: list[tuple[float, float, float]], failed: int = 0) -> PoseErrors:
+        """From (rotation [deg], translation [mm], ADD-S [mm]) per object, and the count of failed estimates."""
+        if not per_object:
+            return cls(0, *[math.nan] * 5, 0.0, failed)
         rot, trans, adds = (np.array(v, float) for v in zip(*per_object, strict=True))
-        within = float(np.mean((adds < 5.0) & (trans < 10.0)))
+        within = float(np.sum((adds < 5.0) & (trans < 10.0))) / (len(per_object) + failed)
         return cls(len(per_object), float(np.median(rot)), float(np.percentile(rot, 90)),
-                   float(np.median(trans)), float(np.percentile(trans, 90)), float(np.median(adds)), within)
+                   float(np.median(trans)), float(np.percentile(trans, 90)), float(np.median(adds)), within, failed)
 
 
 # The observation of a method is the trial key's observation label: its kind, with the camera setup's suffix
@@ -261,7 +267,7 @@ def _pose_errors(data: dict) -> PoseErrors:
     data = dict(data)
     if "share_within_5deg_1cm" in data:
         data.setdefault("share_add_s_5mm_translation_1cm", data.pop("share_within_5deg_1cm"))
-    return PoseErrors(**{k: data[k] for k in PoseErrors.__dataclass_fields__})
+    return PoseErrors(**{k: data[k] for k in PoseErrors.__dataclass_fields__ if k in data or k != "failed"})
 
 
 def _recorded_protocol(data: dict) -> str:
@@ -316,14 +322,18 @@ def summarize(results: list[tuple[TrialKey, TrialResult]]) -> Report:
 def pose_errors(by_group: dict[Group, list[TrialResult]]) -> dict[Method, PoseErrors]:
     """Pose-error statistics per method, over the objects whose pose was estimated: one estimate per group (its
     trials share it), read from the first of its trials that stores it (a trial that timed out or whose worker
-    died stores none, `runner._failed_trial`)."""
+    died stores none, `runner._failed_trial`); an estimate that failed (`PoseErrors.failed`) counts as not good."""
     per_method: dict[Method, list[tuple[float, float, float]]] = defaultdict(list)
+    failed: dict[Method, int] = defaultdict(int)
     for group, results in sorted(by_group.items()):
         first = next((r for r in results if not math.isnan(r.pose_rotation_error_deg)), None)
         if first is not None:
             per_method[group[:4]].append(
                 (first.pose_rotation_error_deg, first.pose_translation_error_mm, first.pose_add_s_mm))
-    return {k: PoseErrors.of(v) for k, v in per_method.items()}
+        elif group[2].partition("@")[0] == "estimated_pose" and any(
+                r.status is Status.PLANNER_ERROR and r.detail.startswith(PERCEPTION_FAILED) for r in results):
+            failed[group[:4]] += 1
+    return {k: PoseErrors.of(per_method.get(k, []), failed.get(k, 0)) for k in sorted({*per_method, *failed})}
 
 
 # Statuses of trials that never reached the simulator: they have no metrics to rank.

@@ -26,7 +26,7 @@ from manigrasp.bench.observe import ObservationInfo, observe_with_info
 from manigrasp.bench.store import TrialKey, joints_text
 from manigrasp.bench.trials import Group
 from manigrasp.errors import ManigraspError, PerceptionError
-from manigrasp.protocol.result import PoseRecord, Status, TrialResult, short_plan_detail
+from manigrasp.protocol.result import PERCEPTION_FAILED, PoseRecord, Status, TrialResult, short_plan_detail
 from manigrasp.record.policy import trial_recording
 
 _SCENES: dict[tuple, object] = {}
@@ -124,7 +124,7 @@ def plan_group(group: Group) -> Plan:
         stage = "scoring the planned contacts"
         planned = _planned_metrics(group, scene, result.candidates, pose)
     except PerceptionError as exc:
-        return Plan.failed(group, Status.PLANNER_ERROR, f"perception failed: {exc}"[:800])
+        return Plan.failed(group, Status.PLANNER_ERROR, f"{PERCEPTION_FAILED}: {exc}"[:800])
     except ManigraspError as exc:  # planners.plan turns anything a planner raises into a PlannerError
         status = Status.PLANNER_ERROR if stage == "planning" else Status.HARNESS_FAULT
         detail = str(exc) if stage == "planning" else f"{stage}: {fault_detail(exc)}"

@@ -129,12 +129,16 @@ def _print_tables(report, meta: dict) -> None:
                        [[*method_cells(report, m), r.trials, r.successes, format_rate(r), _top_modes(r.failure_modes),
                          format_planning_time(r)] for m, r in report.by_method.items()]))
     for m, e in report.pose_errors.items():
+        if not e.objects:
+            print(f"pose errors {'/'.join(method_cells(report, m))}: every one of {e.failed} pose estimate"
+                  f"{'s' if e.failed != 1 else ''} failed")
+            continue
         print(f"pose errors {'/'.join(method_cells(report, m))}: rotation median {e.median_rotation_deg:.1f} deg "
               f"(p90 {e.p90_rotation_deg:.1f}; not meaningful for symmetric objects), translation median "
               f"{e.median_translation_mm:.1f} mm "
-              f"(p90 {e.p90_translation_mm:.1f}), {e.share_add_s_5mm_translation_1cm:.0%} of {e.objects} estimated "
-              f"pose{'s' if e.objects != 1 else ''} (one per object, or object x resting pose) with ADD-S < 5 mm and "
-              "translation < 1 cm")
+              f"(p90 {e.p90_translation_mm:.1f}), {e.share_add_s_5mm_translation_1cm:.0%} of {e.objects + e.failed} "
+              f"pose estimate{'s' if e.objects + e.failed != 1 else ''} (one per object, or object x resting pose"
+              f"{f'; {e.failed} failed' if e.failed else ''}) with ADD-S < 5 mm and translation < 1 cm")
     print("\nEach metric's ROC AUC for success [95% bootstrap CI]; n: simulated trials with a value (successes)")
     print(format_table([*headers, "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)))
     print()

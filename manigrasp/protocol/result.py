@@ -51,6 +51,10 @@ class Status(StrEnum):
 PLANNER_FAILURES = frozenset({Status.PLANNER_ERROR, Status.NO_GRASP})
 """The statuses of a trial that failed in the planner, before any grasp was executed (`Status`)."""
 
+PERCEPTION_FAILED = "perception failed"
+"""How the detail of a `Status.PLANNER_ERROR` trial begins when its group's pose estimate or point cloud failed (the
+object not in view, no model fits): the report counts such estimates (`manigrasp.bench.report.PoseErrors.failed`)."""
+
 
 class Phase(StrEnum):
     """A phase of a trial (`manigrasp.protocol.phases`; `TrialRun.phase` runs one).
