@@ -182,7 +182,9 @@ def test_descent_lowers_the_energy_and_brings_pads_onto_a_sphere_without_penetra
     chosen = choose_pads(sdf, pads, inspire.pad_finger)[0]
     d = np.abs(Sphere(tuple(centre), 0.04).sdf(pads[0, chosen])[0])
     assert np.sum(d < 0.002) >= 3  # at least three fingers' pads on the surface (within 2 mm)
-    assert terms["penetration"][best] < 1e-4 and terms["table"][best] == 0.0  # [m] summed over samples
+    # [m] summed over the hand's samples: the energy keeps it small (1 cm costs as much as a unit force imbalance),
+    # the selection's MuJoCo check bounds it (`test_planner_returns_deterministic_valid_grasps_that_do_not_penetrate`)
+    assert terms["penetration"][best] < 5e-4 and terms["table"][best] == 0.0
     assert terms["force_closure"][best] < 0.5 < np.median(before)
 
 
@@ -504,7 +506,11 @@ def test_fingers_pressed_into_the_object_are_retracted_out_of_it_by_opening(tmp_
                          cache_root=tmp_path).asset
     observation = Observation.from_asset(asset)
     hand = load_hand("inspire_right")
-    planner = DexOptPlanner(restarts=8, iterations=60)
+    # A grasp planned with fixed weights (those of before 4 Dec 2026): the test is of `_retract_fingers`, not of the
+    # energy, and another grasp presses other joints in.
+    weights = dataclasses.replace(DEFAULT_WEIGHTS, penetration=1000.0, table=1000.0, self_penetration=1000.0,
+                                  centroid=1.0)
+    planner = DexOptPlanner(restarts=8, iterations=60, weights=weights)
     grasp = planner.synthesise(observation, hand, 1, np.random.default_rng(5))[0]
     hk = planner.kinematics(hand)
     probe = HandProbe(hand, observation, clearance=0.0)
