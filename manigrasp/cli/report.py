@@ -32,12 +32,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "compare", help="exit 1 if a success rate is significantly lower than a baseline's",
         description="One-sided two-proportion z-tests per hand x planner x observation x protocol x object group "
                     "present in both (Holm-corrected across groups), per hand x planner x observation x protocol "
-                    "over its groups in both (Holm-corrected across them), and over all groups in both pooled. "
-                    "Groups found on one side only are listed; an incomplete run is noted. Exit 0: no significant "
-                    "regression; 1: a regression; 2: cannot judge (different protocol, planner, hand, object, "
-                    "physics or grasps_per_object, an object x hand in both that one side leaves out (`exclude`), "
-                    "or cameras where perception groups are compared; no common trials, a malformed baseline, "
-                    "alpha outside (0, 1)).")
+                    "over its groups in both (Holm-corrected across them), and over all groups in both pooled; "
+                    "each of the three families at a third of alpha, so that a run as good as its baseline fails by "
+                    "chance less often than alpha. Groups found on one side only are listed; an incomplete run is "
+                    "noted. Exit 0: no significant regression; 1: a regression; 2: cannot judge (different "
+                    "protocol, planner, hand, object, physics or grasps_per_object, an object x hand in both that "
+                    "one side leaves out (`exclude`), or cameras where perception groups are compared; no common "
+                    "trials, a malformed baseline, alpha outside (0, 1)).")
     p.add_argument("run_dir", type=Path, metavar="RUN_DIR")
     p.add_argument("baseline", type=Path, metavar="BASELINE",
                    help="a baseline run directory or JSON file (`manigrasp report RUN_DIR --json > FILE`)")
