@@ -98,3 +98,37 @@ def config_key(config, index: int) -> str:
 
     (group,) = groups(config)
     return group.key(index).trial_id
+
+
+def test_a_trial_that_overran_or_died_names_its_candidates_source_as_a_finished_one_does():
+    """A `file` planner's trial begins its detail with "file grasp j" (its grasp's index in the file), but one
+    whose worker overran its budget or died had only "trial ran over ...": the trials a user most needs to join
+    back to the file."""
+    import numpy as np
+
+    from manigrasp.bench.pool import Outcome, Task
+    from manigrasp.bench.trials import groups
+    from manigrasp.bench.worker import Plan
+    from manigrasp.planners.base import GraspCandidate
+
+    config = parse_config({"objects": ["025_mug"], "planners": ["random"], "grasps_per_object": 2})
+    (group,) = groups(config)
+    candidates = tuple(GraspCandidate(pose=np.eye(4), score=1.0, source=f"file grasp {j}") for j in (7, 3))
+    plan = Plan(candidates, None, 0.1, np.eye(4), None)
+
+    class _Pool:
+        def __init__(self) -> None:
+            self.tasks: list[Task] = []
+
+        def submit(self, task: Task, first: bool = False) -> None:
+            self.tasks.append(task)
+
+        def outcomes(self):
+            yield Outcome(self.tasks[0], "done", value=plan)
+            yield Outcome(self.tasks[1], "timeout", detail="ran over its 60 s budget")
+            yield Outcome(self.tasks[2], "died", detail="worker died")
+
+    results = dict(runner._run_tasks(_Pool(), [group], {id(group): [0, 1]}, None))
+    details = {key.grasp_index: r.detail for key, r in results.items()}
+    assert details[1] == "file grasp 3: trial ran over its 60 s budget"
+    assert details[0] == "file grasp 7: trial worker died"

@@ -42,7 +42,8 @@ def test_markdown_section_shows_counts_rates_and_verdicts() -> None:
     assert title == "## Scan vs recipe"
     lines = table.splitlines()
     assert len(lines) == 2 + 2
-    assert "| 003_cracker_box | 6/20 |" in lines[2] and "| 19/20 |" in lines[2] and "| +65.0 | no |" in lines[2]
+    assert "| 003_cracker_box | 003_cracker_box_scan | 6/20 |" in lines[2] and "| 19/20 |" in lines[2]
+    assert "| +65.0 | no |" in lines[2]
     assert lines[3].endswith("| +5.0 | yes |")
 
 
@@ -112,6 +113,7 @@ def test_a_ycb_download_is_named_apart_from_its_recipe_and_paired_with_it(tmp_pa
     import trimesh
 
     from manigrasp.bench.config import parse_config
+    from manigrasp.errors import ConfigError
 
     folder = tmp_path / "025_mug"
     (folder / "google_16k").mkdir(parents=True)
@@ -119,6 +121,10 @@ def test_a_ycb_download_is_named_apart_from_its_recipe_and_paired_with_it(tmp_pa
     config = parse_config({"objects": ["025_mug", {"ycb": str(folder)}, {"ycb": str(folder), "name": "mug_real"}],
                            "planners": ["random"]})
     assert [o.trial_name() for o in config.objects] == ["025_mug", "025_mug_ycb", "mug_real"]
+    for shipped in ("025_mug", "mug", "003_cracker_box_scan"):  # passing for a shipped object again: refused
+        entry = parse_config({"objects": [{"ycb": str(folder), "name": shipped}], "planners": ["random"]}).objects[0]
+        with pytest.raises(ConfigError, match="is a shipped object's"):
+            entry.source()  # as a mesh entry's, when the run builds its objects
     groups = {("parallel_jaw", "antipodal", "ground_truth", "025_mug"): rate(15),
               ("parallel_jaw", "antipodal", "ground_truth", "025_mug_ycb"): rate(9)}
     (row,) = twin_rows(groups)

@@ -195,7 +195,7 @@ def test_bad_parameters_are_refused() -> None:
         DexOptPlanner(weights={"nonsense": 1.0})
     planner = planner_registry.load("dexopt", weights={"distance": 50.0})
     assert planner.weights.distance == 50.0 and planner.name == "dexopt"
-    # the terms not named keep the planner's defaults (not EnergyWeights' own: penetration 1000, not 100)
+    # the terms not named keep the planner's defaults (not EnergyWeights' own: centroid 10, not 0)
     assert dataclasses.replace(planner.weights, distance=DEFAULT_WEIGHTS.distance) == DEFAULT_WEIGHTS
 
 

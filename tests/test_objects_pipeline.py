@@ -110,12 +110,18 @@ def test_overlapping_shells_count_their_shared_volume_once_and_a_cavity_stays():
     assert mesh.volume == pytest.approx(0.07 * 0.06 * 0.08, rel=1e-5)  # manifold3d works in single precision
     assert mesh.center_mass == pytest.approx([0.01, 0.0, 0.0], abs=1e-6)
     assert any("merged into their union" in r for r in report.repairs)
+    assert not any("pieces kept" in r for r in report.repairs)  # one piece left
     inner = trimesh.creation.box((0.08, 0.08, 0.08))
     mesh, _ = validate_and_repair(trimesh.util.concatenate([trimesh.creation.box((0.1, 0.1, 0.1)), inner]))
     assert mesh.volume == pytest.approx(1e-3, rel=1e-5)  # the outer box: the inner one lies inside it
     inner.invert()  # now a cavity
     mesh, report = validate_and_repair(trimesh.util.concatenate([trimesh.creation.box((0.1, 0.1, 0.1)), inner]))
     assert mesh.volume == pytest.approx(1e-3 - 0.08**3, rel=1e-9)
+    assert not any("union" in r for r in report.repairs)
+    rattle = trimesh.creation.icosphere(subdivisions=3, radius=0.02)  # a solid inside the cavity: kept whole
+    mesh, report = validate_and_repair(trimesh.util.concatenate([trimesh.creation.box((0.1, 0.1, 0.1)), inner,
+                                                                 rattle]))
+    assert mesh.volume == pytest.approx(1e-3 - 0.08**3 + rattle.volume, rel=1e-9)
     assert not any("union" in r for r in report.repairs)
 
 

@@ -28,7 +28,7 @@ from manigrasp.bench.extras import install_hint
 from manigrasp.bench.pool import Outcome, Pool, Task
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.bench.trials import Group, groups
-from manigrasp.bench.worker import Plan, plan_group, run_trial
+from manigrasp.bench.worker import Plan, plan_group, run_trial, with_source
 from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.protocol.result import Status, TrialResult
 from manigrasp.record.policy import RecordPolicy, RecordSettings, recording_problem, trial_file_name
@@ -352,7 +352,10 @@ def _run_tasks(pool, pending: list[Group], todo: dict, settings) -> Iterator[tup
         elif outcome.kind == "done":
             yield outcome.value
         else:
-            yield group.key(index[0]), _failed_trial(group, index[0], outcome)
+            plan = outcome.task.args[2]
+            candidates = getattr(plan, "candidates", ())
+            source = candidates[index[0]].source if index[0] < len(candidates) else ""
+            yield group.key(index[0]), _failed_trial(group, index[0], outcome, source)
 
 
 def _iter_inline(pending: list[Group], todo: dict, jobs: int, address: str | None, settings
@@ -374,9 +377,12 @@ def _failed_plan(group: Group, outcome: Outcome) -> Plan:
     return Plan.failed(group, Status.HARNESS_FAULT, f"planning failed: {outcome.detail}")
 
 
-def _failed_trial(group: Group, index: int, outcome: Outcome) -> TrialResult:
+def _failed_trial(group: Group, index: int, outcome: Outcome, source: str = "") -> TrialResult:
+    """The result of a trial whose worker overran its budget or died; its detail begins with the candidate's
+    `source` as a finished trial's does (the `file` planner's "file grasp j")."""
     status = Status.TIMEOUT if outcome.kind == "timeout" else Status.HARNESS_FAULT
-    return TrialResult(status, detail=f"trial {outcome.detail}"[:800], seed=group.trial_seed(index))
+    return TrialResult(status, detail=with_source(source, f"trial {outcome.detail}")[:800],
+                       seed=group.trial_seed(index))
 
 
 def _iter_ray(pending: list[Group], todo: dict, jobs: int, address: str | None, settings

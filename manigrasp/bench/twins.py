@@ -103,17 +103,18 @@ def markdown_section(report: Report) -> list[str]:
         return []
     protocols = len({r.method[3:] for r in rows}) > 1  # a run with several protocols: say which
     header = ["hand", "planner", "observation", *(["protocol"] if protocols else []), "object (recipe twin)",
-              "scan: successes/trials",
+              "scan", "scan: successes/trials",
               "scan rate [95% CI]", "recipe: successes/trials", "recipe rate [95% CI]", "gap [points]",
               f"within {GAP_POINTS:g} points"]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:
-        cells = [*r.method[:4 if protocols else 3], r.recipe, f"{r.scan_rate.successes}/{r.scan_rate.trials}",
+        cells = [*r.method[:4 if protocols else 3], r.recipe, r.scan, f"{r.scan_rate.successes}/{r.scan_rate.trials}",
                  format_rate(r.scan_rate),
                  f"{r.recipe_rate.successes}/{r.recipe_rate.trials}", format_rate(r.recipe_rate),
                  f"{r.gap_points:+.1f}", _verdict(r)]  # .0f showed 10.4 as "+10 | no"
         lines.append("| " + " | ".join(cells) + " |")
-    note = ("The same physical object as a real scan (`<name>_scan`) and as its clean recipe twin (`<name>`), each "
+    note = ("The same physical object as a real scan (`<name>_scan`, or a YCB download's `<name>_ycb`) and as its "
+            "clean recipe twin (`<name>`), each "
             "over all of its resting poses where the run has several (`rest: stable_k`: a pose's rank is not the "
             "same physical pose on two meshes); gap = recipe rate - scan rate. The benchmark asks for a gap within "
             f"{GAP_POINTS:g} points wherever the recipe can be grasped; rates with 95 % Wilson intervals.")

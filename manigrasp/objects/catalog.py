@@ -86,6 +86,9 @@ class ObjectSource:
                 scans.is_scan(self.name) and Path(self.mesh) == scans.get(self.name).path):
             raise ConfigError(f"mesh {self.mesh}: the name {self.name!r} is a shipped object's; give the mesh a name "
                               "of its own (--name / name:)")
+        if self.ycb_folder is not None and is_shipped_name(self.name):
+            raise ConfigError(f"YCB folder {self.ycb_folder}: the name {self.name!r} is a shipped object's; give it "
+                              f"a name of its own (name:; by default {Path(self.ycb_folder).name + YCB_SUFFIX})")
 
 
 def full_name(name: str) -> str:

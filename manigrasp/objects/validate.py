@@ -193,15 +193,20 @@ def _drop_debris(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
         report.repairs.append(f"dropped {dropped} small disconnected pieces (<1% of the largest volume)")
     kept = [p for p, k in zip(pieces, keep, strict=True) if k]
     if len(kept) > 1:
-        report.repairs.append(f"{len(kept)} disconnected pieces kept as one rigid body")
         kept = _merge_overlaps(kept, report)
+    if len(kept) > 1:
+        report.repairs.append(f"{len(kept)} disconnected pieces kept as one rigid body")
     return trimesh.util.concatenate(kept)
 
 
 def _merge_overlaps(pieces: list[trimesh.Trimesh], report: MeshReport) -> list[trimesh.Trimesh]:
     """The closed outward-facing `pieces` that overlap (two shells sharing volume, a box inside a box) replaced
     by their union (manifold3d): concatenated, the shared volume counts twice in the volume, mass, centre of mass
-    and inertia. An inward-facing shell (a cavity: negative volume) or an open piece is kept as it is."""
+    and inertia. A mesh with an inward-facing shell (a cavity: negative volume) is kept as it is: a solid inside
+    the cavity (a rattle, a container's contents) lies within the outer shell without overlapping the material,
+    and the union of the outward shells would swallow it."""
+    if any(p.volume < 0 for p in pieces):
+        return pieces
     solid = [p for p in pieces if p.is_watertight and p.volume > 0]
     if len(solid) < 2:
         return pieces
