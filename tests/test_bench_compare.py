@@ -439,3 +439,23 @@ def test_a_run_as_good_as_its_baseline_fails_the_gate_less_often_than_alpha(base
     draws = 600
     failed = sum(bool(compare(draw(), draw(), alpha=0.05).regressions) for _ in range(draws))
     assert failed / draws < 0.05
+
+
+def test_a_family_that_repeats_anothers_tests_takes_no_share_of_alpha():
+    """One method of one group: the pooled, method and group lines are one test, and each was tested at a third of
+    alpha (26/40 against 34/40: p = 0.02 on each line, adjusted to 0.06, no regression at 0.05)."""
+    from manigrasp.bench.report import Rate, Report
+    from manigrasp.bench.stats import wilson_interval
+
+    def report(successes: int, objects: tuple[str, ...] = ("025_mug",)) -> Report:
+        rate = Rate(40, successes, successes / 40, *wilson_interval(successes, 40))
+        return Report(overall=rate, by_method={}, groups={("parallel_jaw", "antipodal", "ground_truth", "standard",
+                                                           o): rate for o in objects})
+
+    verdict = compare(report(26), report(34), alpha=0.05)
+    assert {c.kind for c in verdict.regressions} == {"pooled", "method", "group"}
+    assert all(c.adjusted_p < 0.025 for c in verdict.comparisons)  # not tripled: the families are one
+    two = compare(report(26, ("025_mug", "048_hammer")), report(34, ("025_mug", "048_hammer")), alpha=0.05)
+    pooled = next(c for c in two.comparisons if c.kind == "pooled")
+    method = next(c for c in two.comparisons if c.kind == "method")
+    assert pooled.adjusted_p == method.adjusted_p  # one method: its line is the pooled line, both at half of alpha

@@ -5,10 +5,11 @@ missing on either side are listed (a run with several protocols compares, agains
 of that protocol). One-sided pooled two-proportion z-tests per group, per hand x planner x observation x protocol
 over its groups in both, and over all groups in both pooled. The gate fails if any of the three families (the
 pooled line, the method lines, the group lines) flags, so each family gets a third of alpha (Bonferroni across
-the `FAMILIES`), and within one the p-values are Holm-Bonferroni corrected (across groups, across methods): the
-chance that a run as good as its baseline fails the gate stays under alpha. (With each family at the whole
-alpha, runs drawn at the committed baselines' own rates on both sides failed the gate 8.6 % of the time at
-alpha 0.05; one family at a time 2.4-5.4 %.) The per-method and all-groups lines are
+the families; a half or all of it where a family repeats another's tests: one method's line is the pooled line,
+a method of one group is that group's test), and within one the p-values are Holm-Bonferroni corrected (across
+groups, across methods): the chance that a run as good as its baseline fails the gate stays under alpha.
+(With each family at the whole alpha, runs drawn at the committed baselines' own rates on both sides failed the
+gate 8.6 % of the time at alpha 0.05; one family at a time 2.4-5.4 %.) The per-method and all-groups lines are
 stratified by group (Cochran-Mantel-Haenszel, `stats.stratified_lower_than_baseline`): their pooled counts are
 shown, but pooled counts would also test the mix of groups, and fewer trials of an easy object on one side (its
 harness faults, left out of every count) read as a regression where no group's rate moved. A group that one
@@ -48,9 +49,9 @@ from manigrasp.errors import ConfigError
 POOLED_GROUP = "pooled (groups in both)"
 METHOD_WORDS = "hand x planner x observation x protocol"
 GROUP_WORDS = f"{METHOD_WORDS} x object"
-FAMILIES = 3  # the pooled line, the method lines, the group lines: each tested at alpha / FAMILIES
 P_NOTE = (f"p (adjusted): one-sided; Holm-adjusted across the {GROUP_WORDS} groups and, apart, across the "
-          f"{METHOD_WORDS} lines, then each family (groups, methods, the pooled line) x 3, its share of alpha, "
+          f"{METHOD_WORDS} lines, then each family (groups, methods, the pooled line) x the number of families "
+          "(3; fewer where one repeats another: a single method, methods of one group each), its share of alpha, "
           "so that a run as good as its baseline fails by chance less often than alpha; the lines over several "
           "groups show their pooled counts and are tested stratified by group (Cochran-Mantel-Haenszel; difference: "
           "Mantel-Haenszel), so a different mix of groups alone is no regression")
@@ -375,9 +376,12 @@ def compare(new: Report, base: Report, alpha: float = 0.05, partial: set[Group] 
     tests = [_stratified("/".join(m) + " (objects in both)",
                          [(new.groups[k], base.groups[k]) for k in common if k[:4] == m]) for m in methods]
     groups = [_test("/".join(k), new.groups[k], base.groups[k]) for k in common]
+    # A family that repeats another's tests is not counted: one method's line is the pooled line, and a method of
+    # one group is that group's test.
+    families = 1 + (len(methods) > 1) + (len(common) > len(methods))
     out = []
     for kind, family in (("pooled", [overall]), ("method", tests), ("group", groups)):
-        adjusted = [min(1.0, FAMILIES * p) for p in _holm([t[3].p_value for t in family])]
+        adjusted = [min(1.0, families * p) for p in _holm([t[3].p_value for t in family])]
         out += [Comparison(*t, p, p < alpha, kind) for t, p in zip(family, adjusted, strict=True)]
     return Verdict(out, only_new, only_base, [], left)
 
