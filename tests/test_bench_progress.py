@@ -132,3 +132,22 @@ def test_a_trial_that_overran_or_died_names_its_candidates_source_as_a_finished_
     details = {key.grasp_index: r.detail for key, r in results.items()}
     assert details[1] == "file grasp 3: trial ran over its 60 s budget"
     assert details[0] == "file grasp 7: trial worker died"
+
+
+def test_a_run_whose_store_holds_trials_this_version_does_not_name_is_not_resumed(tmp_path, monkeypatch):
+    """A YCB download's object was named as its folder (025_mug) and is now 025_mug_ycb: resumed, a run of the old
+    naming accepted the config (run.json records the entry, not the name) and ran every trial again under the new
+    name, the old ones kept (the report showed both, and Scan vs recipe paired the scan with itself)."""
+    import pytest
+
+    from manigrasp.bench.store import ResultsStore, TrialKey
+    from manigrasp.errors import ConfigError
+
+    config = _run_with(monkeypatch, [Status.SUCCESS, Status.NO_CONTACT, Status.SUCCESS])
+    runner.run_benchmark(config, tmp_path / "run", progress=False)
+    runner.run_benchmark(config, tmp_path / "run", progress=False)  # resumed as it is: nothing to refuse
+    with ResultsStore(tmp_path / "run" / "results.sqlite") as store:  # a trial of a group named otherwise
+        store.add(TrialKey("025_mug_old", "parallel_jaw", "random", "ground_truth", "standard", 0),
+                  TrialResult(Status.SUCCESS))
+    with pytest.raises(ConfigError, match="does not name for the run's config"):
+        runner.run_benchmark(config, tmp_path / "run", progress=False)

@@ -199,6 +199,10 @@ def run_benchmark(
         # folder of another run is refused before minutes of building, and a broken mesh leaves no run.json
         # (with that mesh's hash) that would refuse the corrected rerun.
         existing = rundir.check(run_dir, config, base)
+        if existing is not None and (run_dir / STORE_NAME).exists():
+            store, stored = _open_store(run_dir)
+            store.close()
+            _refuse_unnamed(run_dir, stored, all_groups)
         _prebuild_objects(all_groups, jobs, progress)
         meta = rundir.start(run_dir, config, existing, base, grip_limits(config))
         settings = RecordSettings.for_run(run_dir, policy)
@@ -270,6 +274,19 @@ def _record_stored(run_dir: Path, policy: RecordPolicy, done: set[str], base: Pa
     except ManigraspError as exc:  # the results stand; only the recordings are missing
         print(f"manigrasp: the stored trials could not be recorded: {exc}", file=sys.stderr)
         return None
+
+
+def _refuse_unnamed(run_dir: Path, stored: set[str], all_groups: list[Group]) -> None:
+    """Refuse to resume a run whose store holds trials this code does not name for the run's config: the code that
+    ran them named a group otherwise (a YCB download's object was its folder's name, `025_mug`, before it was
+    `025_mug_ycb`), and resumed the run would hold the same trials under both names."""
+    named = {g.key(i).trial_id for g in all_groups for i in range(g.n_grasps)}
+    stray = sorted(stored - named)
+    if stray:
+        raise ConfigError(f"{run_dir} stores {len(stray)} trial(s) that this version does not name for the run's "
+                          f"config (e.g. {stray[0]}): the version that ran them named its groups otherwise (a YCB "
+                          "download's object is named <folder>_ycb since 4 Dec 2026); resumed, the run would hold "
+                          "them twice under two names. Use another --out to start a new run")
 
 
 def _open_store(run_dir: Path) -> tuple[ResultsStore, set[str]]:
