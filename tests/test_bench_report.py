@@ -557,6 +557,8 @@ def test_failed_pose_estimates_are_counted_and_not_good(tmp_path, capsys):
     every = [(k, r) for k, r in results if k.object != "a"]  # every estimate failed: no figures, still counted
     errors = summarize(every).pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
     assert (errors.objects, errors.failed, errors.share_add_s_5mm_translation_1cm) == (0, 2, 0.0)
+    back = report_from_json(json.loads(json.dumps(summarize(every).to_json())))
+    assert math.isnan(next(iter(back.pose_errors.values())).median_rotation_deg)  # not None
     run = make_run(tmp_path / "every", every)
     assert main(["report", str(run)]) == 0
     assert "every one of 2 pose estimates failed" in capsys.readouterr().out

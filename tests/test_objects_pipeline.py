@@ -141,6 +141,13 @@ def test_a_mesh_not_in_metres_is_given_the_scale_of_each_unit_it_fits(size, phra
         assert phrase not in str(error.value)
 
 
+def test_the_units_hint_is_for_the_file_when_a_scale_was_given():
+    """A 30 mm part in mm given scale 0.1 (3 m): the hint said `--scale 0.01` (0.03 m), which gives 0.3 m."""
+    with pytest.raises(MeshUnitsError) as error:
+        validate_and_repair(trimesh.creation.box((3.0, 1.5, 1.0)), scale=0.1)
+    assert "at scale 0.1" in str(error.value) and "in millimetres, `--scale 0.001` (0.03 m)" in str(error.value)
+
+
 def test_mass_inertia_and_frame_of_a_box():
     """A 0.1 x 0.06 x 0.04 m box of 0.3 kg: I = m/12 (b^2 + c^2) about each axis, frame at the COM."""
     box = trimesh.creation.box((0.1, 0.06, 0.04)).apply_translation([0.3, -0.2, 0.1])

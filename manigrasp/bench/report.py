@@ -267,7 +267,8 @@ def _pose_errors(data: dict) -> PoseErrors:
     data = dict(data)
     if "share_within_5deg_1cm" in data:
         data.setdefault("share_add_s_5mm_translation_1cm", data.pop("share_within_5deg_1cm"))
-    return PoseErrors(**{k: data[k] for k in PoseErrors.__dataclass_fields__ if k in data or k != "failed"})
+    values = {k: data[k] for k in PoseErrors.__dataclass_fields__ if k in data or k != "failed"}
+    return PoseErrors(**{k: _nan(v) for k, v in values.items()})  # JSON writes NaN as null
 
 
 def _recorded_protocol(data: dict) -> str:

@@ -106,7 +106,7 @@ def build_object(
                         "simplify_quadric_decimation or Blender's Decimate, to ~50000 faces")
     if scale != 1.0:
         mesh.apply_scale(scale)
-    mesh, report = validate_and_repair(mesh, source=label, convex_hull_fallback=convex_hull_fallback)
+    mesh, report = validate_and_repair(mesh, source=label, convex_hull_fallback=convex_hull_fallback, scale=scale)
     props = mass_properties(mesh, mass, density)
     mesh.apply_translation(-props.com)
     root = Path(cache_root) if cache_root is not None else cache_dir()

@@ -43,7 +43,7 @@ class MeshReport:
 
 
 def validate_and_repair(
-    mesh: trimesh.Trimesh, *, source: str = "mesh", convex_hull_fallback: bool = False
+    mesh: trimesh.Trimesh, *, source: str = "mesh", convex_hull_fallback: bool = False, scale: float = 1.0
 ) -> tuple[trimesh.Trimesh, MeshReport]:
     """A repaired copy of `mesh` and the report of what was done.
 
@@ -52,6 +52,7 @@ def validate_and_repair(
         source: name used in messages (file path or object name).
         convex_hull_fallback: if holes cannot be closed, use the convex hull
             instead of refusing (recorded as a repair).
+        scale: the factor already applied to the file's vertices (the units hint is for the file).
 
     Raises:
         MeshError: empty, non-finite, open beyond repair, or zero volume.
@@ -65,21 +66,24 @@ def validate_and_repair(
         volume = float(mesh.volume)
     if volume <= 1e-12:
         raise MeshError(f"{source}: mesh encloses no volume (flat or degenerate)")
-    check_units(mesh, source)
+    check_units(mesh, source, scale)
     report.watertight = bool(mesh.is_watertight)
     return mesh, report
 
 
-def check_units(mesh: trimesh.Trimesh, source: str = "mesh") -> None:
-    """Refuse extents that say the mesh is not in metres; say the scale of each usual unit it fits."""
+def check_units(mesh: trimesh.Trimesh, source: str = "mesh", scale: float = 1.0) -> None:
+    """Refuse extents that say the mesh is not in metres; say the scale of each usual unit the file (before the
+    `scale` already applied) fits."""
     extent = float(np.max(mesh.extents))
     if MIN_EXTENT_M <= extent <= MAX_EXTENT_M:
         return
-    options = "; ".join(f"in {UNITS[f]}, `--scale {f:g}` ({extent * f:.3g} m)" for f in suggest_scales(extent))
+    raw = extent / scale
+    options = "; ".join(f"in {UNITS[f]}, `--scale {f:g}` ({raw * f:.3g} m)" for f in suggest_scales(raw))
+    given = f" at scale {scale:g}" if scale != 1.0 else ""
     raise MeshUnitsError(
-        f"{source}: largest extent is {extent:g} m, outside [{MIN_EXTENT_M:g}, {MAX_EXTENT_M:g}] m; the mesh is "
-        f"probably not in metres: " + (f"{options} (in a config: `scale:`)" if options else
-                                       "scale it to metres (`--scale`, in a config `scale:`)")
+        f"{source}: largest extent is {extent:g} m{given}, outside [{MIN_EXTENT_M:g}, {MAX_EXTENT_M:g}] m; the "
+        f"file is probably not in metres: " + (f"{options} (in a config: `scale:`)" if options else
+                                               "scale it to metres (`--scale`, in a config `scale:`)")
     )
 
 
