@@ -8,16 +8,17 @@ pooled line, the method lines, the group lines) flags, so each family gets a thi
 the families; a half or all of it where a family repeats another's tests: one method's line is the pooled line,
 a method of one group is that group's test), and within one the p-values are Holm-Bonferroni corrected (across
 groups, across methods): the chance that a run as good as its baseline fails the gate stays under alpha.
-(With each family at the whole alpha, runs drawn at the committed baselines' own rates on both sides failed the
-gate 8.6 % of the time at alpha 0.05; one family at a time 2.4-5.4 %.) The per-method and all-groups lines are
-stratified by group (Cochran-Mantel-Haenszel, `stats.stratified_lower_than_baseline`): their pooled counts are
-shown, but pooled counts would also test the mix of groups, and fewer trials of an easy object on one side (its
-harness faults, left out of every count) read as a regression where no group's rate moved. A group that one
-side holds only part of (fewer trials stored than its `grasps_per_object`, an interrupted run) is not compared
-and is listed: its first trials are a ranked planner's first candidates, not the population of all of them.
-The z-tests are normal approximations: with few trials per group they are anti-conservative (2/2 against 0/2
-gives p = 0.023 where Fisher's exact test gives 0.17); the corrections keep the gate's error rate, and a small
-group alone decides little.
+(Runs drawn at the committed baselines' own rates on both sides fail the gate 2.3 % (quick) and 3.3 %
+(dexterous) of the time at alpha 0.05, against 8.5 and 8.6 % with each family at the whole alpha:
+`benchmarks/bench_gate.py`.) The per-method and all-groups lines are stratified by group
+(Cochran-Mantel-Haenszel, `stats.stratified_lower_than_baseline`): their pooled counts are shown, but pooled
+counts would also test the mix of groups, and fewer trials of an easy object on one side (its harness faults,
+left out of every count) read as a regression where no group's rate moved. A group that one side holds only part
+of (fewer trials stored than its `grasps_per_object`, an interrupted run) is not compared and is listed: its
+first trials are a ranked planner's first candidates, not the population of all of them. The z-tests are normal
+approximations: with few trials per group they are anti-conservative (2/2 against 0/2 gives p = 0.023 where
+Fisher's exact test gives 0.17); the corrections keep the gate's error rate, and a small group alone decides
+little.
 
 A gate that cannot fail is no gate: anything it cannot judge raises `ConfigError` (exit 2 at the CLI): an
 alpha outside (0, 1), counts that are not counts (successes > trials, NaN, negative), no trials in common,
