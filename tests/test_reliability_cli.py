@@ -219,3 +219,38 @@ def test_a_ctrl_c_while_the_commands_load_is_one_line_not_a_traceback(capsys, mo
     monkeypatch.setattr(manigrasp.cli, "build_parser", interrupted)
     assert main(["bench", "quick"]) == 130
     assert capsys.readouterr().err == "manigrasp: interrupted\n"
+
+
+def test_perceive_takes_a_shipped_scan_and_report_out_a_file_is_one_line(tmp_path, monkeypatch, capsys):
+    """`perceive` looked names up among the recipes only: a shipped scan, which bench and plan take, was unknown.
+    `report --out FILE` ended in a FileExistsError traceback after the tables."""
+    from manigrasp.objects import catalog
+
+    def build(source, *args, **kwargs):
+        raise ConfigError(f"reached the build of {source.name}")
+
+    monkeypatch.setattr(catalog, "build", build)
+    assert main(["perceive", "--object", "005_tomato_soup_can_scan", "--among", "005_tomato_soup_can_scan"]) == 2
+    assert "reached the build of 005_tomato_soup_can_scan" in capsys.readouterr().err
+    from test_bench_report import _results, make_run
+
+    run = make_run(tmp_path / "run", _results({("025_mug", "antipodal"): 3}))
+    (tmp_path / "afile").write_text("")
+    assert main(["report", str(run), "--out", str(tmp_path / "afile")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--out" in err and "cannot write the report there" in err
+
+
+def test_a_reader_that_closes_the_pipe_gets_no_traceback():
+    """`manigrasp report RUN --json | head -1` ended in a BrokenPipeError traceback (exit 1)."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom manigrasp.cli import main\nfrom manigrasp.cli import objects\n"
+            "def flood(args):\n    while True:\n        print('x' * 1000)\n"
+            "objects._list = flood\nsys.exit(main(['objects', 'list']))\n")
+    reader = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    reader.stdout.readline()
+    reader.stdout.close()  # as `head -1` does
+    err = reader.stderr.read().decode()
+    assert reader.wait(timeout=60) == 0 and "Traceback" not in err

@@ -54,8 +54,8 @@ def _perceive(args: argparse.Namespace) -> int:
     from manigrasp.planners.base import resting_pose
     from manigrasp.sim import build_tabletop
 
-    name = recipes.get(args.object).name
-    among = [recipes.get(n).name for n in (args.among or recipes.names())]
+    name = catalog.shipped(args.object).name  # a recipe ("mug", "025_mug") or a shipped scan
+    among = [catalog.shipped(n).name for n in (args.among or recipes.names())]
     if name not in among:
         among.append(name)
     assets = {n: catalog.build(catalog.shipped(n)).asset for n in among}

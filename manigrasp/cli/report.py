@@ -102,7 +102,10 @@ def print_report(run_dir: Path, as_json: bool, out_dir: Path | None = None) -> i
         return 0
     from manigrasp.bench.markdown import write_markdown
 
-    target.mkdir(parents=True, exist_ok=True)
+    try:
+        target.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # a file where the folder should be, or no permission
+        raise ConfigError(f"--out {target}: cannot write the report there ({exc.strerror})") from None
     print(f"report: {write_markdown(report, results, target, meta, done)}")
     return 0
 
