@@ -65,13 +65,8 @@ def _perception(report: Report) -> list[str]:
                 report.views.get(method, 0), method[2])
 
     for m, r in sorted(report.by_method.items(), key=lambda item: order(item[0])):
-        e = report.pose_errors.get(m)
-        errors = (_estimates(e), f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}",
-                  f"{e.median_translation_mm:.1f} / {e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}",
-                  f"{e.share_add_s_5mm_translation_1cm:.2f}") if e and e.objects else (
-                      (_estimates(e), "-", "-", "-", "0.00") if e else ("-", "-", "-", "-", "-"))
         views = report.views.get(m, 0)
-        rows.append([*method_cells(report, m), views or "-", format_rate(r), *errors])
+        rows.append([*method_cells(report, m), views or "-", format_rate(r), *_pose_cells(report.pose_errors.get(m))])
     return ["## Observations side by side (perception in the loop)",
             _table([*method_headers(report), "camera views", "rate [95% CI]", "pose estimates (failed)",
                     "rotation error deg (median / p90; not meaningful for symmetric objects)",
@@ -79,9 +74,16 @@ def _perception(report: Report) -> list[str]:
                     "share with ADD-S < 5 mm & translation < 1 cm (a failed estimate is not)"], rows)]
 
 
-def _estimates(errors: PoseErrors) -> str:
-    """The pose estimates attempted (one per object, or object x resting pose) and how many failed."""
-    return f"{errors.objects + errors.failed} ({errors.failed} failed)" if errors.failed else str(errors.objects)
+def _pose_cells(e: PoseErrors | None) -> tuple[str, ...]:
+    """The perception table's pose cells of a method: the estimates attempted (one per object, or object x resting
+    pose) and how many failed, the error statistics ("-" where no estimate succeeded) and the share of good ones."""
+    if e is None:
+        return ("-",) * 5
+    estimates = f"{e.objects + e.failed} ({e.failed} failed)" if e.failed else str(e.objects)
+    errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}",
+              f"{e.median_translation_mm:.1f} / {e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}"
+              ) if e.objects else ("-",) * 3
+    return estimates, *errors, f"{e.share_add_s_5mm_translation_1cm:.2f}"
 
 
 def auc_rows(report: Report) -> list[list[str]]:

@@ -199,10 +199,11 @@ def run_benchmark(
         # folder of another run is refused before minutes of building, and a broken mesh leaves no run.json
         # (with that mesh's hash) that would refuse the corrected rerun.
         existing = rundir.check(run_dir, config, base)
+        named = {g.key(i).trial_id for g in all_groups for i in range(g.n_grasps)}
         if existing is not None and (run_dir / STORE_NAME).exists():
             store, stored = _open_store(run_dir)
             store.close()
-            _refuse_unnamed(run_dir, stored, all_groups)
+            _refuse_unnamed(run_dir, stored, named)
         _prebuild_objects(all_groups, jobs, progress)
         meta = rundir.start(run_dir, config, existing, base, grip_limits(config))
         settings = RecordSettings.for_run(run_dir, policy)
@@ -213,7 +214,7 @@ def run_benchmark(
         store, done = _open_store(run_dir)
         # A trial stored as a harness fault (a bug of manigrasp, or its worker killed from outside: the OOM killer)
         # is no outcome: it runs again, its row replaced by the new result (`ResultsStore.add`).
-        faulted = store.fault_ids() & {g.key(i).trial_id for g in all_groups for i in range(g.n_grasps)}
+        faulted = store.fault_ids() & named
         if faulted:
             print(f"manigrasp: {len(faulted)} trial(s) stored as harness_fault run again", file=sys.stderr)
             for trial_id in faulted:  # a recording of the faulted attempt would be listed under the new status
@@ -276,11 +277,10 @@ def _record_stored(run_dir: Path, policy: RecordPolicy, done: set[str], base: Pa
         return None
 
 
-def _refuse_unnamed(run_dir: Path, stored: set[str], all_groups: list[Group]) -> None:
-    """Refuse to resume a run whose store holds trials this code does not name for the run's config: the code that
-    ran them named a group otherwise (a YCB download's object was its folder's name, `025_mug`, before it was
-    `025_mug_ycb`), and resumed the run would hold the same trials under both names."""
-    named = {g.key(i).trial_id for g in all_groups for i in range(g.n_grasps)}
+def _refuse_unnamed(run_dir: Path, stored: set[str], named: set[str]) -> None:
+    """Refuse to resume a run whose store holds trials (`stored` ids) this code does not name for the run's config
+    (`named` ids): the code that ran them named a group otherwise (a YCB download's object was its folder's name,
+    `025_mug`, before it was `025_mug_ycb`), and resumed the run would hold the same trials under both names."""
     stray = sorted(stored - named)
     if stray:
         raise ConfigError(f"{run_dir} stores {len(stray)} trial(s) that this version does not name for the run's "
@@ -369,8 +369,7 @@ def _run_tasks(pool, pending: list[Group], todo: dict, settings) -> Iterator[tup
         elif outcome.kind == "done":
             yield outcome.value
         else:
-            plan = outcome.task.args[2]
-            candidates = getattr(plan, "candidates", ())
+            candidates = outcome.task.args[2].candidates  # the trial's task: run_trial(group, i, plan, settings)
             source = candidates[index[0]].source if index[0] < len(candidates) else ""
             yield group.key(index[0]), _failed_trial(group, index[0], outcome, source)
 

@@ -88,15 +88,14 @@ def balanced_torques(scene: Scene, contacts: HandContacts, held: tuple[int, ...]
     if len(contacts) < 2 or np.any(contacts.finger < 0) or not set(contacts.finger.tolist()) <= several:
         return None
     links = np.unique(contacts.hand_body)
+    on = [contacts.hand_body == b for b in links]  # each link's contacts
     pressed = np.maximum(contacts.normal_force, 1e-9)
-    points = np.array([np.average(contacts.position[contacts.hand_body == b], axis=0,
-                                  weights=pressed[contacts.hand_body == b]) for b in links])
-    normals = np.array([np.sum(contacts.normal[contacts.hand_body == b] * pressed[contacts.hand_body == b, None],
-                               axis=0) for b in links])
+    points = np.array([np.average(contacts.position[k], axis=0, weights=pressed[k]) for k in on])
+    normals = np.array([np.sum(contacts.normal[k] * pressed[k, None], axis=0) for k in on])
     # A link pressing from opposite sides of itself has no net normal: no contact of its own to balance.
     if len(links) < 2 or not np.all(np.linalg.norm(normals, axis=1) > 1e-9 * float(pressed.sum())):
         return None
-    mu = np.array([contacts.friction[contacts.hand_body == b].min() for b in links])
+    mu = np.array([contacts.friction[k].min() for k in on])
     used = joint & np.isin(fingers, list(several))
     acts = actuators[used]
     dofs, gear = m.jnt_dofadr[m.actuator_trnid[acts, 0]], m.actuator_gear[acts, 0]
