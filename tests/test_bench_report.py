@@ -240,11 +240,16 @@ def test_pose_errors_are_summarised_per_observation_and_shown_side_by_side(tmp_p
     errors = report.pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
     assert (errors.objects, errors.median_rotation_deg, errors.median_translation_mm) == (3, 2.0, 4.0)
     assert errors.median_add_s_mm == 4.0
-    assert errors.share_add_s_5mm_translation_1cm == pytest.approx(2 / 3)
+    assert errors.share_good == pytest.approx(2 / 3)  # the symmetry not recorded: judged by ADD-S, as before
+    assert (errors.symmetric, errors.unrecorded) == (0, 3)
     assert ("parallel_jaw", "antipodal", "ground_truth", "standard") not in report.pose_errors
     assert report_from_json(json.loads(json.dumps(report.to_json()))).pose_errors == report.pose_errors
-    old = json.loads(json.dumps(report.to_json()).replace("share_add_s_5mm_translation_1cm", "share_within_5deg_1cm"))
-    assert report_from_json(old).pose_errors == report.pose_errors  # a report written before the rename
+    for name in ("share_add_s_5mm_translation_1cm", "share_within_5deg_1cm"):  # reports written before the renames
+        old = json.loads(json.dumps(report.to_json()).replace("share_good", name))
+        for entry in old["pose_errors"]:
+            del entry["symmetric"], entry["unrecorded"]
+        assert replace(report_from_json(old).pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")],
+                       unrecorded=3) == errors  # an older report records no counts: 0
     text = write_markdown(report, results, tmp_path, {"config": {}}).read_text()
     assert "Observations side by side" in text and "estimated_pose" in text
 
@@ -508,16 +513,30 @@ def test_a_group_that_failed_before_planning_adds_no_planning_call(monkeypatch):
     assert summarize(results).by_method[("parallel_jaw", "antipodal", "ground_truth", "standard")].planning_calls == 0
 
 
-def test_console_pose_errors_carry_the_symmetry_caveat_of_the_markdown(tmp_path, capsys):
-    """A box turned 180 deg onto itself has a 180 deg rotation error and a good pose: the console line, like the
-    markdown column, says the rotation figures do not hold for symmetric objects."""
-    results = [(TrialKey("004_sugar_box", "parallel_jaw", "antipodal", "estimated_pose", "standard", i),
-                TrialResult(Status.SUCCESS, pose_rotation_error_deg=180.0, pose_translation_error_mm=0.2,
-                            pose_add_s_mm=1.0)) for i in range(3)]
-    assert main(["report", str(make_run(tmp_path / "run", results))]) == 0
+def test_a_pose_is_judged_by_its_rotation_unless_its_object_has_a_symmetry(tmp_path, capsys):
+    """A mug (no symmetry) estimated 177 deg off with ADD-S 1.2 mm is a wrong pose: the report counted it good, by
+    ADD-S and translation alone, where the pipeline's own rule (`PoseErrors.success`) judges it by its rotation.
+    A box turned 180 deg onto itself (a symmetry) is good, and its 180 deg stays out of the rotation figures."""
+    rows = {"025_mug": (177.0, 0.0), "004_sugar_box": (180.0, 1.0), "005_tomato_soup_can": (2.0, 0.0)}
+    results = [(TrialKey(obj, "parallel_jaw", "antipodal", "estimated_pose", "standard", i),
+                TrialResult(Status.SUCCESS, pose_rotation_error_deg=rot, pose_translation_error_mm=0.2,
+                            pose_add_s_mm=1.2, pose_symmetric=sym))
+               for obj, (rot, sym) in rows.items() for i in range(2)]
+    errors = summarize(results).pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
+    assert errors.share_good == pytest.approx(2 / 3)  # the mug is not good
+    assert (errors.objects, errors.symmetric, errors.unrecorded) == (3, 1, 0)
+    assert (errors.median_rotation_deg, errors.p90_rotation_deg) == pytest.approx((89.5, 159.5))  # mug and can
+    run = make_run(tmp_path / "run", results)
+    assert main(["report", str(run)]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
-    assert "rotation median 180.0 deg (p90 180.0; not meaningful for symmetric objects)" in line
-    assert "100% of 1 pose estimate (one per object, or object x resting pose) with ADD-S < 5 mm" in line
+    assert "rotation median 89.5 deg (p90 159.5) over the 2 not known to have a symmetry" in line
+    assert "67% of 3 pose estimates (one per object, or object x resting pose; 1 with a symmetry) good" in line
+    assert "| 3 (1 with a symmetry) | 89.5 / 159.5 | 0.2 / 0.2 | 1.2 | 0.67 |" in (run / "report.md").read_text()
+    symmetric_only = [(k, r) for k, r in results if k.object == "004_sugar_box"]
+    assert main(["report", str(make_run(tmp_path / "box", symmetric_only))]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
+    assert "rotation median" not in line and "100% of 1 pose estimate" in line  # no rotation figure to give
+    assert "| 1 (1 with a symmetry) | - | 0.2 / 0.2 | 1.2 | 1.00 |" in (tmp_path / "box" / "report.md").read_text()
 
 
 def test_pose_errors_count_estimates_of_resting_poses_not_objects(tmp_path, capsys):
@@ -525,7 +544,8 @@ def test_pose_errors_count_estimates_of_resting_poses_not_objects(tmp_path, caps
     poses are 4 estimated poses (the line said "of 4 objects")."""
     results = [(TrialKey(f"{obj}@rest{k}", "parallel_jaw", "antipodal", "estimated_pose", "standard", 0),
                 TrialResult(Status.SUCCESS, pose_rotation_error_deg=2.0, pose_translation_error_mm=0.2 + k,
-                            pose_add_s_mm=1.0)) for obj in ("004_sugar_box", "025_mug") for k in range(2)]
+                            pose_add_s_mm=1.0, pose_symmetric=0.0)) for obj in ("004_sugar_box", "025_mug")
+               for k in range(2)]
     assert main(["report", str(make_run(tmp_path / "run", results))]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
     assert "100% of 4 pose estimates (one per object, or object x resting pose)" in line
@@ -538,13 +558,13 @@ def test_failed_pose_estimates_are_counted_and_not_good(tmp_path, capsys):
     for obj, ok in (("a", True), ("b", False), ("c", False)):
         for i in range(2):
             r = (TrialResult(Status.SUCCESS, pose_rotation_error_deg=1.0, pose_translation_error_mm=0.2,
-                             pose_add_s_mm=1.0) if ok else
+                             pose_add_s_mm=1.0, pose_symmetric=0.0) if ok else
                  TrialResult(Status.PLANNER_ERROR, detail="perception failed: estimated_pose of b: no model fits"))
             results.append((TrialKey(obj, "parallel_jaw", "antipodal", "estimated_pose", "standard", i), r))
     report = summarize(results)
     errors = report.pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
     assert (errors.objects, errors.failed) == (1, 2)
-    assert errors.share_add_s_5mm_translation_1cm == pytest.approx(1 / 3)
+    assert errors.share_good == pytest.approx(1 / 3)
     assert report_from_json(json.loads(json.dumps(report.to_json()))).pose_errors == report.pose_errors
     old = json.loads(json.dumps(report.to_json()))
     del old["pose_errors"][0]["failed"]  # a report written before the count
@@ -556,7 +576,7 @@ def test_failed_pose_estimates_are_counted_and_not_good(tmp_path, capsys):
     assert "| 3 (2 failed) |" in (run / "report.md").read_text()
     every = [(k, r) for k, r in results if k.object != "a"]  # every estimate failed: no figures, still counted
     errors = summarize(every).pose_errors[("parallel_jaw", "antipodal", "estimated_pose", "standard")]
-    assert (errors.objects, errors.failed, errors.share_add_s_5mm_translation_1cm) == (0, 2, 0.0)
+    assert (errors.objects, errors.failed, errors.share_good) == (0, 2, 0.0)
     back = report_from_json(json.loads(json.dumps(summarize(every).to_json())))
     assert math.isnan(next(iter(back.pose_errors.values())).median_rotation_deg)  # not None
     run = make_run(tmp_path / "every", every)

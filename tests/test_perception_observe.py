@@ -29,6 +29,33 @@ def test_estimated_pose_observation(settled):
     assert not np.allclose(obs.object_pose, pose, atol=1e-9)  # an estimate, not the truth
     assert info.rotation_error_deg < 5.0 and info.translation_error_mm < 10.0
     assert info.backend == "raycast" and info.n_points > 100
+    assert info.symmetric is False and 0.0 < info.add_mm < 10.0  # a hammer has no symmetry: judged by rotation
+
+
+def test_a_trial_stores_what_its_pose_is_judged_by(settled, tmp_path):
+    """The trial keeps the estimate's ADD and its object's symmetry, through the results store, so the report
+    judges the pose as the pipeline does (`perception.metrics.pose_good`); a ground-truth trial keeps NaN."""
+    from manigrasp.bench.config import NamedEntry
+    from manigrasp.bench.store import ResultsStore, TrialKey
+    from manigrasp.bench.trials import Group
+    from manigrasp.bench.worker import Plan, run_trial
+    from manigrasp.objects import catalog
+    from manigrasp.protocol.result import Status
+    from manigrasp.sim.config import SceneConfig
+
+    asset, scene, pose = settled
+    _, info = observe_with_info("estimated_pose", asset, pose, scene, seed=1)
+    plan = Plan((), None, 0.1, pose, info)
+    group = Group(catalog.shipped("048_hammer"), "parallel_jaw", NamedEntry("antipodal"), NamedEntry("standard"),
+                  "estimated_pose", SceneConfig(), 1, seed=1, timeout_s=60.0)
+    _, result = run_trial(group, 0, plan)
+    assert result.status is Status.NO_GRASP and result.pose_symmetric == 0.0 and result.pose_add_mm == info.add_mm
+    with ResultsStore(tmp_path / "results.sqlite") as store:
+        store.add(TrialKey(asset.name, "parallel_jaw", "antipodal", "estimated_pose", "standard", 0), result)
+        (_, back), = store.results()
+    assert (back.pose_symmetric, back.pose_add_mm) == (0.0, info.add_mm)
+    _, truth = run_trial(group, 0, Plan((), None, 0.1, pose, observe_with_info("ground_truth", asset, pose, scene)[1]))
+    assert np.isnan(truth.pose_symmetric) and np.isnan(truth.pose_add_mm)
 
 
 def test_point_cloud_observation(settled):

@@ -13,6 +13,7 @@ from manigrasp.bench import plots, twins
 from manigrasp.bench.completeness import Completeness
 from manigrasp.bench.plots import label_of
 from manigrasp.bench.report import (
+    GOOD_POSE_HEADER,
     PLANNING_TIME_HEADER,
     POOLED,
     Method,
@@ -69,21 +70,23 @@ def _perception(report: Report) -> list[str]:
         rows.append([*method_cells(report, m), views or "-", format_rate(r), *_pose_cells(report.pose_errors.get(m))])
     return ["## Observations side by side (perception in the loop)",
             _table([*method_headers(report), "camera views", "rate [95% CI]", "pose estimates (failed)",
-                    "rotation error deg (median / p90; not meaningful for symmetric objects)",
-                    "translation error mm (median / p90)", "ADD-S mm (median)",
-                    "share with ADD-S < 5 mm & translation < 1 cm (a failed estimate is not)"], rows)]
+                    "rotation error deg, objects without a symmetry (median / p90)",
+                    "translation error mm (median / p90)", "ADD-S mm (median)", GOOD_POSE_HEADER], rows)]
 
 
 def _pose_cells(e: PoseErrors | None) -> tuple[str, ...]:
     """The perception table's pose cells of a method: the estimates attempted (one per object, or object x resting
-    pose) and how many failed, the error statistics ("-" where no estimate succeeded) and the share of good ones."""
+    pose) and how many failed or are of objects with a symmetry, the error statistics ("-" where no estimate
+    succeeded, or for the rotation where every one is of an object with a symmetry) and the share of good ones."""
     if e is None:
         return ("-",) * 5
-    estimates = f"{e.objects + e.failed} ({e.failed} failed)" if e.failed else str(e.objects)
-    errors = (f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}",
-              f"{e.median_translation_mm:.1f} / {e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}"
+    notes = [f"{n} {what}" for n, what in ((e.failed, "failed"), (e.symmetric, "with a symmetry"),
+                                           (e.unrecorded, "symmetry not recorded")) if n]
+    estimates = f"{e.objects + e.failed}" + (f" ({', '.join(notes)})" if notes else "")
+    rotation = f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}" if e.objects > e.symmetric else "-"
+    errors = (rotation, f"{e.median_translation_mm:.1f} / {e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}"
               ) if e.objects else ("-",) * 3
-    return estimates, *errors, f"{e.share_add_s_5mm_translation_1cm:.2f}"
+    return estimates, *errors, f"{e.share_good:.2f}"
 
 
 def auc_rows(report: Report) -> list[list[str]]:

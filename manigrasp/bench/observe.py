@@ -40,7 +40,9 @@ class ObservationInfo:
 
     Attributes:
         kind: the observation kind.
-        rotation_error_deg, translation_error_mm, add_s_mm: errors of the estimated pose ("estimated_pose").
+        rotation_error_deg, translation_error_mm, add_mm, add_s_mm: errors of the estimated pose ("estimated_pose").
+        symmetric: whether the estimated object has a symmetry (its pose is then judged by ADD-S,
+            `manigrasp.perception.metrics.pose_good`); None where no pose was estimated.
         fitness: fraction of observed points the placed model explains.
         n_points: points in the segmented cloud (0 for ground truth).
         backend: depth backend that ran ("" for ground truth).
@@ -52,6 +54,8 @@ class ObservationInfo:
     rotation_error_deg: float = math.nan
     translation_error_mm: float = math.nan
     add_s_mm: float = math.nan
+    add_mm: float = math.nan
+    symmetric: bool | None = None
     fitness: float = math.nan
     n_points: int = 0
     backend: str = ""
@@ -117,8 +121,8 @@ def observe_with_info(kind: str, asset, object_pose: np.ndarray, scene=None, see
     if len(result.cloud) == 0:
         raise PerceptionError(f"{kind} of {asset.name}: the view holds no object points")
     errors = result.errors
-    info = ObservationInfo(kind, errors.rotation_deg, errors.translation_mm, errors.add_s_mm,
-                           result.estimate.fitness, len(result.cloud), result.backend, setup)
+    info = ObservationInfo(kind, errors.rotation_deg, errors.translation_mm, errors.add_s_mm, errors.add_mm,
+                           errors.symmetric, result.estimate.fitness, len(result.cloud), result.backend, setup)
     return Observation.from_asset(asset, result.estimate.pose, table_height), info
 
 

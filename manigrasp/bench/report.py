@@ -20,6 +20,7 @@ import numpy as np
 from manigrasp.bench.stats import AUC_INTERVAL_MIN_CLASS, AucEstimate, auc_with_interval, wilson_interval
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.errors import ConfigError
+from manigrasp.perception.metrics import pose_good
 from manigrasp.protocol.result import PERCEPTION_FAILED, PLANNER_FAILURES, Status, TrialResult
 from manigrasp.runfiles import STORE_NAME
 
@@ -115,6 +116,11 @@ def _mode(result: TrialResult) -> str:
     return result.status.value + (result.perturb_direction if result.status is Status.DROPPED_PERTURB else "")
 
 
+# The rule of `PoseErrors.share_good`, as the report's perception table heads its column.
+GOOD_POSE_HEADER = ("share of good poses: translation < 1 cm and rotation < 5 deg, or ADD-S < 5 mm for an object "
+                    "with a symmetry (a failed estimate is not good)")
+
+
 @dataclass(frozen=True)
 class PoseErrors:
     """Errors of the estimated object poses of one hand x planner x observation (one per group: per object, or
@@ -122,15 +128,21 @@ class PoseErrors:
 
     Attributes:
         objects: estimated poses (groups with one; the JSON field keeps this name).
-        median_rotation_deg, p90_rotation_deg, median_translation_mm, p90_translation_mm,
-        median_add_s_mm: statistics over those objects (NaN if none).
-        share_add_s_5mm_translation_1cm: fraction of the attempted estimates (`objects` + `failed`) whose pose is
-            good: ADD-S < 5 mm and translation < 1 cm (ADD-S, not the rotation error, so a symmetric object turned
-            onto itself counts as good; the rotation statistics are not meaningful for symmetric objects); a
-            failed estimate is not good. An older report named it ``share_within_5deg_1cm``, though no angle is
-            tested; `report_from_json` reads that name too.
+        median_rotation_deg, p90_rotation_deg: the rotation error over the estimates of objects without a
+            symmetry (for one with a symmetry a pose of that symmetry is as good as the truth, so its rotation
+            error says nothing); NaN if there are none.
+        median_translation_mm, p90_translation_mm, median_add_s_mm: statistics over every estimate (NaN if none).
+        share_good: fraction of the attempted estimates (`objects` + `failed`) whose pose is good by the perception
+            pipeline's own rule (`manigrasp.perception.metrics.pose_good`): translation < 1 cm and rotation
+            < 5 deg, or ADD-S < 5 mm for an object with a symmetry; a failed estimate is not good. A trial stored
+            before its object's symmetry was recorded (`TrialResult.pose_symmetric` NaN) is judged by ADD-S, as
+            every estimate was then; so did the older reports' ``share_add_s_5mm_translation_1cm`` (and, older
+            still, ``share_within_5deg_1cm``), which `report_from_json` reads as this share.
         failed: estimates that failed (the object not in view, no model fits: the group's trials are
             `planner_error` "perception failed"); an older report has none recorded (0).
+        symmetric: estimates of objects with a symmetry (left out of the rotation statistics).
+        unrecorded: estimates whose object's symmetry was not recorded (trials stored before it was: in the
+            rotation statistics, judged by ADD-S).
     """
 
     objects: int
@@ -139,18 +151,26 @@ class PoseErrors:
     median_translation_mm: float
     p90_translation_mm: float
     median_add_s_mm: float
-    share_add_s_5mm_translation_1cm: float
+    share_good: float
     failed: int = 0
+    symmetric: int = 0
+    unrecorded: int = 0
 
     @classmethod
-    def of(cls, per_object: list[tuple[float, float, float]], failed: int = 0) -> PoseErrors:
-        """From (rotation [deg], translation [mm], ADD-S [mm]) per object, and the count of failed estimates."""
+    def of(cls, per_object: list[tuple[float, float, float, float]], failed: int = 0) -> PoseErrors:
+        """From (rotation [deg], translation [mm], ADD-S [mm], symmetric: 1.0, 0.0 or NaN if not recorded) per
+        object, and the count of failed estimates."""
         if not per_object:
             return cls(0, *[math.nan] * 5, 0.0, failed)
-        rot, trans, adds = (np.array(v, float) for v in zip(*per_object, strict=True))
-        within = float(np.sum((adds < 5.0) & (trans < 10.0))) / (len(per_object) + failed)
-        return cls(len(per_object), float(np.median(rot)), float(np.percentile(rot, 90)),
-                   float(np.median(trans)), float(np.percentile(trans, 90)), float(np.median(adds)), within, failed)
+        rot, trans, adds, sym = (np.array(v, float) for v in zip(*per_object, strict=True))
+        judged_by_add_s = sym != 0.0  # NaN (not recorded): by ADD-S, as every estimate was judged before
+        good = sum(pose_good(*e, j) for e, j in zip(zip(rot, trans, adds, strict=True), judged_by_add_s, strict=True))
+        asymmetric = rot[sym != 1.0]
+        rotation = (float(np.median(asymmetric)), float(np.percentile(asymmetric, 90))) if len(asymmetric) else (
+            math.nan, math.nan)
+        return cls(len(per_object), *rotation, float(np.median(trans)), float(np.percentile(trans, 90)),
+                   float(np.median(adds)), good / (len(per_object) + failed), failed, int(np.sum(sym == 1.0)),
+                   int(np.sum(np.isnan(sym))))
 
 
 # The observation of a method is the trial key's observation label: its kind, with the camera setup's suffix
@@ -263,11 +283,14 @@ def report_from_json(data: dict) -> Report:
 
 
 def _pose_errors(data: dict) -> PoseErrors:
-    """`PoseErrors` from its JSON form (an older report's ``share_within_5deg_1cm`` is the same share)."""
+    """`PoseErrors` from its JSON form (an older report's ``share_add_s_5mm_translation_1cm`` or
+    ``share_within_5deg_1cm`` is `PoseErrors.share_good` as it was judged then)."""
     data = dict(data)
-    if "share_within_5deg_1cm" in data:
-        data.setdefault("share_add_s_5mm_translation_1cm", data.pop("share_within_5deg_1cm"))
-    values = {k: data[k] for k in PoseErrors.__dataclass_fields__ if k in data or k != "failed"}
+    for old in ("share_add_s_5mm_translation_1cm", "share_within_5deg_1cm"):
+        if old in data:
+            data.setdefault("share_good", data.pop(old))
+    counts = ("failed", "symmetric", "unrecorded")  # an older report records none of them: 0
+    values = {k: data[k] for k in PoseErrors.__dataclass_fields__ if k in data or k not in counts}
     return PoseErrors(**{k: _nan(v) for k, v in values.items()})  # JSON writes NaN as null
 
 
@@ -324,13 +347,14 @@ def pose_errors(by_group: dict[Group, list[TrialResult]]) -> dict[Method, PoseEr
     """Pose-error statistics per method, over the objects whose pose was estimated: one estimate per group (its
     trials share it), read from the first of its trials that stores it (a trial that timed out or whose worker
     died stores none, `runner._failed_trial`); an estimate that failed (`PoseErrors.failed`) counts as not good."""
-    per_method: dict[Method, list[tuple[float, float, float]]] = defaultdict(list)
+    per_method: dict[Method, list[tuple[float, float, float, float]]] = defaultdict(list)
     failed: dict[Method, int] = defaultdict(int)
     for group, results in sorted(by_group.items()):
         first = next((r for r in results if not math.isnan(r.pose_rotation_error_deg)), None)
         if first is not None:
             per_method[group[:4]].append(
-                (first.pose_rotation_error_deg, first.pose_translation_error_mm, first.pose_add_s_mm))
+                (first.pose_rotation_error_deg, first.pose_translation_error_mm, first.pose_add_s_mm,
+                 first.pose_symmetric))
         elif group[2].partition("@")[0] == "estimated_pose" and any(
                 r.status is Status.PLANNER_ERROR and r.detail.startswith(PERCEPTION_FAILED) for r in results):
             failed[group[:4]] += 1

@@ -154,6 +154,8 @@ def run_trial(group: Group, index: int, plan: Plan, record=None) -> tuple[TrialK
     info = plan.observation
     result = replace(result, pose_rotation_error_deg=info.rotation_error_deg,
                      pose_translation_error_mm=info.translation_error_mm, pose_add_s_mm=info.add_s_mm,
+                     pose_add_mm=info.add_mm,
+                     pose_symmetric=math.nan if info.symmetric is None else float(info.symmetric),
                      object_pose=PoseRecord.of(plan.object_pose), plan_time_s=plan.planning_time_s)
     camera = info.camera
     if camera is None and group.observation != "ground_truth":  # perception failed: the setup still applies

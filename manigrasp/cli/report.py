@@ -137,12 +137,15 @@ def _print_tables(report, meta: dict) -> None:
             print(f"pose errors {'/'.join(method_cells(report, m))}: every one of {e.failed} pose estimate"
                   f"{'s' if e.failed != 1 else ''} failed")
             continue
-        print(f"pose errors {'/'.join(method_cells(report, m))}: rotation median {e.median_rotation_deg:.1f} deg "
-              f"(p90 {e.p90_rotation_deg:.1f}; not meaningful for symmetric objects), translation median "
-              f"{e.median_translation_mm:.1f} mm "
-              f"(p90 {e.p90_translation_mm:.1f}), {e.share_add_s_5mm_translation_1cm:.0%} of {e.objects + e.failed} "
-              f"pose estimate{'s' if e.objects + e.failed != 1 else ''} (one per object, or object x resting pose"
-              f"{f'; {e.failed} failed' if e.failed else ''}) with ADD-S < 5 mm and translation < 1 cm")
+        rotation = (f"rotation median {e.median_rotation_deg:.1f} deg (p90 {e.p90_rotation_deg:.1f}) over the "
+                    f"{e.objects - e.symmetric} not known to have a symmetry, " if e.objects > e.symmetric else "")
+        notes = "".join(f"; {n} {what}" for n, what in ((e.failed, "failed"), (e.symmetric, "with a symmetry"),
+                                                        (e.unrecorded, "whose symmetry was not recorded")) if n)
+        print(f"pose errors {'/'.join(method_cells(report, m))}: {rotation}translation median "
+              f"{e.median_translation_mm:.1f} mm (p90 {e.p90_translation_mm:.1f}); {e.share_good:.0%} of "
+              f"{e.objects + e.failed} pose estimate{'s' if e.objects + e.failed != 1 else ''} (one per object, or "
+              f"object x resting pose{notes}) good: translation < 1 cm and rotation < 5 deg, or ADD-S < 5 mm for "
+              f"an object with a symmetry")
     print("\nEach metric's ROC AUC for success [95% bootstrap CI]; n: simulated trials with a value (successes)")
     print(format_table([*headers, "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)))
     print()

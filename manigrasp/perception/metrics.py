@@ -10,6 +10,12 @@ points in the object frame [m] (e.g. samples of its surface).
   onto itself scores 0 for every pose of that symmetry.
 - Rotation error: angle of R_true^T R_est [deg]. Translation error: distance
   between the two origins (centres of mass) [mm].
+
+A pose is good (`pose_good`) when its translation error is below 1 cm and,
+for an object without a symmetry, its rotation error below 5 deg; an object
+with a symmetry is judged by ADD-S < 5 mm instead of the rotation, since each
+pose of its symmetry is as good as the truth (Hinterstoisser et al. 2012 judge
+symmetric objects by ADD-S for the same reason).
 """
 
 from __future__ import annotations
@@ -19,6 +25,10 @@ import numpy as np
 from manigrasp.geometry import pose_distance
 
 _CHUNK = 2048  # points per block of the brute-force nearest-neighbour search
+
+ADD_S_THRESHOLD_MM = 5.0  # ADD-S below which the pose of an object with a symmetry is good
+ROTATION_THRESHOLD_DEG = 5.0  # rotation error below which the pose of an object without one is good
+TRANSLATION_THRESHOLD_MM = 10.0  # translation error below which a pose can be good
 
 
 def _transform(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -59,3 +69,11 @@ def rotation_error_deg(true_pose: np.ndarray, est_pose: np.ndarray) -> float:
 def translation_error_mm(true_pose: np.ndarray, est_pose: np.ndarray) -> float:
     """Distance [mm] between the two poses' origins (`geometry.pose_distance`)."""
     return 1000.0 * pose_distance(np.asarray(true_pose, float), np.asarray(est_pose, float))[0]
+
+
+def pose_good(rotation_deg: float, translation_mm: float, add_s_mm: float, symmetric: bool) -> bool:
+    """Whether an estimated pose is good (module docstring): translation < 1 cm and rotation < 5 deg, or for an
+    object with a symmetry ADD-S < 5 mm instead of the rotation. NaN errors are not good."""
+    if not translation_mm < TRANSLATION_THRESHOLD_MM:
+        return False
+    return bool(add_s_mm < ADD_S_THRESHOLD_MM) if symmetric else bool(rotation_deg < ROTATION_THRESHOLD_DEG)

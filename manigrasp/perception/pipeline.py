@@ -31,10 +31,6 @@ from manigrasp.perception.noise import DepthNoise, apply_noise
 from manigrasp.perception.recognition import PoseEstimate, estimate_pose, observed_features, recognize
 from manigrasp.perception.registration import RegistrationParams
 
-ADD_S_THRESHOLD = 0.005  # [m] ADD-S below which the pose of a symmetric object counts as correct
-ROTATION_THRESHOLD_DEG = 5.0
-TRANSLATION_THRESHOLD_MM = 10.0
-
 
 @dataclass(frozen=True)
 class CameraConfig:
@@ -142,12 +138,9 @@ class PoseErrors:
 
     @property
     def success(self) -> bool:
-        """Rotation < 5 deg and translation < 1 cm; a symmetric object: ADD-S < 5 mm and translation < 1 cm."""
-        if self.translation_mm >= TRANSLATION_THRESHOLD_MM:
-            return False
-        if self.symmetric:
-            return self.add_s_mm < 1000 * ADD_S_THRESHOLD
-        return self.rotation_deg < ROTATION_THRESHOLD_DEG
+        """Rotation < 5 deg and translation < 1 cm; a symmetric object: ADD-S < 5 mm and translation < 1 cm
+        (`metrics.pose_good`)."""
+        return metrics.pose_good(self.rotation_deg, self.translation_mm, self.add_s_mm, self.symmetric)
 
 
 def pose_errors(model: Model, true_pose: np.ndarray, est_pose: np.ndarray, max_points: int = 2000) -> PoseErrors:

@@ -173,6 +173,10 @@ class TrialResult:
             (observation "estimated_pose"; NaN otherwise).
         pose_translation_error_mm: translation error of that pose [mm] (NaN if not estimated).
         pose_add_s_mm: ADD-S of that pose [mm] (NaN if not estimated).
+        pose_add_mm: ADD of that pose [mm] (NaN if not estimated, or stored before this column existed).
+        pose_symmetric: 1.0 if the estimated object has a symmetry, so that its pose is judged by ADD-S
+            (`manigrasp.perception.metrics.pose_good`), 0.0 if not; NaN if not estimated, or stored before this
+            column existed.
         grasp: the executed grasp's TCP pose in the world (flattened as ``grasp_*`` columns).
         grasp_width_m: the planned jaw opening [m] (NaN: none given).
         grasp_joints: the grasp's own hand path (`GraspCandidate.joints`, (2, n_act) actuator commands) as
@@ -213,6 +217,8 @@ class TrialResult:
     pose_rotation_error_deg: float = math.nan
     pose_translation_error_mm: float = math.nan
     pose_add_s_mm: float = math.nan
+    pose_add_mm: float = math.nan
+    pose_symmetric: float = math.nan
     grasp: PoseRecord = field(default_factory=PoseRecord)
     grasp_width_m: float = math.nan
     grasp_joints: str = ""
