@@ -115,3 +115,33 @@ def test_a_trial_stores_its_camera_setup():
     back = TrialResult.from_flat(result.flat())
     assert (back.camera_views, back.camera_elevation_deg, back.camera_distance_m) == (3, 60.0, 0.7)
     assert back.camera_azimuth_deg == 30.0 and back.camera_noise_sigma_m == pytest.approx(0.0012 + 0.0019 * 0.3**2)
+
+
+def test_the_cameras_look_with_the_hand_out_of_view():
+    """The settle parks the open hand 0.6 m above the table: an Allegro there hid the whole mug from a camera at
+    85 deg elevation and 0.8 m (0 object pixels). The cameras now see the scene with the hand lifted out of view,
+    and the simulation's state is left as it was; the default camera, which never saw the hand, sees the same."""
+    from manigrasp.bench.observe import hand_out_of_view
+    from manigrasp.objects import catalog
+    from manigrasp.perception.camera import capture
+    from manigrasp.perception.setup import CameraSetup
+    from manigrasp.protocol import settle_object
+    from manigrasp.sim import build_scene
+
+    scene = build_scene("allegro_right", catalog.build(catalog.shipped("025_mug")).asset)
+    pose = settle_object(scene)
+    scene.forward()
+    state = scene.data.qpos.copy()
+    view = hand_out_of_view(scene)
+    assert np.array_equal(scene.data.qpos, state)
+    mug = np.flatnonzero(scene.model.geom_bodyid == scene.object_body)
+    hand = np.flatnonzero(scene.geom_is_hand)
+    (high,) = CameraSetup(elevation_deg=85.0, distance=0.8).cameras(pose[:2, 3], 0.0)
+    before, after = capture(scene.model, scene.data, high), capture(view.model, view.data, high)
+    assert np.isin(before.geom, mug).sum() == 0 and np.isin(before.geom, hand).sum() > 10000
+    assert np.isin(after.geom, mug).sum() > 500 and np.isin(after.geom, hand).sum() == 0
+    (default,) = CameraSetup().cameras(pose[:2, 3], 0.0)
+    assert np.array_equal(capture(scene.model, scene.data, default).geom, capture(view.model, view.data, default).geom)
+    _, info = observe_with_info("point_cloud", catalog.build(catalog.shipped("025_mug")).asset, pose, scene,
+                                camera=CameraSetup(elevation_deg=85.0, distance=0.8))
+    assert info.n_points > 300  # the planner gets the mug's points (after noise and dropout at grazing angles)

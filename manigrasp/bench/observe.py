@@ -19,19 +19,29 @@ resting position; "estimated_pose" uses its first camera. Camera 0's noise is
 drawn from a generator seeded by (`seed`, object name), camera i's by
 (`seed`, object name, i), so a group sees the same frames every time it is
 planned and a second camera leaves the first one's frame unchanged.
+
+The cameras look at the scene with the hand out of their view: a copy of the
+settled state with the hand lifted `HAND_CLEARANCE` straight up, as a robot
+retracts its arm before it captures a view. (The settle parks the open hand
+0.6 m above the table; seen from there, an Allegro hid the whole object from a
+camera at 85 deg elevation and 0.8 m.) The simulation's own state is not
+touched.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 import zlib
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from manigrasp.errors import ConfigError, ManigraspError, PerceptionError
 
 KINDS = ("ground_truth", "estimated_pose", "point_cloud")
+HAND_CLEARANCE = 20.0  # [m] the hand is lifted this far above the scene while the cameras look (module docstring)
 
 
 @dataclass(frozen=True)
@@ -105,6 +115,7 @@ def observe_with_info(kind: str, asset, object_pose: np.ndarray, scene=None, see
     if not isinstance(setup, CameraSetup):
         raise ConfigError(f"camera must be a CameraSetup, got {type(setup).__name__}")
     scene.forward()
+    scene = hand_out_of_view(scene)
     cameras = setup.cameras(object_pose[:2, 3], table_height)
     rngs = view_rngs(seed, asset.name, setup.views)
     try:
@@ -124,6 +135,31 @@ def observe_with_info(kind: str, asset, object_pose: np.ndarray, scene=None, see
     info = ObservationInfo(kind, errors.rotation_deg, errors.translation_mm, errors.add_s_mm, errors.add_mm,
                            errors.symmetric, result.estimate.fitness, len(result.cloud), result.backend, setup)
     return Observation.from_asset(asset, result.estimate.pose, table_height), info
+
+
+@dataclass(frozen=True)
+class CameraView:
+    """What the cameras see of a scene (`manigrasp.perception.pipeline.Viewed`): its model, a copy of its data with
+    positions computed, and the object's body."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    object_body: int
+
+
+def hand_out_of_view(scene) -> CameraView:
+    """`scene` as its cameras see it (positions computed): a copy of its state with the hand lifted `HAND_CLEARANCE`
+    straight up by the base's slide joints (module docstring); a scene without a hand as it is."""
+    data = copy.copy(scene.data)
+    base = getattr(scene, "base", None)
+    if base is not None:
+        mujoco.mj_kinematics(scene.model, data)
+        slides = scene.model.dof_jntid[base.dofs[:3]]
+        axes = data.xaxis[slides]  # the world directions of mount/tx, ty, tz
+        lift = np.linalg.lstsq(axes.T, np.array([0.0, 0.0, HAND_CLEARANCE]), rcond=None)[0]
+        data.qpos[scene.model.jnt_qposadr[slides]] += lift
+    mujoco.mj_forward(scene.model, data)
+    return CameraView(scene.model, data, scene.object_body)
 
 
 def _point_cloud(scene, cameras: tuple, setup, rngs: list, table_height: float):
