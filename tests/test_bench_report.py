@@ -529,7 +529,7 @@ def test_a_pose_is_judged_by_its_rotation_unless_its_object_has_a_symmetry(tmp_p
     run = make_run(tmp_path / "run", results)
     assert main(["report", str(run)]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("pose errors"))
-    assert "rotation median 89.5 deg (p90 159.5) over the 2 not known to have a symmetry" in line
+    assert "rotation median 89.5 deg (p90 159.5) over the 2 without a symmetry" in line
     assert "67% of 3 pose estimates (one per object, or object x resting pose; 1 with a symmetry) good" in line
     assert "| 3 (1 with a symmetry) | 89.5 / 159.5 | 0.2 / 0.2 | 1.2 | 0.67 |" in (run / "report.md").read_text()
     symmetric_only = [(k, r) for k, r in results if k.object == "004_sugar_box"]

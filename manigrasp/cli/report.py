@@ -138,7 +138,8 @@ def _print_tables(report, meta: dict) -> None:
                   f"{'s' if e.failed != 1 else ''} failed")
             continue
         rotation = (f"rotation median {e.median_rotation_deg:.1f} deg (p90 {e.p90_rotation_deg:.1f}) over the "
-                    f"{e.objects - e.symmetric} not known to have a symmetry, " if e.objects > e.symmetric else "")
+                    f"{e.objects - e.symmetric} {'not known to have' if e.unrecorded else 'without'} a symmetry, "
+                    if e.objects > e.symmetric else "")
         notes = "".join(f"; {n} {what}" for n, what in ((e.failed, "failed"), (e.symmetric, "with a symmetry"),
                                                         (e.unrecorded, "whose symmetry was not recorded")) if n)
         print(f"pose errors {'/'.join(method_cells(report, m))}: {rotation}translation median "
