@@ -13,7 +13,7 @@ from manigrasp.bench import plots, twins
 from manigrasp.bench.completeness import Completeness
 from manigrasp.bench.plots import label_of
 from manigrasp.bench.report import (
-    GOOD_POSE_HEADER,
+    GOOD_POSE_RULE,
     PLANNING_TIME_HEADER,
     POOLED,
     Method,
@@ -69,9 +69,10 @@ def _perception(report: Report) -> list[str]:
         views = report.views.get(m, 0)
         rows.append([*method_cells(report, m), views or "-", format_rate(r), *_pose_cells(report.pose_errors.get(m))])
     return ["## Observations side by side (perception in the loop)",
-            _table([*method_headers(report), "camera views", "rate [95% CI]", "pose estimates (failed)",
+            _table([*method_headers(report), "camera views", "rate [95% CI]", "pose estimates",
                     "rotation error deg, objects without a symmetry (median / p90)",
-                    "translation error mm (median / p90)", "ADD-S mm (median)", GOOD_POSE_HEADER], rows)]
+                    "translation error mm (median / p90)", "ADD-S mm (median)", "share of good poses"], rows),
+            GOOD_POSE_RULE]
 
 
 def _pose_cells(e: PoseErrors | None) -> tuple[str, ...]:

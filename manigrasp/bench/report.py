@@ -116,9 +116,11 @@ def _mode(result: TrialResult) -> str:
     return result.status.value + (result.perturb_direction if result.status is Status.DROPPED_PERTURB else "")
 
 
-# The rule of `PoseErrors.share_good`, as the report's perception table heads its column.
-GOOD_POSE_HEADER = ("share of good poses: translation < 1 cm and rotation < 5 deg, or ADD-S < 5 mm for an object "
-                    "with a symmetry (a failed estimate is not good)")
+# The rule of `PoseErrors.share_good`, as report.md says it under its perception table.
+GOOD_POSE_RULE = ("One pose estimate per object (or object x resting pose). A pose is good when its translation error "
+                  "is below 1 cm and its rotation error below 5 deg, or, for an object with a symmetry, its ADD-S "
+                  "below 5 mm (every pose of the symmetry is as good as the truth, so the rotation error is given for "
+                  "objects without one only); a failed estimate is not good.")
 
 
 @dataclass(frozen=True)
