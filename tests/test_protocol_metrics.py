@@ -66,3 +66,53 @@ def test_simulated_flat_pad_contacts_are_stored_in_closure_and_a_failed_hull_as_
     failed = contact_metrics(contacts, DRILL_CENTER, DRILL_SCALE, min_friction=False)
     assert failed.n_contacts == 8
     assert math.isnan(failed.force_closure) and math.isnan(failed.epsilon_l1)
+
+
+@pytest.mark.parametrize("pads", ["compliant", "rigid"])
+def test_planned_contacts_are_judged_as_the_simulation_judges_the_pads_contacts(box_asset, pads):
+    """The jaws closed on the cube: the contacts MuJoCo made, given to `planned_metrics` as planned points and
+    normals, score what `simulated_metrics` scores for them. Planned contacts were judged at the hand geoms'
+    friction 0.5 while the compliant pads touch at their rubber's 1.0 (epsilon 0.21 against 0.42 here)."""
+    from manigrasp.control import ImpedanceController, default_gains
+    from manigrasp.protocol import settle_object
+    from manigrasp.protocol.metrics import grasping_contact, simulated_metrics
+    from manigrasp.sim import SceneConfig, build_scene, read_hand_contacts
+
+    scene = build_scene("parallel_jaw", box_asset, SceneConfig(pads=pads))
+    rest = settle_object(scene)
+    pose = np.diag([1.0, -1.0, -1.0, 1.0])
+    pose[:3, 3] = rest[:3, 3]
+    scene.reset(mount=pose, object_pose=rest, synergy=1.0)
+    hold = ImpedanceController(scene.base, default_gains(scene.base))
+    hold.set_target(pose)
+    for _ in range(300):
+        hold.apply()
+        scene.step()
+    contacts = read_hand_contacts(scene, "object")
+    mu, _, gamma = grasping_contact(scene)
+    assert len(contacts.friction) >= 4 and np.allclose(contacts.friction, mu)  # only the pads touch
+    assert np.allclose(contacts.torsional_friction, gamma)
+    assert (mu, round(gamma, 5)) == ((1.0, 0.00383) if pads == "compliant" else (0.5, 0.005))
+    center, scale = scene.data.xipos[scene.object_body].copy(), radius_of_gyration(scene)
+    simulated = simulated_metrics(scene, scale)
+    planned = planned_metrics(scene, contacts.position, contacts.normal, center, scale)  # normals into the object
+    assert simulated.force_closure == planned.force_closure == 1.0
+    assert planned.epsilon_l1 == pytest.approx(simulated.epsilon_l1, rel=1e-9)
+    (batched,) = planned_metrics_batch(scene, [(contacts.position, contacts.normal)], scene.object_pose())
+    assert batched.epsilon_l1 == pytest.approx(simulated.epsilon_l1, rel=1e-6)
+
+
+def test_planners_and_trials_draw_the_closure_line_at_the_same_epsilon():
+    """Two antipodal soft fingers at mu 1e-10 have epsilon ~6.5e-11: the planners' metrics called that closure
+    (epsilon > 0) where the stored metrics do not (epsilon > `EPSILON_TOLERANCE`); at mu 0.5 both say closure."""
+    from manigrasp.grasp.closure import EPSILON_TOLERANCE
+    from manigrasp.planners.metrics import ContactModel, grasp_metrics
+    from manigrasp.protocol.metrics import closure_and_epsilon
+
+    positions = np.array([[[0.03, 0.0, 0.0], [-0.03, 0.0, 0.0]]])
+    normals = np.array([[[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]])
+    for mu, closed in ((1e-10, False), (0.5, True)):
+        got = grasp_metrics(positions, normals, np.zeros(3), 0.03, ContactModel(mu=mu, min_friction=False))
+        assert (0.0 < got.epsilon_l1[0] < EPSILON_TOLERANCE) is not closed
+        assert bool(got.force_closure[0]) is closed
+        assert closure_and_epsilon(float(got.epsilon_l1[0]))[0] == float(closed)

@@ -15,7 +15,7 @@ from manigrasp.cli.output import format_table, print_json
 from manigrasp.errors import ConfigError
 from manigrasp.planners.base import GraspCandidate
 
-_HEADERS = ["rank", "score", "epsilon L1", "width [mm]", "force closure", "approach (unit vector, world)"]
+_HEADERS = ["rank", "score", "planner's epsilon L1", "width [mm]", "force closure", "approach (unit vector, world)"]
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -118,6 +118,9 @@ def _plan(args: argparse.Namespace) -> int:
     print(format_table(_HEADERS, [_row(i + 1, c) for i, c in enumerate(result.candidates)]))
     print(f"{len(result.candidates)} candidates from {result.planner!r} for {hand.name!r} on "
           f"{observation.asset.name!r} in {result.planning_time_s:.3f} s (seed {args.seed})")
+    if any(c.epsilon_l1 is not None for c in result.candidates):
+        print("epsilon L1 and force closure are the planner's own figures (its contact model and torque scale); "
+              "a benchmark trial stores its own as planned_epsilon_l1 (README: Grasp mechanics)")
     if not result.candidates:
         print("manigrasp: note: the planner found no grasp (is the object wider than the hand opens?)",
               file=sys.stderr)

@@ -16,6 +16,7 @@ import numpy as np
 from manigrasp.contact import ContactSet, ContactType
 from manigrasp.contact.defaults import STANDARD_MU, STANDARD_TORSION_M
 from manigrasp.grasp import ferrari_canny_batch, min_friction_for_closure_batch
+from manigrasp.grasp.closure import EPSILON_TOLERANCE
 
 MIN_FRICTION_TOLERANCE = 1e-3  # [-], bisection tolerance of the minimum friction
 
@@ -61,7 +62,7 @@ def grasp_metrics(positions: np.ndarray, normals: np.ndarray, center: np.ndarray
     min_mu = np.full(b, np.nan)
     if model.min_friction:
         min_mu = min_friction_for_closure_batch(contacts, center, scale, tol=MIN_FRICTION_TOLERANCE)
-    return Metrics(epsilon_l1=eps, force_closure=eps > 0.0, min_friction=min_mu)
+    return Metrics(epsilon_l1=eps, force_closure=eps > EPSILON_TOLERANCE, min_friction=min_mu)
 
 
 def unit_rows(vectors: np.ndarray) -> np.ndarray:

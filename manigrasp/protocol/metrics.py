@@ -1,12 +1,20 @@
 """Analytic grasp quality of the planned contacts and of the contacts the simulation produced.
 
-Both are computed with the same contact model as the scene's hand geoms
-(MuJoCo condim 1: frictionless, 3: hard finger, 4/6: soft finger), the same
-friction, about the object's centre of mass, with torques divided by the
-object's radius of gyration sqrt(trace(I) / 2m) [m] unless a `torque_scale`
-is given. NaN means "not computed" (no planned contacts, the metric is
-undefined for these contacts, or the hull could not be built), never a
-score; no contact at all is a computed "no closure" (0).
+Both are computed about the object's centre of mass, with torques divided by
+the object's radius of gyration sqrt(trace(I) / 2m) [m] unless a
+`torque_scale` is given, and with unit total normal force (epsilon L1).
+The simulated contacts carry the friction, torsion and condim MuJoCo gave
+each (MuJoCo condim 1: frictionless, 3: hard finger, 4/6: soft finger).
+Planned contacts are where the grasping surfaces are meant to touch, so they
+are modelled as those surfaces touch in the scene (`grasping_contact`): the
+compliant pads' elements (rubber, `pad_friction` 1.0, each with its cell's
+torsion) or rubber fingertips, as compiled; the rigid pads or, for a hand with
+neither, the hand geoms (`hand_friction`, `hand_torsional_friction`,
+`hand_condim`). Before, planned contacts were always judged at the hand
+geoms' 0.5 while the pads touched at 1.0. NaN means "not computed" (no
+planned contacts, the metric is undefined for these contacts, or the hull
+could not be built), never a score; no contact at all is a computed "no
+closure" (0).
 """
 
 from __future__ import annotations
@@ -25,8 +33,10 @@ from manigrasp.grasp import (
     min_friction_for_closure_batch,
 )
 from manigrasp.grasp.closure import EPSILON_TOLERANCE
+from manigrasp.hands.pads import ELEMENT_PREFIX
 from manigrasp.protocol.result import GraspMetrics
 from manigrasp.sim import Scene, read_hand_contacts, to_contacts
+from manigrasp.sim.compose import HAND_PREFIX
 
 
 def radius_of_gyration(scene: Scene) -> float:
@@ -68,8 +78,10 @@ def contact_metrics(contacts: Sequence[Contact], center: np.ndarray, torque_scal
 def closure_and_epsilon(epsilon: float) -> tuple[float, float]:
     """(force closure 1.0 / 0.0, epsilon or 0) from an L1 epsilon; (NaN, NaN) when it was not computed.
 
-    Closure is "epsilon > `EPSILON_TOLERANCE`" (the batched test's definition, equivalent to the LP's), so
-    the stored closure and epsilon always agree; a NaN epsilon (Qhull could not build the hull) stays "not
+    Closure is "epsilon > `EPSILON_TOLERANCE`", the batched test's definition and the planners' (the LP test
+    `manigrasp.grasp.force_closure` asks a margin above `manigrasp.grasp.closure.MARGIN_TOLERANCE`, 1e-6,
+    instead: the two differ only for grasps within about 1e-6 of losing closure), so the stored closure and
+    epsilon always agree; a NaN epsilon (Qhull could not build the hull) stays "not
     computed" rather than becoming "no closure".
     """
     if math.isnan(epsilon):
@@ -84,9 +96,31 @@ def _contact_type(condim: int) -> ContactType:
     return ContactType.HARD_FINGER if condim == 3 else ContactType.SOFT_FINGER
 
 
+def grasping_contact(scene: Scene) -> tuple[float, ContactType, float]:
+    """(friction mu [-], contact type, torsional friction gamma [m]; 0 unless a soft finger) of the hand's grasping
+    surfaces as `scene` compiled them: the colliding geoms among the pads' compliant elements, the pad geoms and the
+    fingertip geoms (`Hand.pad_geoms`, `Hand.fingertip_geoms`), the least mu and gamma among them (they share one
+    model); a hand with none of them, the scene config's hand model."""
+    model, hand = scene.model, scene.hand
+    named = {HAND_PREFIX + name for name in (*hand.pad_geoms, *hand.fingertip_geoms)}
+    element = HAND_PREFIX + ELEMENT_PREFIX
+    surfaces = [g for g in np.flatnonzero(scene.geom_is_hand)
+                if (model.geom_contype[g] or model.geom_conaffinity[g])
+                and ((name := model.geom(g).name) in named or name.startswith(element))]
+    if surfaces:
+        mu, condim = float(model.geom_friction[surfaces, 0].min()), int(model.geom_condim[surfaces[0]])
+        gamma = float(model.geom_friction[surfaces, 1].min())
+    else:
+        cfg = scene.config
+        mu, condim, gamma = float(cfg.hand_friction), int(cfg.hand_condim), float(cfg.hand_torsional_friction)
+    kind = _contact_type(condim)
+    return mu, kind, gamma if kind is ContactType.SOFT_FINGER else 0.0
+
+
 def planned_metrics(scene: Scene, points: np.ndarray, normals: np.ndarray, center: np.ndarray,
                     torque_scale: float, edges: int = 8, friction_tol: float = 0.01) -> GraspMetrics:
-    """Metrics of planned contacts `points`, `normals` (k, 3) with the scene's hand contact model.
+    """Metrics of planned contacts `points`, `normals` (k, 3) with the model of the hand's grasping surfaces
+    (`grasping_contact`).
 
     Returns all-NaN metrics when there are no planned contacts or they are not finite.
     """
@@ -94,13 +128,11 @@ def planned_metrics(scene: Scene, points: np.ndarray, normals: np.ndarray, cente
     if len(points) == 0 or len(points) != len(normals) or not (np.isfinite(points).all()
                                                                and np.isfinite(normals).all()):
         return GraspMetrics()
-    cfg = scene.config
-    kind = _contact_type(cfg.hand_condim)
-    gamma = cfg.hand_torsional_friction if kind is ContactType.SOFT_FINGER else 0.0
+    mu, kind, gamma = grasping_contact(scene)
     norms = np.linalg.norm(normals, axis=1, keepdims=True)
     if np.any(norms < 1e-9):
         return GraspMetrics(n_contacts=len(points))
-    contacts = [Contact(position=p, normal=nrm, mu=cfg.hand_friction, kind=kind, gamma=gamma)
+    contacts = [Contact(position=p, normal=nrm, mu=mu, kind=kind, gamma=gamma)
                 for p, nrm in zip(points, normals / norms, strict=True)]
     return contact_metrics(contacts, center, torque_scale, edges, friction_tol)
 
@@ -122,7 +154,7 @@ def planned_metrics_batch(scene: Scene, grasps: Sequence[tuple[np.ndarray, np.nd
     `manigrasp.grasp` (force closure as epsilon > tolerance, the batched equivalent of the LP test).
 
     Args:
-        scene: the scene whose hand contact model (condim, friction, torsion) is used.
+        scene: the scene whose grasping surfaces' contact model (`grasping_contact`) is used.
         grasps: per grasp, (points (k, 3), inward normals (k, 3)) in the world [m].
         object_pose: (4, 4) settled object pose; torques are about its centre of mass.
         torque_scale: characteristic length [m] (default: the object's radius of gyration).
@@ -145,14 +177,12 @@ def planned_metrics_batch(scene: Scene, grasps: Sequence[tuple[np.ndarray, np.nd
 
 def _batch(scene: Scene, grasps: list[tuple[np.ndarray, np.ndarray]], center: np.ndarray, scale: float,
            edges: int, friction_tol: float) -> list[GraspMetrics]:
-    cfg = scene.config
-    kind = _contact_type(cfg.hand_condim)
+    mu, kind, gamma = grasping_contact(scene)
     points = np.stack([np.asarray(p, float).reshape(-1, 3) for p, _ in grasps])
     normals = np.stack([np.asarray(n, float).reshape(-1, 3) for _, n in grasps])
     normals = normals / np.linalg.norm(normals, axis=2, keepdims=True)
-    gamma = cfg.hand_torsional_friction if kind is ContactType.SOFT_FINGER else None
     try:
-        contacts = ContactSet(points, normals, cfg.hand_friction, kind, gamma)
+        contacts = ContactSet(points, normals, mu, kind, gamma if kind is ContactType.SOFT_FINGER else None)
         epsilon = ferrari_canny_batch(contacts, center, scale, "L1", edges)
         mu_min = (min_friction_for_closure_batch(contacts, center, scale, tol=friction_tol, m=edges)
                   if kind is not ContactType.FRICTIONLESS else np.full(len(grasps), math.nan))
