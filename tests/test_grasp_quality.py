@@ -159,3 +159,17 @@ def test_grasp_matrix_maps_local_forces_to_the_object_wrench() -> None:
     np.testing.assert_allclose(g @ [2.0, 0, 0], [-2, 0, 0, 0, -0.4, 0], atol=1e-12)
     w = primitive_wrenches(ContactSet.from_contacts([Contact([0.05, 0, 0.02], [-1.0, 0, 0])]), ORIGIN, 0.1)
     assert w.shape == (1, 1, 8, 6)
+
+
+def test_the_volume_of_two_flat_pads_is_built_not_zero():
+    """The drill grasp of two flat pads (eight coplanar soft contacts, epsilon 0.084) spans 6-D, but Qhull's
+    default merging fails on its coplanar wrenches: the volume read 0, as for a flat set. It is now built from
+    the joggled input, as epsilon is; a set perturbed by 1e-9 at random gives the same volume."""
+    from scipy.spatial import ConvexHull
+    from test_grasp_degenerate import DRILL_CENTER, DRILL_SCALE, drill_contacts
+
+    contacts = drill_contacts()
+    volume = gws_volume(contacts, DRILL_CENTER, DRILL_SCALE)
+    points = primitive_wrenches(ContactSet.from_contacts(contacts), DRILL_CENTER, DRILL_SCALE, 8).reshape(-1, 6)
+    noisy = points + np.random.default_rng(0).normal(0.0, 1e-9, points.shape)
+    assert volume > 0.0 and volume == pytest.approx(ConvexHull(noisy).volume, rel=1e-5)

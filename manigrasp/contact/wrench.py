@@ -63,7 +63,9 @@ def primitive_forces(contacts: ContactSet, m: int = DEFAULT_EDGES) -> tuple[np.n
     Primitives: frictionless 1 (the normal); hard finger the m cone edges;
     soft finger the m edges then the two pure-torsion primitives
     (n, +gamma) and (n, -gamma). Their convex hull is inscribed in the exact
-    (elliptic, for soft fingers) cone.
+    (elliptic, for soft fingers) cone: for a soft finger, a load that combines
+    sliding and torsion at equal shares of their limits is inside the hull only
+    up to 1/sqrt(2) of the elliptic cone's reach (conservative).
 
     Returns:
         forces (B, n, P, 3) [N per N normal], torsion (B, n, P) [N m per N normal].

@@ -160,9 +160,9 @@ def min_friction_for_closure_batch(
     """(B,) smallest friction coefficient giving force closure, by bisection.
 
     All contacts of a grasp share the trial mu (the contacts' own mu is
-    ignored). The bracket is [0, mu_max]; closure is monotone in mu for an
-    even m (a smaller cone is a convex combination of opposite edges of a
-    larger one), so bisection is valid. Returns mu in (mu*, mu* + tol]: the
+    ignored). The bracket is [0, mu_max]; closure is monotone in mu for any
+    m (an edge n + mu' t of a smaller cone is (mu'/mu) (n + mu t) + (1 - mu'/mu) n,
+    and n is the mean of the larger cone's m edges), so bisection is valid. Returns mu in (mu*, mu* + tol]: the
     closure test is strict, so the exact threshold mu* itself is not in
     closure. 0 when in closure without friction; inf when not in closure
     even at mu_max.

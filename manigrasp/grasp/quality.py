@@ -14,7 +14,7 @@ Qhull failure that joggling did not cure): "not computed" is never reported
 as "no closure". Both are exact for the linearised cone.
 L1 GWS is contained in Linf GWS, so eps_L1 <= eps_Linf.
 
-Two methods, chosen by ``method``:
+Epsilon is computed by one of three methods, chosen by ``method``:
 
 - ``"enumerate"`` (`facets`): vectorised facet-normal enumeration; the fast
   path for many grasps with few contacts.
@@ -173,15 +173,19 @@ def gws_volume(
     torque_scale: float,
     m: int = DEFAULT_EDGES,
 ) -> float:
-    """6-D volume of the L1 grasp wrench space (Qhull); 0 for a flat wrench set.
+    """6-D volume of the L1 grasp wrench space (Qhull); 0 for a flat wrench set, NaN if the hull could not be built.
 
-    Units: [N^6 per N^6 of normal force] in scaled wrench coordinates.
+    Units: [N^6 per N^6 of normal force] in scaled wrench coordinates. Qhull is tried with each of
+    `QHULL_OPTIONS`, as for epsilon: flat pads (many coplanar contacts) stop its default merging with a
+    precision error although the set spans 6-D, where the joggled input ("QJ") builds the hull.
     """
     cs = as_contact_set(contacts)
-    points = primitive_wrenches(cs, center, torque_scale, m).reshape(-1, 6)
-    if len(points) <= 6:
+    points = np.unique(primitive_wrenches(cs, center, torque_scale, m).reshape(-1, 6), axis=0)
+    if len(points) <= 6 or _is_flat(points):  # no 6-D simplex: no volume
         return 0.0
-    try:
-        return float(ConvexHull(points).volume)
-    except QhullError:  # a flat set has no 6-D initial simplex, hence no volume
-        return 0.0
+    for options in QHULL_OPTIONS:
+        try:
+            return float(ConvexHull(points, qhull_options=options).volume)
+        except QhullError:
+            continue
+    return math.nan
