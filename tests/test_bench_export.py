@@ -21,7 +21,7 @@ from manigrasp.protocol.result import GraspMetrics, PoseRecord, Status, TrialRes
 # Columns that are counts, labels, or dimensionless by nature (everything else names its unit).
 UNITLESS = {"trial_id", "object", "hand", "planner", "observation", "protocol", "grasp_index", "success", "status",
             "detail", "last_phase", "fingers_in_contact", "score", "sim_steps", "seed", "grasp_preshape",
-            "rest_index", "rest_probability",
+            "rest_index", "rest_probability", "pose_symmetric",
             *(f"{p}_{q}" for p in ("grasp", "object", "rest") for q in ("qw", "qx", "qy", "qz")),
             *(f"{p}_{m}" for p in ("planned", "sim")
               for m in ("n_contacts", "force_closure", "epsilon_l1", "min_friction"))}

@@ -6,8 +6,10 @@ measurement with its unit in its name (``_m``, ``_deg``, ``_n``, ``_s``, ``_mm``
 pose in the world (`grasp_x_m`, `grasp_y_m`, `grasp_z_m`, `grasp_qw`..`grasp_qz`: position and unit
 quaternion w, x, y, z), its jaw opening `grasp_width_m` and pre-shape `grasp_preshape` (0..1), the settled
 object pose (`object_*`, same layout), the analytic metrics of the planned (`planned_*`) and simulated
-(`sim_*`) contacts with force closure as a boolean, timings (`plan_time_s`: the whole planning call,
-`planning_time_s`: that per candidate). A value that was not computed is empty in CSV and null in Parquet.
+(`sim_*`) contacts with force closure as a boolean, an estimated pose's errors (`pose_*`; `pose_symmetric`, a
+boolean: whether its object has a symmetry, so its pose is judged by ADD-S), timings (`plan_time_s`: the whole
+planning call, `planning_time_s`: that per candidate). A value that was not computed is empty in CSV and null in
+Parquet.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from manigrasp.errors import ConfigError
 from manigrasp.protocol.result import Status, TrialResult
 
 FORMATS = ("csv", "parquet")
-BOOLEAN_COLUMNS = ("success", "planned_force_closure", "sim_force_closure")
+BOOLEAN_COLUMNS = ("success", "planned_force_closure", "sim_force_closure", "pose_symmetric")
 PARQUET_INSTALL = "install the parquet extra from the clone: make setup EXTRAS=dev,parquet"
 
 
@@ -41,7 +43,7 @@ COLUMNS: dict[str, type] = _types()
 
 
 def export_row(row: dict[str, object]) -> dict[str, object]:
-    """One store row (`ResultsStore.rows`) as an export row: `success` added, force closure boolean, NaN None."""
+    """One store row (`ResultsStore.rows`) as an export row: `success` added, `BOOLEAN_COLUMNS` boolean, NaN None."""
     out: dict[str, object] = {}
     for name, kind in COLUMNS.items():
         value = row.get("status") == Status.SUCCESS.value if name == "success" else row.get(name)
