@@ -116,3 +116,18 @@ def test_planners_and_trials_draw_the_closure_line_at_the_same_epsilon():
         assert (0.0 < got.epsilon_l1[0] < EPSILON_TOLERANCE) is not closed
         assert bool(got.force_closure[0]) is closed
         assert closure_and_epsilon(float(got.epsilon_l1[0]))[0] == float(closed)
+
+
+@pytest.mark.parametrize("pads", ["compliant", "rigid"])
+def test_the_compiled_grasping_surfaces_have_the_friction_the_planners_are_told(box_asset, pads):
+    """`grasping_contact` reads the compiled scene; `planners.context.grasping_friction` predicts the same friction
+    from the config, for every hand kind (pads, rubber fingertips, rigid)."""
+    from manigrasp import hands
+    from manigrasp.planners.context import grasping_friction
+    from manigrasp.protocol.metrics import grasping_contact
+    from manigrasp.sim import SceneConfig, build_scene
+
+    config = SceneConfig(pads=pads)
+    for name in ("parallel_jaw", "robotiq_2f85", "inspire_right", "allegro_right"):
+        scene = build_scene(name, box_asset, config)
+        assert grasping_contact(scene)[0] == grasping_friction(config, hands.load(name)), name

@@ -82,7 +82,7 @@ def _pose_cells(e: PoseErrors | None) -> tuple[str, ...]:
     if e is None:
         return ("-",) * 5
     notes = [f"{n} {what}" for n, what in ((e.failed, "failed"), (e.symmetric, "with a symmetry"),
-                                           (e.unrecorded, "symmetry not recorded")) if n]
+                                           (e.unrecorded, "judged by ADD-S: stored before symmetry was recorded")) if n]
     estimates = f"{e.objects + e.failed}" + (f" ({', '.join(notes)})" if notes else "")
     rotation = f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}" if e.objects > e.symmetric else "-"
     errors = (rotation, f"{e.median_translation_mm:.1f} / {e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}"

@@ -114,7 +114,7 @@ def observe_with_info(kind: str, asset, object_pose: np.ndarray, scene=None, see
     setup = CameraSetup() if camera is None else camera
     if not isinstance(setup, CameraSetup):
         raise ConfigError(f"camera must be a CameraSetup, got {type(setup).__name__}")
-    scene.forward()
+    scene.forward()  # the simulation's own data as every run before computed it here (its derived quantities)
     scene = hand_out_of_view(scene)
     cameras = setup.cameras(object_pose[:2, 3], table_height)
     rngs = view_rngs(seed, asset.name, setup.views)

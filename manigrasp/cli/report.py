@@ -141,7 +141,8 @@ def _print_tables(report, meta: dict) -> None:
                     f"{e.objects - e.symmetric} {'not known to have' if e.unrecorded else 'without'} a symmetry, "
                     if e.objects > e.symmetric else "")
         notes = "".join(f"; {n} {what}" for n, what in ((e.failed, "failed"), (e.symmetric, "with a symmetry"),
-                                                        (e.unrecorded, "whose symmetry was not recorded")) if n)
+                                                        (e.unrecorded, "judged by ADD-S, stored before the "
+                                                                       "symmetry was recorded")) if n)
         print(f"pose errors {'/'.join(method_cells(report, m))}: {rotation}translation median "
               f"{e.median_translation_mm:.1f} mm (p90 {e.p90_translation_mm:.1f}); {e.share_good:.0%} of "
               f"{e.objects + e.failed} pose estimate{'s' if e.objects + e.failed != 1 else ''} (one per object, or "

@@ -4,8 +4,9 @@ The linearised cone with m edges is INSCRIBED in the exact circular cone:
 edge k is ``n + mu (cos(2 pi k / m) t1 + sin(2 pi k / m) t2)``, so every edge lies
 on the exact cone and the polyhedral cone is a conservative approximation
 (it loses at most a factor cos(pi / m) of the friction, at mid-edge angles;
-a soft finger's primitives lose more where sliding and torsion combine, up to
-1/sqrt(2): `manigrasp.contact.wrench.primitive_forces`).
+a soft finger's primitives lose more where sliding and torsion combine, down
+to cos(pi/m) / sqrt(1 + cos^2(pi/m)) of the reach, 0.68 for m = 8:
+`manigrasp.contact.wrench.primitive_forces`).
 Each edge has unit normal component: a non-negative combination of the edges
 with weights summing to s is a force with normal component s.
 """

@@ -64,8 +64,9 @@ def primitive_forces(contacts: ContactSet, m: int = DEFAULT_EDGES) -> tuple[np.n
     soft finger the m edges then the two pure-torsion primitives
     (n, +gamma) and (n, -gamma). Their convex hull is inscribed in the exact
     (elliptic, for soft fingers) cone: for a soft finger, a load that combines
-    sliding and torsion at equal shares of their limits is inside the hull only
-    up to 1/sqrt(2) of the elliptic cone's reach (conservative).
+    sliding and torsion is inside the hull only up to cos(pi/m) / sqrt(1 +
+    cos^2(pi/m)) of the elliptic cone's reach in the worst direction (0.68 for
+    m = 8; conservative).
 
     Returns:
         forces (B, n, P, 3) [N per N normal], torsion (B, n, P) [N m per N normal].

@@ -180,7 +180,10 @@ def gws_volume(
     precision error although the set spans 6-D, where the joggled input ("QJ") builds the hull.
     """
     cs = as_contact_set(contacts)
-    points = np.unique(primitive_wrenches(cs, center, torque_scale, m).reshape(-1, 6), axis=0)
+    points = primitive_wrenches(cs, center, torque_scale, m).reshape(-1, 6)
+    if not np.isfinite(points).all():
+        return math.nan
+    points = np.unique(points, axis=0)
     if len(points) <= 6 or _is_flat(points):  # no 6-D simplex: no volume
         return 0.0
     for options in QHULL_OPTIONS:

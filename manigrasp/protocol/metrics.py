@@ -11,7 +11,9 @@ compliant pads' elements (rubber, `pad_friction` 1.0, each with its cell's
 torsion) or rubber fingertips, as compiled; the rigid pads or, for a hand with
 neither, the hand geoms (`hand_friction`, `hand_torsional_friction`,
 `hand_condim`). Before, planned contacts were always judged at the hand
-geoms' 0.5 while the pads touched at 1.0. NaN means "not computed" (no
+geoms' 0.5 while the pads touched at 1.0. A planned contact does not say which
+link it is on, so one on a phalanx or the palm (power grasps) is judged as a
+fingertip too, optimistically: those links touch at the hand geoms' 0.5. NaN means "not computed" (no
 planned contacts, the metric is undefined for these contacts, or the hull
 could not be built), never a score; no contact at all is a computed "no
 closure" (0).
