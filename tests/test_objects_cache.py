@@ -156,3 +156,17 @@ def test_an_edited_decomposition_metadata_is_a_miss_not_used(tmp_path, change):
     assert json.loads((again.asset.mjcf_path.parent / "meta.json").read_text())["coverage"] == pytest.approx(
         first.asset.metadata["coverage"])
     assert build_object(box, name="box", mass=MASS, cache_root=tmp_path).cached  # the rewritten entry is good
+
+
+def test_a_build_of_another_cache_format_is_not_built(tmp_path, monkeypatch):
+    """The build marker's fingerprint did not name the cache format: after a format change (whose decomposition keys
+    differ) `is_built` still said built, and `objects list` and the run's object step took a shipped object that
+    needed decomposing again for a cached one (decomposed silently, "building..." unsaid)."""
+    from manigrasp.objects import cache
+
+    catalog.build(catalog.shipped("004_sugar_box"), cache_root=tmp_path)
+    assert catalog.is_built("004_sugar_box", cache_root=tmp_path)
+    monkeypatch.setattr(cache, "CACHE_FORMAT", cache.CACHE_FORMAT + 1)
+    assert not catalog.is_built("004_sugar_box", cache_root=tmp_path)
+    assert not catalog.build(catalog.shipped("004_sugar_box"), cache_root=tmp_path).cached
+    assert catalog.is_built("004_sugar_box", cache_root=tmp_path)
