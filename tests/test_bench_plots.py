@@ -178,3 +178,34 @@ def test_twelve_methods_get_twelve_colours_and_the_legend_hides_no_bar(figures, 
     renderer = figures[0].canvas.get_renderer()
     legend, axes = ax.get_legend().get_window_extent(renderer), ax.get_window_extent(renderer)
     assert legend.x0 >= axes.x1  # beside the axes, not over them
+
+
+def _overlapping_labels(fig, axis) -> list[tuple[str, str]]:
+    """Pairs of neighbouring tick labels of `axis` (drawn, within the view) whose boxes overlap."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    low, high = sorted(axis.get_view_interval())
+    drawn = sorted(((label.get_window_extent(renderer), label.get_text())
+                    for tick, label in zip(axis.get_majorticklocs(), axis.get_majorticklabels(), strict=True)
+                    if low <= tick <= high and label.get_visible() and label.get_text()), key=lambda b: b[0].x0)
+    return [(a[1], b[1]) for a, b in zip(drawn, drawn[1:], strict=False) if b[0].x0 < a[0].x1]
+
+
+@pytest.mark.parametrize("times", [
+    {"file": [2e-4, 3e-4, 4e-4, 6e-4, 8e-4], "random": [1e-3, 2e-3], "antipodal": [0.3, 0.8, 1.5]},
+    {"file": [5e-5, 1e-4], "dexopt": [12.0, 40.0]},  # six decades
+    {"file": [2.1e-4, 2.3e-4, 2.6e-4]},  # within one decade
+])
+def test_planning_time_tick_labels_do_not_overlap(figures, tmp_path, times):
+    """Sub-millisecond calls (the `file` planner's) beside others: the labels at 1, 2 and 5 times every power of ten
+    ran into each other ("0.00050.001")."""
+    results = [(TrialKey(f"object{j}", "parallel_jaw", planner, "ground_truth", "standard", 0),
+                TrialResult(Status.SUCCESS, plan_time_s=t)) for planner, ts in times.items() for j, t in enumerate(ts)]
+    plots.planning_times(results, tmp_path / "p.png")
+    fig = figures[0]
+    ax = fig.axes[0]
+    fig.tight_layout()
+    assert _overlapping_labels(fig, ax.xaxis) == []
+    shown = [t for t in ax.xaxis.get_majorticklocs() if np.prod(ax.get_xlim()) and min(ax.get_xlim()) <= t <= max(
+        ax.get_xlim())]
+    assert len(shown) >= 2  # still labelled

@@ -130,3 +130,43 @@ def test_a_mesh_over_the_face_bound_is_refused_before_coacd(tmp_path, monkeypatc
     err = capsys.readouterr().err
     assert f"ball: FAILED: {tmp_path / 'ball.ply'}: 327680 faces, more than the {MAX_FACES}" in err
     assert not list((tmp_path / "cache").rglob("*.obj"))
+
+
+def _edit_hull_meta(entry: Path, **changes) -> None:
+    """Rewrite a CoACD cache entry with `changes` to its metadata, its arrays and stored checksum as they were."""
+    with np.load(entry) as data:
+        arrays = {name: data[name] for name in data.files}
+    meta = json.loads(str(arrays["meta"]))
+    arrays["meta"] = np.array(json.dumps({**meta, **changes}))
+    with open(entry, "wb") as f:
+        np.savez(f, **arrays)
+
+
+@pytest.mark.parametrize("change", [{"coverage": 7.77}, {"key": "0" * 32}])
+def test_an_edited_decomposition_metadata_is_a_miss_not_used(tmp_path, change):
+    """The checksum of a CoACD cache entry covered its hulls only: an edited `coverage` was read as cached and
+    became the object's coverage (and its folder's meta.json)."""
+    box = trimesh.creation.box((0.04, 0.06, 0.08))  # convex: its hull is its only part, no CoACD run
+    first = build_object(box, name="box", mass=MASS, cache_root=tmp_path)
+    (entry,) = (tmp_path / "coacd").glob("*.npz")
+    _edit_hull_meta(entry, **change)
+    again = build_object(box, name="box", mass=MASS, cache_root=tmp_path)
+    assert not again.cached  # decomposed again, not read
+    assert again.asset.metadata == first.asset.metadata and again.asset.mjcf_path == first.asset.mjcf_path
+    assert json.loads((again.asset.mjcf_path.parent / "meta.json").read_text())["coverage"] == pytest.approx(
+        first.asset.metadata["coverage"])
+    assert build_object(box, name="box", mass=MASS, cache_root=tmp_path).cached  # the rewritten entry is good
+
+
+def test_a_build_of_another_cache_format_is_not_built(tmp_path, monkeypatch):
+    """The build marker's fingerprint did not name the cache format: after a format change (whose decomposition keys
+    differ) `is_built` still said built, and `objects list` and the run's object step took a shipped object that
+    needed decomposing again for a cached one (decomposed silently, "building..." unsaid)."""
+    from manigrasp.objects import cache
+
+    catalog.build(catalog.shipped("004_sugar_box"), cache_root=tmp_path)
+    assert catalog.is_built("004_sugar_box", cache_root=tmp_path)
+    monkeypatch.setattr(cache, "CACHE_FORMAT", cache.CACHE_FORMAT + 1)
+    assert not catalog.is_built("004_sugar_box", cache_root=tmp_path)
+    assert not catalog.build(catalog.shipped("004_sugar_box"), cache_root=tmp_path).cached
+    assert catalog.is_built("004_sugar_box", cache_root=tmp_path)

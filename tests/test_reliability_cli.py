@@ -254,3 +254,32 @@ def test_a_reader_that_closes_the_pipe_gets_no_traceback():
     reader.stdout.close()  # as `head -1` does
     err = reader.stderr.read().decode()
     assert reader.wait(timeout=60) == 0 and "Traceback" not in err
+
+
+def test_a_ctrl_c_swallowed_while_the_commands_load_still_stops_the_program(tmp_path):
+    """trimesh guards its optional imports (networkx, scipy...) with ``except BaseException``: a Ctrl-C in the CLI's
+    first second, while `build_parser` imported them, was swallowed and the command ran on (`bench quick` to its
+    end, exit code 0). Here the SIGINT lands in such a guard; the program must stop with 130 and one line."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "swallow.py"
+    script.write_text(
+        "import os, signal, sys, time\n"
+        "import manigrasp.cli as cli\n"
+        "real = cli.build_parser\n"
+        "def build_parser():\n"
+        "    try:  # as trimesh guards an optional import\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "        time.sleep(2.0)\n"
+        "    except BaseException:\n"
+        "        pass\n"
+        "    return real()\n"
+        "cli.build_parser = build_parser\n"
+        "print('the command ran on')\n"
+        "sys.exit(cli.main(['hands', 'list']))\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(Path(__file__).parents[1]),
+                                                                    os.environ.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, env=env)
+    assert (done.returncode, done.stderr) == (130, "manigrasp: interrupted\n"), (done.stdout[-500:], done.stderr)
+    assert "parallel_jaw" not in done.stdout  # no command ran

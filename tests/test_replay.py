@@ -74,3 +74,26 @@ def test_a_trial_that_executed_no_grasp_is_not_replayed_and_says_why(tmp_path, m
         replay_trial(tmp_path / "run", trial_id)
     done = record_trials(tmp_path / "run", "all")
     assert done.replays == () and done.skipped == ((trial_id, "no grasp was executed (planner_error)"),)
+
+
+@pytest.mark.slow
+def test_a_file_planner_trial_replays_with_its_stored_detail(tmp_path):
+    """A `file` planner's trial details begin with "file grasp j" (its grasp's index in the file); the replay rebuilt
+    the candidate without that `source`, so its detail lacked it and differed from the stored one."""
+    import json
+
+    top = [[-1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, -1, 0.0875 - 0.015], [0, 0, 0, 1]]  # down across the box's top
+    beside = [row[:] for row in top]
+    beside[0][3] = 0.15  # 15 cm to the side: closes on nothing
+    path = tmp_path / "sugar.json"
+    path.write_text(json.dumps({"hand": "parallel_jaw", "object": {"name": "004_sugar_box"}, "grasps": [
+        {"pose": beside, "score": 1.0}, {"pose": top, "width": 0.038, "score": 2.0}]}))
+    config = {"objects": ["004_sugar_box"], "planners": [{"name": "file", "params": {"path": str(path)}}],
+              "grasps_per_object": 2, "protocol": "lift"}
+    run_benchmark(parse_config(config), tmp_path / "run", progress=False)
+    trials = stored_trials(tmp_path / "run")
+    assert sorted(t.result.detail.split(":")[0] for t in trials.values()) == ["file grasp 0", "file grasp 1"]
+    for trial_id in trials:
+        replay = replay_trial(tmp_path / "run", trial_id)
+        assert replay.same_status and replay.replayed.detail == replay.stored.detail, (
+            trial_id, replay.stored.detail, replay.replayed.detail)

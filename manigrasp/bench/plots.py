@@ -225,22 +225,42 @@ def planning_times(results: list[tuple[TrialKey, TrialResult]], path: Path, meth
         for i, values in enumerate(by_method.values(), start=1):
             ax.plot(values, np.full(len(values), i), "o", color="black", markersize=3, alpha=0.6)
         ax.set_xscale("log")
-        _log_ticks(ax.xaxis)
         ax.invert_yaxis()
-        ax.set_xlabel("planning time [s]\nwall time of one planning call (it plans every candidate of one object)")
+        ax.set_xlabel("planning time\nwall time of one planning call (it plans every candidate of one object)")
+        _log_ticks(ax)
     else:
         ax.axis("off")
         ax.text(0.5, 0.5, "no planning call was timed in this run", ha="center", va="center")
     return _save(fig, path)
 
 
-def _log_ticks(axis) -> None:
-    """Label a log axis at 1, 2 and 5 times each power of ten, as plain numbers (not only at the decades)."""
-    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+def _log_ticks(ax) -> None:
+    """Label the log x axis of `ax` in seconds with SI prefixes ("200 µs", "50 ms", "2 s") at 1, 2 and 5 times each
+    power of ten, or, where those labels would run into each other (sub-millisecond calls beside seconds-long
+    ones: "0.00050.001"), at fewer powers of ten: each, then every other..., the first that fits."""
+    from matplotlib.ticker import EngFormatter, LogLocator, NullFormatter
 
-    axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-    axis.set_major_formatter(FormatStrFormatter("%g"))
+    axis = ax.xaxis
+    axis.set_major_formatter(EngFormatter(unit="s"))
     axis.set_minor_formatter(NullFormatter())
+    for subs, numticks in (((1.0, 2.0, 5.0), "auto"), ((1.0,), "auto"), ((1.0,), 6), ((1.0,), 4), ((1.0,), 3)):
+        axis.set_major_locator(LogLocator(base=10, subs=subs, numticks=numticks))
+        if not _labels_overlap(ax.figure, axis):
+            return
+
+
+def _labels_overlap(fig, axis) -> bool:
+    """Whether two neighbouring tick labels of `axis` (those drawn, within the view) overlap, laid out as `_save`
+    lays the figure out."""
+    fig.tight_layout()
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    low, high = sorted(axis.get_view_interval())
+    boxes = sorted((label.get_window_extent(renderer) for tick, label in zip(
+        axis.get_majorticklocs(), axis.get_majorticklabels(), strict=True)
+        if low <= tick <= high and label.get_visible() and label.get_text()), key=lambda box: box.x0)
+    gap = 2.0  # [px] at least between two labels
+    return any(b.x0 < a.x1 + gap for a, b in zip(boxes, boxes[1:], strict=False))
 
 
 def metric_auc(report: Report, path: Path) -> Path:

@@ -7,15 +7,17 @@ pose in the world, width, pre-shape). The object is settled again in a freshly c
 same deterministic drop as the run's), the stored grasp is executed under the group's protocol with
 the trial's seed (with its own hand path if it had one), and the status is compared with the stored
 one. The planner is not run again:
-what is replayed is the grasp that was executed.
+what is replayed is the grasp that was executed. A `file` planner's trial keeps the "file grasp j" its stored
+detail begins with (`stored_source`), so the replayed detail reads as the run's.
 """
 
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from difflib import get_close_matches
 from pathlib import Path
 
@@ -106,9 +108,21 @@ def find_trial(run_dir: Path, trial_id: str, base: Path | None = None) -> Stored
     return trials[trial_id]
 
 
-def stored_grasp(result: TrialResult):
+def stored_source(planner: str, result: TrialResult) -> str:
+    """The `source` of a stored trial's candidate, which its detail begins with (`manigrasp.bench.worker.with_source`):
+    the `file` planner's "file grasp j"; "" for a trial of another planner (none sets one)."""
+    from manigrasp.planners.file import SOURCE
+
+    if planner != "file":
+        return ""
+    match = re.match(rf"{re.escape(SOURCE)} \d+(?=: |$)", result.detail)
+    return match.group(0) if match else ""
+
+
+def stored_grasp(result: TrialResult, source: str = ""):
     """The executed grasp of a stored trial as a `GraspCandidate` in the world (a NaN pose if it was not a
-    rigid transform: replaying it gives `invalid_grasp` again)."""
+    rigid transform: replaying it gives `invalid_grasp` again), with the `source` its trial's detail names
+    (`stored_source`)."""
     from manigrasp.planners.base import GraspCandidate
 
     try:
@@ -120,7 +134,7 @@ def stored_grasp(result: TrialResult):
     return GraspCandidate(pose=pose, score=result.score if math.isfinite(result.score) else 0.0,
                           width=width if math.isfinite(width) else None,
                           preshape=preshape if math.isfinite(preshape) else 0.0,
-                          joints=joints_from_text(result.grasp_joints))
+                          joints=joints_from_text(result.grasp_joints), source=source)
 
 
 def replay_trial(run_dir: Path, trial_id: str, record: Path | None = None, base: Path | None = None) -> Replay:
@@ -195,7 +209,7 @@ def _executed_nothing(result: TrialResult) -> bool:
 
 
 def _replay(trial_id: str, trial: StoredTrial, record: Path | None) -> Replay:
-    from manigrasp.bench.worker import scene_for
+    from manigrasp.bench.worker import scene_for, with_source
     from manigrasp.protocol import PROTOCOLS, settle_object
 
     stored, group = trial.result, trial.group
@@ -205,13 +219,14 @@ def _replay(trial_id: str, trial: StoredTrial, record: Path | None) -> Replay:
     scene = scene_for(group)
     object_pose = settle_object(scene)
     error = _pose_error(object_pose, stored.object_pose)
-    candidate = stored_grasp(stored)
+    candidate = stored_grasp(stored, stored_source(group.planner.name, stored))
     protocol = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params))
     seed = group.trial_seed(trial.index)
     with _recording(record, trial_id, trial.index, candidate) as recording:
         replayed = protocol.run(scene, candidate, np.random.default_rng(seed),
                                 deadline=time.monotonic() + group.timeout_s, object_pose=object_pose,
                                 observer=recording.observer if recording is not None else None, seed=seed)
+    replayed = replace(replayed, detail=with_source(candidate.source, replayed.detail))  # as the run's worker does
     path = recording.path if recording is not None else None
     if path is not None and record is not None and path != Path(record):
         path = path.replace(record)

@@ -2,7 +2,8 @@
 
 Each command group lives in its own module with an ``add_parser(subparsers)``
 function that registers its sub-commands and sets ``func`` on them. A
-`ManigraspError` becomes a one-line message on stderr and exit code 2.
+`ManigraspError` becomes a one-line message on stderr and exit code 2; a Ctrl-C, at any point, one line and
+exit code 130.
 """
 
 from __future__ import annotations
@@ -10,8 +11,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 from manigrasp import __version__
@@ -55,12 +59,39 @@ def _one_line_warning(message: Warning | str, category: type[Warning], *_: objec
     return f"manigrasp: warning: {message}\n"
 
 
+INTERRUPTED = "manigrasp: interrupted"
+
+
+def _exit_interrupted(signum: int, frame: object) -> None:
+    """SIGINT while the commands' modules are imported: the process ends here, exit code 130 (nothing has begun)."""
+    os.write(2, f"{INTERRUPTED}\n".encode())
+    os._exit(130)
+
+
+@contextmanager
+def _interrupt_exits():
+    """A Ctrl-C in the block ends the process at once (`_exit_interrupted`) instead of raising KeyboardInterrupt:
+    libraries imported there guard their optional imports with ``except BaseException`` (trimesh: networkx,
+    scipy...), which swallowed the KeyboardInterrupt, and the command ran on to its end and exit code 0. Only in
+    the main thread with Python's own handler in place (SIGINT ignored, as in a background job, stays ignored)."""
+    if threading.current_thread() is not threading.main_thread() or (
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield
+        return
+    signal.signal(signal.SIGINT, _exit_interrupted)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `manigrasp` console script; returns the exit code (130 on Ctrl-C, at any point)."""
     try:
-        parser = build_parser()  # (imports every command's module: a Ctrl-C there printed an import traceback)
+        with _interrupt_exits():  # (a KeyboardInterrupt there was swallowed, or printed an import traceback)
+            parser = build_parser()  # imports every command's module
     except KeyboardInterrupt:
-        print("manigrasp: interrupted", file=sys.stderr)
+        print(INTERRUPTED, file=sys.stderr)
         return 130
     args = parser.parse_args(argv)
     if not hasattr(args, "func"):
@@ -73,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"manigrasp: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("manigrasp: interrupted", file=sys.stderr)
+        print(INTERRUPTED, file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader of stdout went away (`manigrasp objects list | head -1`): no traceback
         try:  # nor at exit, when Python flushes stdout into the closed pipe

@@ -3,9 +3,10 @@
 An entry is one ``.npz`` file named by a key that hashes the mesh content, the
 decomposition parameters and the CoACD version. Writes go to a temporary file
 in the same folder and are moved into place with `os.replace`, so a killed
-build leaves no entry at all. Each entry stores a SHA-256 of its arrays; an
-entry that fails to load or to match its checksum is deleted and reported as
-a miss, so the caller rebuilds it.
+build leaves no entry at all. Each entry stores a SHA-256 of its arrays and its
+metadata (the decomposition's coverage and key); an entry that fails to load, to
+match its checksum or to name its own key is deleted and reported as a miss, so
+the caller rebuilds it.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ import trimesh
 
 from manigrasp.errors import ConfigError
 
-CACHE_FORMAT = 2  # 2: convex meshes are their own exact hull
+CACHE_FORMAT = 3  # 2: convex meshes are their own exact hull; 3: the checksum covers the metadata too (the
+# entries of 2 are not read, nor deleted: a version of before that shares the cache keeps its own)
 
 NAME_MAX = 64
 """Longest object name: names become file names in the cache."""
@@ -80,11 +82,14 @@ def cache_key(mesh: trimesh.Trimesh, params: dict, tool_version: str) -> str:
     return hashlib.sha256(payload.encode()).hexdigest()[:32]
 
 
-def _arrays_digest(arrays: dict[str, np.ndarray]) -> str:
+def _digest(arrays: dict[str, np.ndarray], meta: str) -> str:
+    """SHA-256 of an entry: its arrays by name, then its metadata's JSON text."""
     h = hashlib.sha256()
     for name in sorted(arrays):
         h.update(name.encode())
         h.update(np.ascontiguousarray(arrays[name]).tobytes())
+    h.update(b"meta")
+    h.update(meta.encode())
     return h.hexdigest()
 
 
@@ -108,11 +113,12 @@ class HullCache:
             with np.load(path) as data:
                 arrays = {name: data[name] for name in data.files if name not in ("checksum", "meta")}
                 checksum = str(data["checksum"])
-                meta = json.loads(str(data["meta"]))
+                text = str(data["meta"])
+                meta = json.loads(text)
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, json.JSONDecodeError):
             path.unlink(missing_ok=True)
             return None
-        if checksum != _arrays_digest(arrays) or not isinstance(meta, dict):
+        if checksum != _digest(arrays, text) or not isinstance(meta, dict) or meta.get("key", key) != key:
             path.unlink(missing_ok=True)
             return None
         count = len(arrays) // 2
@@ -128,7 +134,8 @@ class HullCache:
         fd, tmp = tempfile.mkstemp(dir=self.root, prefix=f".{key}.", suffix=".tmp")
         try:
             with os.fdopen(fd, "wb") as f:
-                np.savez(f, checksum=np.array(_arrays_digest(arrays)), meta=np.array(json.dumps(meta)), **arrays)
+                text = json.dumps(meta)
+                np.savez(f, checksum=np.array(_digest(arrays, text)), meta=np.array(text), **arrays)
                 f.flush()
                 os.fsync(f.fileno())
             os.replace(tmp, self.path(key))

@@ -167,9 +167,13 @@ def build(source: ObjectSource, params: DecompositionParams | None = None,
 
 
 def _fingerprint(source: ObjectSource, params: DecompositionParams) -> str:
+    """What a build marker stands for: the recipe, its parameters, CoACD's version and the cache's format (a build of
+    another format was decomposed under other keys: it is no build of this one's)."""
+    from manigrasp.objects import cache
+
     recipe = recipes.get(source.recipe or source.name)
     payload = json.dumps({"recipe": repr(recipe), "source": asdict(source), "params": params.as_dict(),
-                          "coacd": coacd_version()}, sort_keys=True, default=str)
+                          "coacd": coacd_version(), "format": cache.CACHE_FORMAT}, sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()
 
 
