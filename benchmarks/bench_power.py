@@ -44,8 +44,8 @@ from manigrasp.sim.config import SceneConfig  # noqa: E402
 # The palm term (palm_weight > 0) is off by default: it brings the palm to the object but measured lower success.
 VARIANTS: dict[str, dict] = {
     # The planner before the wrap changes: first-touch stand-offs (0, 5, 20) mm, approach through the centre,
-    # whole fingers stopping at first touch, score = 0.5 epsilon + 0.5 fingers (no palm term).
-    "old": {"standoffs": [0.0, 0.005, 0.02], "lateral_offsets": [0.0], "palm_weight": 0.0},
+    # whole fingers stopping at first touch, score = 0.5 epsilon + 0.5 fingers (no palm term, no wrap test).
+    "old": {"standoffs": [0.0, 0.005, 0.02], "lateral_offsets": [0.0], "palm_weight": 0.0, "min_inward": None},
     "new": {},  # the current defaults
     "palm0.3": {"palm_weight": 0.3},
     "palm0.6": {"palm_weight": 0.6},

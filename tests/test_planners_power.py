@@ -10,9 +10,9 @@ import trimesh
 from manigrasp import hands, planners
 from manigrasp.errors import ConfigError
 from manigrasp.objects import build_object
-from manigrasp.planners.closing import closing_path
+from manigrasp.planners.closing import Closure, FingerSweep, closing_path
 from manigrasp.planners.collision import HandProbe
-from manigrasp.planners.wrap import palm_gaps, palm_geoms, toward_palm
+from manigrasp.planners.wrap import finger_inward, palm_gaps, palm_geoms, toward_palm
 
 DEXTEROUS = [n for n in hands.names() if hands.load(n).kind == "dexterous"]
 
@@ -84,9 +84,42 @@ def test_palm_term_puts_the_palm_against_the_can_with_the_can_in_front_of_it() -
 def test_palm_weight_is_validated_by_message() -> None:
     with pytest.raises(ConfigError, match="palm_weight"):
         planners.load("power", palm_weight=1.5)
+    with pytest.raises(ConfigError, match="min_inward"):
+        planners.load("power", min_inward=float("nan"))
 
 
 def test_toward_palm_is_plus_one_for_contacts_pushing_into_the_palm() -> None:
     approach = np.array([0.0, 0.0, 1.0])
     assert toward_palm(np.tile(-approach, (3, 1)), approach) == pytest.approx(1.0)
     assert toward_palm(np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]), approach) == pytest.approx(0.0)
+
+
+def test_finger_inward_is_the_least_finger_mean_push_toward_the_palm() -> None:
+    approach = np.array([0.0, 0.0, 1.0])
+    normals = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    closure = Closure(positions=np.zeros((4, 3)), normals=normals, fingers=np.array([0, 0, 1, 2]), n_fingers=3)
+    assert finger_inward(closure, approach) == pytest.approx(-1.0)  # finger 2 pushes the object out of the hand
+    assert finger_inward(Closure(np.zeros((2, 3)), normals[:2], np.array([0, 0]), 1), approach) == pytest.approx(0.0)
+    assert np.isnan(finger_inward(Closure(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int), 0), approach))
+
+
+@pytest.mark.slow
+def test_power_grasps_of_a_ball_on_the_allegro_push_it_into_the_hand() -> None:
+    """A 65 mm ball on the table: the Allegro's opposed thumb stops the open hand 45-65 mm off the ball's top, and
+    its 3-finger closures touch the ball with the fingertips on its palm-side half, pushing it out of the hand
+    (the tennis ball 0/10 under `standard`). The planner ranks closures that wrap the ball first: every one of
+    its candidates (there are enough here) has each finger pushing the ball toward the palm or across it."""
+    try:
+        hand = hands.load("allegro_right")
+    except Exception as exc:  # the optional `allegro` extra
+        pytest.skip(f"allegro_right unavailable: {exc}")
+    asset = build_object(trimesh.creation.icosphere(3, radius=0.0325), name="power_test_ball", mass=0.058).asset
+    obs = planners.Observation.from_asset(asset)
+    planner = planners.load("power")
+    candidates = planners.plan(planner, obs, hand, 5, np.random.default_rng(0)).candidates
+    assert len(candidates) == 5
+    probe = HandProbe(hand, obs, planner.clearance)
+    sweep = FingerSweep(probe, closing_path(hand, planner.closing_steps))
+    pos, quat = probe.roots(np.array([c.pose for c in candidates]))
+    inward = [finger_inward(sweep.close(pos[i], quat[i]), c.pose[:3, 2]) for i, c in enumerate(candidates)]
+    assert min(inward) >= 0.0, inward

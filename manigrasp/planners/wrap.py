@@ -3,14 +3,17 @@
 A power (enveloping) grasp holds the object between the palm and the curled
 fingers: the palm is at or near the object, and the fingers' contacts push the
 object toward the palm. A fingertip pinch has the palm far away and contacts
-that push across or away from the palm. Two measures tell them apart:
+that push across or away from the palm. Three measures tell them apart:
 
 - `palm_gaps`: the smallest distance [m] between the palm's collision geometry
   (every hand geom on no finger) and the object, for the open hand at each TCP pose
   (MuJoCo's `mj_geomDistance`; negative when they overlap);
 - `toward_palm`: the mean over a grasp's contacts of -n . z, the inward contact normal n
   (into the object) against the approach z, which is the palm's outward normal: +1 when every
-  contact pushes the object straight into the palm, -1 when every contact pushes it away.
+  contact pushes the object straight into the palm, -1 when every contact pushes it away;
+- `finger_inward`: the same push per finger (the mean over each finger's contacts), its least
+  over the fingers of a kinematic closure: below 0 some finger pushes the object out of the hand
+  (the `power` planner's wrap test).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from manigrasp.planners.closing import Closure
 from manigrasp.planners.collision import HandProbe
 
 GAP_CUTOFF = 0.1  # [m] distances beyond this are reported as this (mj_geomDistance's distmax)
@@ -54,3 +58,14 @@ def toward_palm(normals: np.ndarray, approach: np.ndarray) -> float:
     if len(normals) == 0:
         return float("nan")
     return float(np.mean(-normals @ np.asarray(approach, float)))
+
+
+def finger_inward(closure: Closure, approach: np.ndarray) -> float:
+    """The least, over the fingers touching in `closure`, of the mean -n . `approach` of
+    the finger's contacts: below 0 a finger pushes the object away from the palm, out of the hand; NaN without
+    contacts."""
+    normals = np.asarray(closure.normals, float).reshape(-1, 3)
+    if len(normals) == 0:
+        return float("nan")
+    push = -normals @ np.asarray(approach, float)
+    return float(min(np.mean(push[closure.fingers == f]) for f in np.unique(closure.fingers)))
