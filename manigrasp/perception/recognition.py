@@ -6,6 +6,10 @@ hypothesis with the best verification score. `recognize` does that for every
 model of a database whose size fits the cloud and names the best one whose
 score clears a threshold.
 
+Each model's RANSAC seeds come from its own generator (`model_rng`: the view's
+seed and the model's name), so a model's estimate does not depend on which
+other models the database holds.
+
 Verification (render and compare): the model's camera-facing samples are
 placed at the hypothesis and projected into the depth frame. A sample is
 explained where the observed depth agrees with it, contradicted where the
@@ -19,6 +23,7 @@ every view of a small one; coverage rejects it.
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -114,11 +119,23 @@ def coverage(model: Model, pose: np.ndarray, image: DepthImage, tolerance: float
     return float(explained.sum()) / total if total else 0.0
 
 
+def model_rng(seed: int, name: str) -> np.random.Generator:
+    """The generator of model `name`'s RANSAC seeds, from (`seed`, crc32(`name`)): a model's estimate
+    depends on the seed and the view, not on which other models the database holds."""
+    return np.random.default_rng([int(seed), zlib.crc32(name.encode())])
+
+
+def draw_seed(rng: np.random.Generator) -> int:
+    """One seed for `model_rng`, drawn from `rng` (the view's generator)."""
+    return int(rng.integers(0, 2**63 - 1))
+
+
 def estimate_pose(model: Model, observed: ObservedFeatures, image: DepthImage, params: RegistrationParams,
                   rng: np.random.Generator, restarts: int = 4, table_height: float = 0.0,
                   good_score: float = 0.95) -> PoseEstimate:
     """The best of up to `restarts` (>= 1) RANSAC + ICP hypotheses of `model` in the observed cloud (by
-    `score`); it stops at the first hypothesis scoring `good_score` or more."""
+    `score`); it stops at the first hypothesis scoring `good_score` or more. `rng` draws the RANSAC seeds
+    (`model_rng` gives each model its own)."""
     if restarts < 1:
         raise ConfigError(f"restarts must be >= 1, got {restarts}")
     best: PoseEstimate | None = None
@@ -152,9 +169,12 @@ def recognize(database: ModelDatabase, cloud: Cloud, image: DepthImage, params: 
               rng: np.random.Generator, threshold: float = 0.7, restarts: int = 2,
               table_height: float = 0.0) -> Recognition:
     """Which model of `database` the cloud shows: the best `score` over the models whose size fits,
-    recognised if it reaches `threshold`."""
+    recognised if it reaches `threshold`. One seed is drawn from `rng`; each model's RANSAC draws from
+    its own `model_rng(seed, name)`, so a model's estimate is the same whatever else the database holds
+    (and the same as `estimate_pose` with that generator)."""
     observed = observed_features(cloud, database)
-    candidates = [estimate_pose(m, observed, image, params, rng, restarts, table_height)
+    seed = draw_seed(rng)
+    candidates = [estimate_pose(m, observed, image, params, model_rng(seed, m.name), restarts, table_height)
                   for m in database.models.values() if fits_size(m, observed)]
     candidates.sort(key=lambda e: -e.score)
     best = candidates[0] if candidates else None
