@@ -172,55 +172,63 @@ def _moves(angle_deg: float, shift: float) -> list[np.ndarray]:
     return moves
 
 
+def refine_pose(model: Model, observed: ObservedFeatures, image: DepthImage, params: RegistrationParams,
+                estimate: PoseEstimate, table_height: float = 0.0, good_score: float = 0.98,
+                steps: tuple[tuple[float, float], ...] = ((10.0, 0.02), (5.0, 0.01)),
+                rounds: int = 3) -> PoseEstimate:
+    """`estimate` of `model` refined by a pattern search on the verification score, if it scores below
+    `good_score`: ICP from it turned by +-angle [deg] about, and shifted by +-shift [m] along, each object
+    axis, a better-scoring result replacing it, for up to `rounds` rounds per (angle, shift) of `steps`
+    (coarse to fine). ICP settles in a wrong minimum a few degrees off when a few points (a handle's) fix a
+    turn, and a box seen on two faces slides along them; the score sees both (0.88-0.97 against 0.99-1.0
+    at the truth on the mug; right poses of the benchmark's objects score 0.99-1.0)."""
+    tolerance = 2.0 * params.voxel
+    top = estimate
+    for angle, shift in steps:
+        for _ in range(rounds):
+            if top.score >= good_score:
+                return top
+            improved = False
+            start = np.linalg.inv(top.pose)
+            for move in _moves(angle, shift):
+                candidate = refine_icp(observed.points, model.dense_points, model.dense_normals,
+                                       np.linalg.inv(move) @ start, params)
+                hypothesis = _verify(model, candidate, image, tolerance, table_height)
+                if _better(hypothesis, top):
+                    top, improved = hypothesis, True
+            if not improved:
+                break
+    return top
+
+
 def estimate_pose(model: Model, observed: ObservedFeatures, image: DepthImage, params: RegistrationParams,
                   rng: np.random.Generator, restarts: int = 4, table_height: float = 0.0,
-                  good_score: float = 0.98,
-                  local_steps: tuple[tuple[float, float], ...] = ((10.0, 0.02), (5.0, 0.01)),
-                  local_rounds: int = 3) -> PoseEstimate:
+                  good_score: float = 0.98, refine: bool = True) -> PoseEstimate:
     """The best (by `score`) of up to `restarts` (>= 1) RANSAC + ICP hypotheses of `model` in the observed
     cloud; `rng` draws the RANSAC seeds (`model_rng` gives each model its own).
 
     Each restart's hypothesis is also tried composed with every near-symmetry of the model, each refined
-    by ICP (module docstring). If the best of them scores below `good_score`, a pattern search refines it:
-    ICP from it turned by +-angle [deg] about, and shifted by +-shift [m] along, each object axis, a
-    better-scoring result replacing it, for up to `local_rounds` rounds per (angle, shift) of `local_steps`
-    (coarse to fine). ICP settles in a wrong minimum a few degrees off when a few points (a handle's) fix
-    a turn; the score sees it (0.88-0.97 against 0.99-1.0 at the truth on the mug; right poses of the
-    benchmark's objects score 0.99-1.0). It stops after the first restart whose best reaches `good_score`.
+    by ICP (module docstring), and the best of them, with `refine`, by `refine_pose`. It stops after the
+    first restart whose best reaches `good_score`.
     """
     if restarts < 1:
         raise ConfigError(f"restarts must be >= 1, got {restarts}")
     best: PoseEstimate | None = None
     tolerance = 2.0 * params.voxel
-
-    def icp(init: np.ndarray) -> Registration:
-        return refine_icp(observed.points, model.dense_points, model.dense_normals, init, params)
-
-    def verify(reg: Registration) -> PoseEstimate:
-        return _verify(model, reg, image, tolerance, table_height)
-
     for seed in rng.integers(0, 2**31 - 1, size=restarts):
         reg = register(observed.points, observed.features, model.points, model.features, model.normals, params,
                        int(seed), icp_target=(model.dense_points, model.dense_normals))
-        top_reg, top = reg, verify(reg)
-        for near in model.near_symmetries:  # the pose inv(reg.transform) @ near
-            candidate = icp(np.linalg.inv(near) @ reg.transform)
-            hypothesis = verify(candidate)
+        candidates = [reg] + [refine_icp(observed.points, model.dense_points, model.dense_normals,
+                                         np.linalg.inv(near) @ reg.transform, params)  # the pose inv(T) @ near
+                              for near in model.near_symmetries]
+        top: PoseEstimate | None = None
+        for candidate in candidates:
+            hypothesis = _verify(model, candidate, image, tolerance, table_height)
             if _better(hypothesis, top):
-                top_reg, top = candidate, hypothesis
-        for angle, shift in local_steps:
-            for _ in range(local_rounds):
-                if top.score >= good_score:
-                    break
-                improved = False
-                for move in _moves(angle, shift):
-                    candidate = icp(np.linalg.inv(move) @ top_reg.transform)
-                    hypothesis = verify(candidate)
-                    if _better(hypothesis, top):
-                        top_reg, top, improved = candidate, hypothesis, True
-                if not improved:
-                    break
-        if _better(top, best):
+                top = hypothesis
+        if refine:
+            top = refine_pose(model, observed, image, params, top, table_height, good_score)  # type: ignore[arg-type]
+        if _better(top, best):  # type: ignore[arg-type]  # set above
             best = top
         if best.score >= good_score:  # type: ignore[union-attr]  # set above
             break
@@ -241,15 +249,25 @@ def fits_size(model: Model, observed: ObservedFeatures, slack: float = 0.01) -> 
 
 def recognize(database: ModelDatabase, cloud: Cloud, image: DepthImage, params: RegistrationParams,
               rng: np.random.Generator, threshold: float = 0.7, restarts: int = 2,
-              table_height: float = 0.0) -> Recognition:
+              table_height: float = 0.0, refine_top: int = 3) -> Recognition:
     """Which model of `database` the cloud shows: the best `score` over the models whose size fits,
-    recognised if it reaches `threshold`. One seed is drawn from `rng`; each model's RANSAC draws from
-    its own `model_rng(seed, name)`, so a model's estimate is the same whatever else the database holds
-    (and the same as `estimate_pose` with that generator)."""
+    recognised if it reaches `threshold`. Every such model is estimated without `refine_pose` (tens of
+    ICP runs per restart on a model that does not fit), then the `refine_top` best-scoring of them again
+    with it, from the same seeds, their refined estimates replacing the first ones.
+
+    One seed is drawn from `rng`; each model's RANSAC draws from its own `model_rng(seed, name)`, so a
+    refined model's estimate is the same whatever else the database holds, and the same as
+    `estimate_pose` of that model alone with that generator.
+    """
     observed = observed_features(cloud, database)
     seed = draw_seed(rng)
-    candidates = [estimate_pose(m, observed, image, params, model_rng(seed, m.name), restarts, table_height)
+    candidates = [estimate_pose(m, observed, image, params, model_rng(seed, m.name), restarts, table_height,
+                                refine=False)
                   for m in database.models.values() if fits_size(m, observed)]
+    candidates.sort(key=lambda e: -e.score)
+    candidates[:refine_top] = [estimate_pose(database.get(e.name), observed, image, params,
+                                             model_rng(seed, e.name), restarts, table_height)
+                               for e in candidates[:refine_top]]
     candidates.sort(key=lambda e: -e.score)
     best = candidates[0] if candidates else None
     return Recognition(best, best is not None and best.score >= threshold, tuple(candidates))
