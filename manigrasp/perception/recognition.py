@@ -249,11 +249,13 @@ def fits_size(model: Model, observed: ObservedFeatures, slack: float = 0.01) -> 
 
 def recognize(database: ModelDatabase, cloud: Cloud, image: DepthImage, params: RegistrationParams,
               rng: np.random.Generator, threshold: float = 0.7, restarts: int = 2,
-              table_height: float = 0.0, refine_top: int = 3) -> Recognition:
+              table_height: float = 0.0, refine_top: int = 1) -> Recognition:
     """Which model of `database` the cloud shows: the best `score` over the models whose size fits,
-    recognised if it reaches `threshold`. Every such model is estimated without `refine_pose` (tens of
+    recognised if it reaches `threshold`. Every such model is estimated without `refine_pose` (up to 72
     ICP runs per restart on a model that does not fit), then the `refine_top` best-scoring of them again
-    with it, from the same seeds, their refined estimates replacing the first ones.
+    with it, from the same seeds, their refined estimates replacing the first ones (the estimator before
+    near-symmetries, which never refined, picked every shipped object right in tests/test_perception_pose.py;
+    refining the 3 best made that test 6 times slower).
 
     One seed is drawn from `rng`; each model's RANSAC draws from its own `model_rng(seed, name)`, so a
     refined model's estimate is the same whatever else the database holds, and the same as
