@@ -28,7 +28,14 @@ from manigrasp.perception.camera import BACKENDS, Camera, DepthImage, Intrinsics
 from manigrasp.perception.cloud import Cloud, object_cloud
 from manigrasp.perception.models import Model, ModelDatabase
 from manigrasp.perception.noise import DepthNoise, apply_noise
-from manigrasp.perception.recognition import PoseEstimate, estimate_pose, observed_features, recognize
+from manigrasp.perception.recognition import (
+    PoseEstimate,
+    draw_seed,
+    estimate_pose,
+    model_rng,
+    observed_features,
+    recognize,
+)
 from manigrasp.perception.registration import RegistrationParams
 
 
@@ -219,7 +226,8 @@ def perceive(scene: Viewed, camera: Camera, database: ModelDatabase, rng: np.ran
         observed = observed_features(cloud, database)
         timings["features"] = time.perf_counter() - start
         start = time.perf_counter()
-        estimate = estimate_pose(database.get(object_name), observed, image, params, rng, restarts, table_height)
+        estimate = estimate_pose(database.get(object_name), observed, image, params,
+                                 model_rng(draw_seed(rng), object_name), restarts, table_height)
         recognized_as: str | None = object_name
     else:
         result = recognize(database, cloud, image, params, rng, config.threshold, restarts, table_height)
