@@ -31,6 +31,7 @@ import numpy as np
 import trimesh
 
 from manigrasp.errors import UnknownNameError
+from manigrasp.geometry import pose_distance
 from manigrasp.objects.asset import ObjectAsset
 from manigrasp.perception.features import FeatureParams, downsample, fpfh, o3d_cloud
 from manigrasp.perception.metrics import nearest_distances
@@ -125,15 +126,10 @@ def find_near_symmetries(points: np.ndarray, normals: np.ndarray, voxel: float,
             moved = o3d_cloud(query @ s[:3, :3].T + s[:3, 3])
             if np.max(moved.compute_point_cloud_distance(o3d_cloud(points))) < tolerance:
                 continue
-            if any(_angle_deg(s[:3, :3], k[:3, :3]) < 10.0 and np.linalg.norm(s[:3, 3] - k[:3, 3]) < 0.01
-                   for k in found):
+            if any(shift < 0.01 and turn < 10.0 for shift, turn in (pose_distance(s, k) for k in found)):
                 continue
             found.append(s)
     return np.array(found).reshape(-1, 4, 4)
-
-
-def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip((np.trace(a.T @ b) - 1) / 2, -1.0, 1.0))))
 
 
 def build_model(asset: ObjectAsset, params: FeatureParams | None = None, seed: int = 0) -> Model:
