@@ -266,6 +266,7 @@ def test_a_ctrl_c_swallowed_while_the_commands_load_still_stops_the_program(tmp_
     script = tmp_path / "swallow.py"
     script.write_text(
         "import os, signal, sys, time\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)  # as from a terminal, whatever launched the tests\n"
         "import manigrasp.cli as cli\n"
         "real = cli.build_parser\n"
         "def build_parser():\n"
