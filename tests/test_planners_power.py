@@ -123,3 +123,37 @@ def test_power_grasps_of_a_ball_on_the_allegro_push_it_into_the_hand() -> None:
     pos, quat = probe.roots(np.array([c.pose for c in candidates]))
     inward = [finger_inward(sweep.close(pos[i], quat[i]), c.pose[:3, 2]) for i, c in enumerate(candidates)]
     assert min(inward) >= 0.0, inward
+
+
+@pytest.mark.slow
+def test_power_contacts_carry_the_friction_of_the_link_they_touch_with() -> None:
+    """The power planner's contacts lie on fingertips (rubber, 1.0 with compliant pads) and on phalanges or the
+    palm (0.5): each candidate says which (`contact_friction`), and the stored planned metrics use it, so a
+    phalanx contact is no longer judged at the fingertips' 1.0."""
+    from manigrasp.contact import Contact
+    from manigrasp.protocol.metrics import contact_metrics, planned_metrics, planned_metrics_batch
+    from manigrasp.sim import build_scene
+
+    obs = _can_observation()
+    result = planners.plan(planners.load("power"), obs, hands.load("inspire_right"), 5, np.random.default_rng(0))
+    rows = np.concatenate([c.contact_friction for c in result.candidates])
+    assert all(c.contact_friction.shape == (len(c.contacts), 2) for c in result.candidates)
+    assert set(np.round(rows[:, 0], 3)) == {0.5, 1.0}  # both kinds of link touch the can
+    candidate = next(c for c in result.candidates if len(set(c.contact_friction[:, 0])) == 2)
+    scene = build_scene("inspire_right", obs.asset)
+    center, scale = obs.center_of_mass, 0.05
+    got = planned_metrics(scene, candidate.contacts, candidate.contact_normals, center, scale,
+                          friction=candidate.contact_friction)
+    want = contact_metrics([Contact(p, n, mu, "soft_finger", gamma) for p, n, (mu, gamma) in
+                            zip(candidate.contacts, candidate.contact_normals, candidate.contact_friction,
+                                strict=True)], center, scale)
+    assert got.epsilon_l1 == pytest.approx(want.epsilon_l1, rel=1e-9)
+    mixed = [c for c in result.candidates if len(set(c.contact_friction[:, 0])) == 2]
+    own = [planned_metrics(scene, c.contacts, c.contact_normals, center, scale, friction=c.contact_friction)
+           for c in mixed]
+    rubber = [planned_metrics(scene, c.contacts, c.contact_normals, center, scale) for c in mixed]
+    assert all(o.epsilon_l1 <= r.epsilon_l1 + 1e-12 for o, r in zip(own, rubber, strict=True))
+    assert any(o.epsilon_l1 < r.epsilon_l1 - 1e-6 for o, r in zip(own, rubber, strict=True))
+    (batched,) = planned_metrics_batch(scene, [(candidate.contacts, candidate.contact_normals,
+                                                candidate.contact_friction)], obs.object_pose, scale)
+    assert batched.epsilon_l1 == pytest.approx(got.epsilon_l1, rel=1e-6)

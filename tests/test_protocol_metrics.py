@@ -131,3 +131,18 @@ def test_the_compiled_grasping_surfaces_have_the_friction_the_planners_are_told(
     for name in ("parallel_jaw", "robotiq_2f85", "inspire_right", "allegro_right"):
         scene = build_scene(name, box_asset, config)
         assert grasping_contact(scene)[0] == grasping_friction(config, hands.load(name)), name
+
+
+def test_a_candidates_contact_friction_must_give_one_row_per_contact():
+    from manigrasp.planners.base import GraspCandidate
+    from manigrasp.planners.run import candidate_defect
+
+    pose, points = np.eye(4), np.array([[0.0, 0.03, 0.0], [0.0, -0.03, 0.0]])
+    normals = np.array([[0.0, -1.0, 0.0], [0.0, 1.0, 0.0]])
+    good = GraspCandidate(pose, 1.0, contacts=points, contact_normals=normals,
+                          contact_friction=np.array([[1.0, 0.004], [0.5, 0.005]]))
+    assert candidate_defect(good) is None
+    for bad in (np.array([[1.0, 0.004]]), np.array([[1.0, np.nan], [0.5, 0.005]]), np.array([[-1.0, 0.0]] * 2)):
+        defect = candidate_defect(GraspCandidate(pose, 1.0, contacts=points, contact_normals=normals,
+                                                 contact_friction=bad))
+        assert defect is not None and defect.startswith("contact_friction")

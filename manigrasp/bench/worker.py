@@ -140,7 +140,7 @@ def _planned_metrics(group: Group, scene, candidates: tuple, object_pose: np.nda
     from manigrasp.protocol.metrics import planned_metrics_batch
 
     params = PROTOCOLS.load(group.protocol.name, **dict(group.protocol.params)).params
-    grasps = [(c.contacts, c.contact_normals) for c in candidates]
+    grasps = [(c.contacts, c.contact_normals, c.contact_friction) for c in candidates]
     return tuple(planned_metrics_batch(scene, grasps, object_pose, params.torque_scale, params.metric_edges,
                                        params.metric_friction_tol))
 

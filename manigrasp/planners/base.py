@@ -153,6 +153,10 @@ class GraspCandidate:
         preshape: hand synergy of the pre-shape in [0, 1] (0 = fully open).
         contacts: (k, 3) planned contact points in the world [m] (k may be 0).
         contact_normals: (k, 3) unit contact normals pointing INTO the object.
+        contact_friction: (k, 2) the sliding [-] and torsional [m] friction of the hand surface each
+            planned contact lies on, where the planner knows it (the power planner: the touching geom's, as
+            its probe compiled it); None: the hand's grasping surfaces' (`protocol.metrics.grasping_contact`).
+            The stored planned metrics use it.
         epsilon_l1: Ferrari-Canny epsilon (L1) of the planned contacts, or None if not computed.
         force_closure: whether the planned contacts are in force closure, or None.
         min_friction: smallest friction coefficient for force closure of the planned contacts, or None.
@@ -182,6 +186,7 @@ class GraspCandidate:
     preshape: float = 0.0
     contacts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     contact_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    contact_friction: np.ndarray | None = None
     epsilon_l1: float | None = None
     force_closure: bool | None = None
     min_friction: float | None = None
@@ -199,6 +204,8 @@ class GraspCandidate:
             set_(self, "joints", _readonly(self.joints))
         for name in ("contacts", "contact_normals"):
             set_(self, name, _readonly(np.asarray(getattr(self, name), dtype=float).reshape(-1, 3)))
+        if self.contact_friction is not None:
+            set_(self, "contact_friction", _readonly(np.asarray(self.contact_friction, dtype=float)))
         set_(self, "score", float(self.score))
 
     @classmethod

@@ -80,12 +80,15 @@ class Closure:
         normals: (k, 3) unit normals pointing into the object.
         fingers: (k,) index into `hand.finger_bodies` of each contact's finger.
         n_fingers: number of distinct fingers touching the object.
+        friction: (k, 2) sliding [-] and torsional [m] friction of each contact's hand geom as the probe compiled
+            it (None: not recorded).
     """
 
     positions: np.ndarray
     normals: np.ndarray
     fingers: np.ndarray
     n_fingers: int
+    friction: np.ndarray | None = None
 
 
 class FingerSweep:
@@ -113,7 +116,7 @@ class FingerSweep:
         """Close the hand with its root at `pos` (3,), `quat` (4,); the probe is restored afterwards."""
         probe, shapes = self.probe, self.path.shapes[:, self.columns]
         moving = np.ones(self.n_fingers, bool)
-        found_pos, found_normal, found_finger = [], [], []
+        found_pos, found_normal, found_finger, found_geom = [], [], [], []
         qpos = probe.scene.data.qpos
         for shape in shapes[1:]:
             joint_moves = (self.joint_finger < 0) | moving[np.maximum(self.joint_finger, 0)]
@@ -127,6 +130,7 @@ class FingerSweep:
                 found_pos.append(c_pos[row])
                 found_normal.append(c_normal[row])
                 found_finger.append(int(finger[row]))
+                found_geom.append(int(g))
             table_fingers = self.finger_of_geom[probe.table_touched()]
             moving[finger[hit]] = False
             moving[table_fingers[table_fingers >= 0]] = False
@@ -134,5 +138,6 @@ class FingerSweep:
                 break
         probe.restore()
         fingers = np.array(found_finger, int)
+        friction = probe.scene.model.geom_friction[np.array(found_geom, int), :2].reshape(-1, 2).copy()
         return Closure(positions=np.array(found_pos).reshape(-1, 3), normals=np.array(found_normal).reshape(-1, 3),
-                       fingers=fingers, n_fingers=len(np.unique(fingers)))
+                       fingers=fingers, n_fingers=len(np.unique(fingers)), friction=friction)

@@ -270,7 +270,8 @@ class PowerPlanner:
                    min_mu: float, pregrasp_offset: float) -> GraspCandidate:
         return GraspCandidate(
             pose=pose, score=float(score), width=None, preshape=0.0, contacts=closure.positions,
-            contact_normals=closure.normals, epsilon_l1=float(eps), force_closure=bool(eps > EPSILON_TOLERANCE),
+            contact_normals=closure.normals, contact_friction=closure.friction, epsilon_l1=float(eps),
+            force_closure=bool(eps > EPSILON_TOLERANCE),
             min_friction=None if np.isnan(min_mu) else float(min_mu),
             pregrasp_offset=pregrasp_offset, planner=self.name)
 

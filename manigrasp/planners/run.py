@@ -152,6 +152,10 @@ def candidate_defect(candidate: GraspCandidate, hand: Hand | None = None) -> str
         return "contacts and contact_normals differ in shape"
     if not (np.all(np.isfinite(candidate.contacts)) and np.all(np.isfinite(candidate.contact_normals))):
         return "contacts contain NaN or inf"
+    friction = candidate.contact_friction
+    if friction is not None and (not isinstance(friction, np.ndarray) or friction.shape != (len(candidate.contacts), 2)
+                                 or not np.all(np.isfinite(friction)) or np.any(friction < 0)):
+        return "contact_friction is not a (k, 2) array of finite frictions >= 0, one row per contact"
     offset = candidate.pregrasp_offset
     if offset is not None and not (np.isfinite(offset) and 0 <= offset <= MAX_PREGRASP_OFFSET):
         return (f"pregrasp_offset is {candidate.pregrasp_offset} (a distance in [0, {MAX_PREGRASP_OFFSET:g}] m back "

@@ -34,6 +34,8 @@ class Grasp:
         width: planned jaw opening at contact [m], or None (informational).
         contacts: (k, 3) planned contact points in the world [m].
         contact_normals: (k, 3) unit normals at `contacts`, pointing into the object.
+        contact_friction: (k, 2) sliding [-] and torsional [m] friction of the hand surface at each contact, or
+            None: the hand's grasping surfaces' (`manigrasp.planners.GraspCandidate.contact_friction`).
         planning_time_s: the planner's time for this grasp [s] (NaN: unknown).
         planned_metrics: the metrics of `contacts` if already computed (the harness scores a
             whole plan at once with `protocol.metrics.planned_metrics_batch`); None: computed here.
@@ -52,6 +54,7 @@ class Grasp:
     width: float | None = None
     contacts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     contact_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    contact_friction: np.ndarray | None = None
     planning_time_s: float = float("nan")
     planned_metrics: GraspMetrics | None = None
     invalid: str = ""
@@ -74,8 +77,10 @@ def as_grasp(grasp: Any) -> Grasp:
     timing = getattr(grasp, "planning_time_s", float("nan"))
     joints = getattr(grasp, "joints", None)
     offset = getattr(grasp, "pregrasp_offset", None)
+    friction = getattr(grasp, "contact_friction", None)
     return Grasp(pose=np.asarray(grasp.pose, dtype=float), preshape=float(getattr(grasp, "preshape", 0.0) or 0.0),
                  width=getattr(grasp, "width", None), contacts=contacts, contact_normals=normals,
+                 contact_friction=None if friction is None else np.asarray(friction, float).reshape(-1, 2),
                  planning_time_s=float(timing) if timing is not None else float("nan"),
                  invalid=str(getattr(grasp, "invalid", "") or ""),
                  joints=None if joints is None else np.asarray(joints, dtype=float),

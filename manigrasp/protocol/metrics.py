@@ -11,9 +11,11 @@ compliant pads' elements (rubber, `pad_friction` 1.0, each with its cell's
 torsion) or rubber fingertips, as compiled; the rigid pads or, for a hand with
 neither, the hand geoms (`hand_friction`, `hand_torsional_friction`,
 `hand_condim`). Before, planned contacts were always judged at the hand
-geoms' 0.5 while the pads touched at 1.0. A planned contact does not say which
-link it is on, so one on a phalanx or the palm (power grasps) is judged as a
-fingertip too, optimistically: those links touch at the hand geoms' 0.5. NaN means "not computed" (no
+geoms' 0.5 while the pads touched at 1.0. A planner that knows which surface
+each contact lies on says so (`GraspCandidate.contact_friction`: the power
+planner gives each contact its touching geom's friction, so a contact on a
+phalanx or the palm is judged at the hand geoms' 0.5); the other planners'
+contacts are on the pads or fingertips. NaN means "not computed" (no
 planned contacts, the metric is undefined for these contacts, or the hull
 could not be built), never a score; no contact at all is a computed "no
 closure" (0).
@@ -119,10 +121,23 @@ def grasping_contact(scene: Scene) -> tuple[float, ContactType, float]:
     return mu, kind, gamma if kind is ContactType.SOFT_FINGER else 0.0
 
 
+def contact_frictions(scene: Scene, k: int, given: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, ContactType, np.ndarray]:
+    """(mu (k,), contact type, gamma (k,) [m]) of `k` planned contacts: `given` (k, 2) sliding and torsional
+    friction where the planner knows the surface each lies on (`GraspCandidate.contact_friction`), else the
+    grasping surfaces' (`grasping_contact`); gamma 0 unless the contacts are soft fingers."""
+    mu, kind, gamma = grasping_contact(scene)
+    if given is None:
+        return np.full(k, mu), kind, np.full(k, gamma)
+    given = np.asarray(given, float).reshape(k, 2)
+    return given[:, 0].copy(), kind, given[:, 1].copy() if kind is ContactType.SOFT_FINGER else np.zeros(k)
+
+
 def planned_metrics(scene: Scene, points: np.ndarray, normals: np.ndarray, center: np.ndarray,
-                    torque_scale: float, edges: int = 8, friction_tol: float = 0.01) -> GraspMetrics:
-    """Metrics of planned contacts `points`, `normals` (k, 3) with the model of the hand's grasping surfaces
-    (`grasping_contact`).
+                    torque_scale: float, edges: int = 8, friction_tol: float = 0.01,
+                    friction: np.ndarray | None = None) -> GraspMetrics:
+    """Metrics of planned contacts `points`, `normals` (k, 3) with the friction `friction` (k, 2) of the surface
+    each lies on, or None: the model of the hand's grasping surfaces (`contact_frictions`).
 
     Returns all-NaN metrics when there are no planned contacts or they are not finite.
     """
@@ -130,12 +145,12 @@ def planned_metrics(scene: Scene, points: np.ndarray, normals: np.ndarray, cente
     if len(points) == 0 or len(points) != len(normals) or not (np.isfinite(points).all()
                                                                and np.isfinite(normals).all()):
         return GraspMetrics()
-    mu, kind, gamma = grasping_contact(scene)
+    mu, kind, gamma = contact_frictions(scene, len(points), friction)
     norms = np.linalg.norm(normals, axis=1, keepdims=True)
     if np.any(norms < 1e-9):
         return GraspMetrics(n_contacts=len(points))
-    contacts = [Contact(position=p, normal=nrm, mu=mu, kind=kind, gamma=gamma)
-                for p, nrm in zip(points, normals / norms, strict=True)]
+    contacts = [Contact(position=p, normal=nrm, mu=m, kind=kind, gamma=g)
+                for p, nrm, m, g in zip(points, normals / norms, mu, gamma, strict=True)]
     return contact_metrics(contacts, center, torque_scale, edges, friction_tol)
 
 
@@ -147,7 +162,7 @@ def simulated_metrics(scene: Scene, torque_scale: float, edges: int = 8, frictio
                            friction_tol, min_friction)
 
 
-def planned_metrics_batch(scene: Scene, grasps: Sequence[tuple[np.ndarray, np.ndarray]], object_pose: np.ndarray,
+def planned_metrics_batch(scene: Scene, grasps: Sequence[tuple], object_pose: np.ndarray,
                           torque_scale: float | None = None, edges: int = 8,
                           friction_tol: float = 0.01) -> list[GraspMetrics]:
     """`planned_metrics` of many grasps at once (the harness computes them once per planning call).
@@ -157,7 +172,8 @@ def planned_metrics_batch(scene: Scene, grasps: Sequence[tuple[np.ndarray, np.nd
 
     Args:
         scene: the scene whose grasping surfaces' contact model (`grasping_contact`) is used.
-        grasps: per grasp, (points (k, 3), inward normals (k, 3)) in the world [m].
+        grasps: per grasp, (points (k, 3), inward normals (k, 3)) in the world [m], and optionally the friction
+            (k, 2) of the surface each contact lies on (None: the grasping surfaces', `contact_frictions`).
         object_pose: (4, 4) settled object pose; torques are about its centre of mass.
         torque_scale: characteristic length [m] (default: the object's radius of gyration).
     """
@@ -165,7 +181,7 @@ def planned_metrics_batch(scene: Scene, grasps: Sequence[tuple[np.ndarray, np.nd
     scale = torque_scale or radius_of_gyration(scene)
     out: list[GraspMetrics] = [GraspMetrics() for _ in grasps]
     groups: dict[int, list[int]] = {}
-    for i, (points, normals) in enumerate(grasps):
+    for i, (points, normals, *_) in enumerate(grasps):
         points, normals = np.asarray(points, float).reshape(-1, 3), np.asarray(normals, float).reshape(-1, 3)
         if len(points) and points.shape == normals.shape and np.isfinite(points).all() and \
                 np.isfinite(normals).all() and (np.linalg.norm(normals, axis=1) > 1e-9).all():
@@ -177,12 +193,15 @@ def planned_metrics_batch(scene: Scene, grasps: Sequence[tuple[np.ndarray, np.nd
     return out
 
 
-def _batch(scene: Scene, grasps: list[tuple[np.ndarray, np.ndarray]], center: np.ndarray, scale: float,
+def _batch(scene: Scene, grasps: list[tuple], center: np.ndarray, scale: float,
            edges: int, friction_tol: float) -> list[GraspMetrics]:
-    mu, kind, gamma = grasping_contact(scene)
-    points = np.stack([np.asarray(p, float).reshape(-1, 3) for p, _ in grasps])
-    normals = np.stack([np.asarray(n, float).reshape(-1, 3) for _, n in grasps])
+    points = np.stack([np.asarray(g[0], float).reshape(-1, 3) for g in grasps])
+    normals = np.stack([np.asarray(g[1], float).reshape(-1, 3) for g in grasps])
     normals = normals / np.linalg.norm(normals, axis=2, keepdims=True)
+    k = points.shape[1]
+    per_grasp = [contact_frictions(scene, k, g[2] if len(g) > 2 else None) for g in grasps]
+    kind = per_grasp[0][1]
+    mu, gamma = np.stack([f[0] for f in per_grasp]), np.stack([f[2] for f in per_grasp])
     try:
         contacts = ContactSet(points, normals, mu, kind, gamma if kind is ContactType.SOFT_FINGER else None)
         epsilon = ferrari_canny_batch(contacts, center, scale, "L1", edges)

@@ -67,7 +67,7 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
         center = (rest @ np.append(scene.model.body_ipos[scene.object_body], 1.0))[:3]
         planned = grasp.planned_metrics or planned_metrics(scene, grasp.contacts, grasp.contact_normals, center,
                                                            run.torque_scale, params.metric_edges,
-                                                           params.metric_friction_tol)
+                                                           params.metric_friction_tol, grasp.contact_friction)
         fingers = body(run, pose, rest, grasp)
     except Abort as abort:
         status, detail = abort.status, abort.detail
