@@ -121,12 +121,12 @@ def grasping_contact(scene: Scene) -> tuple[float, ContactType, float]:
     return mu, kind, gamma if kind is ContactType.SOFT_FINGER else 0.0
 
 
-def contact_frictions(scene: Scene, k: int, given: np.ndarray | None = None
+def contact_frictions(surfaces: tuple[float, ContactType, float], k: int, given: np.ndarray | None = None
                       ) -> tuple[np.ndarray, ContactType, np.ndarray]:
     """(mu (k,), contact type, gamma (k,) [m]) of `k` planned contacts: `given` (k, 2) sliding and torsional
     friction where the planner knows the surface each lies on (`GraspCandidate.contact_friction`), else the
-    grasping surfaces' (`grasping_contact`); gamma 0 unless the contacts are soft fingers."""
-    mu, kind, gamma = grasping_contact(scene)
+    grasping `surfaces`' (`grasping_contact` of the scene); gamma 0 unless the contacts are soft fingers."""
+    mu, kind, gamma = surfaces
     if given is None:
         return np.full(k, mu), kind, np.full(k, gamma)
     given = np.asarray(given, float).reshape(k, 2)
@@ -145,7 +145,7 @@ def planned_metrics(scene: Scene, points: np.ndarray, normals: np.ndarray, cente
     if len(points) == 0 or len(points) != len(normals) or not (np.isfinite(points).all()
                                                                and np.isfinite(normals).all()):
         return GraspMetrics()
-    mu, kind, gamma = contact_frictions(scene, len(points), friction)
+    mu, kind, gamma = contact_frictions(grasping_contact(scene), len(points), friction)
     norms = np.linalg.norm(normals, axis=1, keepdims=True)
     if np.any(norms < 1e-9):
         return GraspMetrics(n_contacts=len(points))
@@ -198,8 +198,8 @@ def _batch(scene: Scene, grasps: list[tuple], center: np.ndarray, scale: float,
     points = np.stack([np.asarray(g[0], float).reshape(-1, 3) for g in grasps])
     normals = np.stack([np.asarray(g[1], float).reshape(-1, 3) for g in grasps])
     normals = normals / np.linalg.norm(normals, axis=2, keepdims=True)
-    k = points.shape[1]
-    per_grasp = [contact_frictions(scene, k, g[2] if len(g) > 2 else None) for g in grasps]
+    k, surfaces = points.shape[1], grasping_contact(scene)  # read from the compiled scene once per batch
+    per_grasp = [contact_frictions(surfaces, k, g[2] if len(g) > 2 else None) for g in grasps]
     kind = per_grasp[0][1]
     mu, gamma = np.stack([f[0] for f in per_grasp]), np.stack([f[2] for f in per_grasp])
     try:
