@@ -83,6 +83,17 @@ def hull_epsilon(points: np.ndarray) -> float:
     size. If every option fails, or the input is not finite, the result is
     NaN ("not computed"), never 0 ("no closure").
     """
+    hull = _hull(points)
+    if isinstance(hull, float):
+        return hull
+    eps = float(np.min(-hull.equations[:, -1]))
+    return eps if eps > ROUNDING * np.max(np.linalg.norm(points, axis=1)) else 0.0
+
+
+def _hull(points: np.ndarray) -> ConvexHull | float:
+    """conv(points (N, d)) by Qhull, tried with each of `QHULL_OPTIONS` in turn after merging duplicated points;
+    0.0 for a flat set (at most d distinct points, or all within `FLAT_WIDTH` of a hyperplane: no d-D interior),
+    NaN if the input is not finite or every option fails (`hull_epsilon`)."""
     points = np.asarray(points, dtype=float)
     if not np.isfinite(points).all():
         return math.nan
@@ -91,11 +102,9 @@ def hull_epsilon(points: np.ndarray) -> float:
         return 0.0
     for options in QHULL_OPTIONS:
         try:
-            hull = ConvexHull(points, qhull_options=options)
+            return ConvexHull(points, qhull_options=options)
         except QhullError:
             continue
-        eps = float(np.min(-hull.equations[:, -1]))
-        return eps if eps > ROUNDING * np.max(np.linalg.norm(points, axis=1)) else 0.0
     return math.nan
 
 
@@ -179,16 +188,5 @@ def gws_volume(
     `QHULL_OPTIONS`, as for epsilon: flat pads (many coplanar contacts) stop its default merging with a
     precision error although the set spans 6-D, where the joggled input ("QJ") builds the hull.
     """
-    cs = as_contact_set(contacts)
-    points = primitive_wrenches(cs, center, torque_scale, m).reshape(-1, 6)
-    if not np.isfinite(points).all():
-        return math.nan
-    points = np.unique(points, axis=0)
-    if len(points) <= 6 or _is_flat(points):  # no 6-D simplex: no volume
-        return 0.0
-    for options in QHULL_OPTIONS:
-        try:
-            return float(ConvexHull(points, qhull_options=options).volume)
-        except QhullError:
-            continue
-    return math.nan
+    hull = _hull(primitive_wrenches(as_contact_set(contacts), center, torque_scale, m).reshape(-1, 6))
+    return hull if isinstance(hull, float) else float(hull.volume)

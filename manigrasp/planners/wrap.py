@@ -67,5 +67,4 @@ def finger_inward(closure: Closure, approach: np.ndarray) -> float:
     normals = np.asarray(closure.normals, float).reshape(-1, 3)
     if len(normals) == 0:
         return float("nan")
-    push = -normals @ np.asarray(approach, float)
-    return float(min(np.mean(push[closure.fingers == f]) for f in np.unique(closure.fingers)))
+    return min(toward_palm(normals[closure.fingers == f], approach) for f in np.unique(closure.fingers))
