@@ -81,8 +81,7 @@ def _pose_cells(e: PoseErrors | None) -> tuple[str, ...]:
     succeeded, or for the rotation where every one is of an object with a symmetry) and the share of good ones."""
     if e is None:
         return ("-",) * 5
-    notes = [f"{n} {what}" for n, what in ((e.failed, "failed"), (e.symmetric, "with a symmetry"),
-                                           (e.unrecorded, "judged by ADD-S: stored before symmetry was recorded")) if n]
+    notes = e.notes()
     estimates = f"{e.objects + e.failed}" + (f" ({', '.join(notes)})" if notes else "")
     rotation = f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}" if e.objects > e.symmetric else "-"
     errors = (rotation, f"{e.median_translation_mm:.1f} / {e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}"

@@ -166,13 +166,20 @@ class PoseErrors:
             return cls(0, *[math.nan] * 5, 0.0, failed)
         rot, trans, adds, sym = (np.array(v, float) for v in zip(*per_object, strict=True))
         judged_by_add_s = sym != 0.0  # NaN (not recorded): by ADD-S, as every estimate was judged before
-        good = sum(pose_good(*e, j) for e, j in zip(zip(rot, trans, adds, strict=True), judged_by_add_s, strict=True))
+        good = sum(pose_good(*e) for e in zip(rot, trans, adds, judged_by_add_s, strict=True))
         asymmetric = rot[sym != 1.0]
         rotation = (float(np.median(asymmetric)), float(np.percentile(asymmetric, 90))) if len(asymmetric) else (
             math.nan, math.nan)
         return cls(len(per_object), *rotation, float(np.median(trans)), float(np.percentile(trans, 90)),
                    float(np.median(adds)), good / (len(per_object) + failed), failed, int(np.sum(sym == 1.0)),
                    int(np.sum(np.isnan(sym))))
+
+    def notes(self) -> list[str]:
+        """What the estimates' count leaves unsaid, as the console line and report.md give it: how many failed, are
+        of objects with a symmetry, or were judged by ADD-S for want of their symmetry ("2 failed")."""
+        return [f"{n} {what}" for n, what in ((self.failed, "failed"), (self.symmetric, "with a symmetry"),
+                                              (self.unrecorded, "judged by ADD-S, stored before the symmetry was "
+                                                                "recorded")) if n]
 
 
 # The observation of a method is the trial key's observation label: its kind, with the camera setup's suffix

@@ -140,9 +140,7 @@ def _print_tables(report, meta: dict) -> None:
         rotation = (f"rotation median {e.median_rotation_deg:.1f} deg (p90 {e.p90_rotation_deg:.1f}) over the "
                     f"{e.objects - e.symmetric} {'not known to have' if e.unrecorded else 'without'} a symmetry, "
                     if e.objects > e.symmetric else "")
-        notes = "".join(f"; {n} {what}" for n, what in ((e.failed, "failed"), (e.symmetric, "with a symmetry"),
-                                                        (e.unrecorded, "judged by ADD-S, stored before the "
-                                                                       "symmetry was recorded")) if n)
+        notes = "".join(f"; {note}" for note in e.notes())
         print(f"pose errors {'/'.join(method_cells(report, m))}: {rotation}translation median "
               f"{e.median_translation_mm:.1f} mm (p90 {e.p90_translation_mm:.1f}); {e.share_good:.0%} of "
               f"{e.objects + e.failed} pose estimate{'s' if e.objects + e.failed != 1 else ''} (one per object, or "
