@@ -309,6 +309,49 @@ def test_the_hold_test_assumes_the_scenes_contact_friction_unless_the_planner_se
     assert margins(DexOptPlanner(restarts=8, iterations=60, friction=0.5), rubber) == rigid
 
 
+def test_pads_off_the_fingertips_are_held_at_the_links_friction_not_the_rubbers(tmp_path) -> None:
+    """With `palm` and `wrap` the pads on the palm and the phalanges touch with the hand's 0.5 in the scene, only
+    the fingertips with the rubber's 1.0: the hold test and the candidates' `contact_friction` say so (both read
+    1.0 everywhere before), and the default fingertip pads are all on the rubber."""
+    from dataclasses import replace
+
+    from manigrasp.objects import build_object
+    from manigrasp.planners.context import PlanContext
+    from manigrasp.planners.dexopt import hold_margin
+
+    asset = build_object(trimesh.creation.cylinder(0.033, 0.10, sections=48), name="dexopt_test_can", mass=0.35,
+                         cache_root=tmp_path).asset
+    observation = Observation.from_asset(asset)
+    hand = load_hand("allegro_right")
+    rubber = replace(PlanContext.standard(), grip_force=10.0, contact_friction=1.0)
+    tips = set(hand.fingertip_geoms)
+    for hk in (HandKinematics(hand), HandKinematics(hand, palm=True, wrap=True)):
+        on_tip = np.array([hk.model.geom(int(g)).name in tips for g in hk.pad_geom])
+        assert on_tip.all() == (not hk.palm)  # the default pads lie on the rubber tips; the palm is not rubber
+    planner = DexOptPlanner(restarts=8, iterations=60, palm=True, wrap=True)
+    found = planner.synthesise(observation, hand, 8, np.random.default_rng(0), None, rubber)
+    assert found
+    rows = np.concatenate([s.friction for s in found])
+    assert set(np.round(rows[:, 0], 6)) == {0.5, 1.0}  # phalanx or palm contacts at 0.5, tips at 1.0
+    for s in found:
+        assert len(s.friction) == len(s.contacts)
+    candidates = planner.plan(observation, hand, 4, np.random.default_rng(0), rubber)
+    assert all(c.contact_friction is not None and len(c.contact_friction) == len(c.contacts) for c in candidates)
+    # The hold test with per-contact friction: the same as a scalar when all agree, lower when some are 0.5.
+    x = np.array([[0.03, 0.0, 0.0], [-0.03, 0.0, 0.0]])
+    n = np.array([[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    weight = np.array([[0.0, 0.0, -3.0]])
+    caps = np.array([5.0, 5.0])
+    assert hold_margin(x, n, caps, np.zeros(3), weight, np.array([1.0, 1.0])) == \
+        pytest.approx(hold_margin(x, n, caps, np.zeros(3), weight, 1.0))
+    # Two opposed pads pressing at most 5 N each: the moment balance splits the 3 N weight 1.5 / 1.5, and the pads
+    # press alike, so the 0.5 pad needs 3 N: margin 5 / 3 (both at 1.0: 1.5 N, margin 10 / 3).
+    assert hold_margin(x, n, caps, np.zeros(3), weight, np.array([1.0, 0.5])) == pytest.approx(5 / 3, rel=1e-6)
+    assert hold_margin(x, n, caps, np.zeros(3), weight, 1.0) == pytest.approx(10 / 3, rel=1e-6)
+    with pytest.raises(ConfigError, match="frictions"):
+        hold_margin(x, n, caps, np.zeros(3), weight, np.array([1.0, 0.5, 0.5]))
+
+
 def test_held_joint_stiffness_is_the_servos_gains_through_the_joint_to_command_map(inspire: HandKinematics) -> None:
     """A^T diag(kp') A: each servo that closes with the squeeze HOLD_GAIN times stiffer; for the Inspire hand
     (one servo per independent joint) the stiffness a joint resists with is its servo's kp' times dctrl/dq^2."""

@@ -334,7 +334,7 @@ FREE_COMPLIANCE = 1e6  # a joint no servo holds: this many times the compliance 
 PYRAMID_EDGES = 8  # edges of the linearised friction cone (`hold_margin`); a multiple of 4 keeps the vertical exact
 
 
-def friction_pyramid(normals: np.ndarray, mu: float, edges: int = PYRAMID_EDGES) -> np.ndarray:
+def friction_pyramid(normals: np.ndarray, mu: float | np.ndarray, edges: int = PYRAMID_EDGES) -> np.ndarray:
     """(k, edges, 3) generators n_i + mu (cos a_j u_i + sin a_j v_i), a_j = 2 pi j / edges, of the pyramids
     inscribed in the friction cones of half-angle atan(mu) about the unit inward `normals` (k, 3).
 
@@ -351,16 +351,16 @@ def friction_pyramid(normals: np.ndarray, mu: float, edges: int = PYRAMID_EDGES)
 
 
 def hold_margin(points: np.ndarray, normals: np.ndarray, caps: np.ndarray, center: np.ndarray, loads: np.ndarray,
-                mu: float, torsion: float = 0.0, edges: int = PYRAMID_EDGES) -> float:
+                mu: float | np.ndarray, torsion: float = 0.0, edges: int = PYRAMID_EDGES) -> float:
     """The factor h by which every one of `loads` could grow and still be held by contact forces the hand can press.
 
     Contacts at `points` (k, 3) [m] with inward unit `normals` (k, 3) press with normal forces f_i in [0, caps_i]
-    [N] (what the hand's squeeze can give each contact); each contact force lies in its linearised friction
-    cone (`friction_pyramid`, sliding friction `mu`), and a soft contact adds a torque about its normal of at
-    most `torsion` [m] x f_i. Each load (L, 3) [N] acts at `center` (3,) [m] (a force through the centre of
-    mass: the weight, a perturbation). One linear programme (scipy's HiGHS) finds the smallest t such that
-    every load is balanced, sum_i f_i = -F and sum_i (x_i - c) x f_i + tau_i n_i = 0, with f_i . n_i <= t
-    caps_i; h = 1 / t (inf if nothing is required, 0 if no forces in the cones balance some load).
+    [N] (what the hand's squeeze can give each contact); each contact force lies in its linearised friction cone
+    (`friction_pyramid`, sliding friction `mu`, one for all or (k,) one per contact), and a soft contact adds a
+    torque about its normal of at most `torsion` [m] x f_i. Each load (L, 3) [N] acts at `center` (3,) [m] (a force
+    through the centre of mass: the weight, a perturbation). One linear programme (scipy's HiGHS) finds the smallest
+    t such that every load is balanced, sum_i f_i = -F and sum_i (x_i - c) x f_i + tau_i n_i = 0, with f_i . n_i <=
+    t caps_i; h = 1 / t (inf if nothing is required, 0 if no forces in the cones balance some load).
     h >= 1: the grasp holds every load at its squeeze; homogeneous (h doubles with the caps, halves with the
     loads).
     """
@@ -372,7 +372,10 @@ def hold_margin(points: np.ndarray, normals: np.ndarray, caps: np.ndarray, cente
     loads = np.atleast_2d(np.asarray(loads, float))
     if len(x) != len(n) or len(caps) != len(x):
         raise ConfigError(f"hold_margin: {len(x)} points, {len(n)} normals and {len(caps)} caps differ")
-    if mu < 0 or torsion < 0 or np.any(caps < 0):
+    mu = np.asarray(mu, float)
+    if mu.ndim > 0 and mu.shape != (len(x),):
+        raise ConfigError(f"hold_margin: {mu.size} frictions for {len(x)} points")
+    if np.any(mu < 0) or torsion < 0 or np.any(caps < 0):
         raise ConfigError("hold_margin: mu, torsion and caps must be >= 0")
     loads = loads[np.linalg.norm(loads, axis=1) > 0]
     if len(loads) == 0:

@@ -359,7 +359,7 @@ class HandKinematics:
         q_mid = self.q_open + 0.1 * (self.q_closed - self.q_open)
         xpos0, xmat0, *_ = self.evaluate(np.zeros((1, 3)), ident[None], self.q_open[None], jacobians=False)
         xpos1, xmat1, *_ = self.evaluate(np.zeros((1, 3)), ident[None], q_mid[None], jacobians=False)
-        bodies, local, finger = [], [], []
+        bodies, local, finger, geoms = [], [], [], []
         for f in range(len(self.hand.finger_bodies)):
             links = [b for b in np.unique(self.samples.bodies) if self.body_finger[b] == f]
             if not links:
@@ -367,16 +367,19 @@ class HandKinematics:
                                    "collision geometry")
             chosen_links = sorted(links, key=self._depth, reverse=True)  # the tip first
             for link in chosen_links if self.wrap else chosen_links[:PAD_LINKS]:
-                pts = self.samples.local[self.samples.bodies == link]
+                on_link = self.samples.bodies == link
+                pts = self.samples.local[on_link]
                 k = self._slot_of(link)
                 before = xpos0[0, k] + pts @ xmat0[0, k].T
                 motion = (xpos1[0, k] + pts @ xmat1[0, k].T - before).mean(axis=0)
                 if np.linalg.norm(motion) < 1e-6:  # a link that does not move when the hand closes: no pad
                     continue
                 along = before @ motion / np.linalg.norm(motion)
-                front = pts[along >= np.quantile(along, 1.0 - PAD_FRACTION)]
+                in_front = along >= np.quantile(along, 1.0 - PAD_FRACTION)
+                front = pts[in_front]
                 bodies.extend([link] * len(front))
                 local.extend(front)
+                geoms.extend(self.sample_geom[on_link][in_front])
                 finger.extend([len(set(finger)) if self.wrap else f] * len(front))
             if not finger or (not self.wrap and finger[-1] != f):
                 raise PlannerError(f"hand {self.hand.name!r}: finger {self.hand.finger_bodies[f]!r} does not move "
@@ -390,8 +393,10 @@ class HandKinematics:
             front = on_palm[along >= along.max() - PALM_BAND]
             bodies.extend(self.samples.bodies[front])
             local.extend(self.samples.local[front])
+            geoms.extend(self.sample_geom[front])
             finger.extend([len(set(finger))] * len(front))
         self.pad_finger = np.array(finger, int)
+        self.pad_geom = np.array(geoms, int)
         return Points(np.array(bodies, int), np.array(local))
 
     def _slot_of(self, body: int) -> int:

@@ -226,6 +226,7 @@ from manigrasp.planners.geometry import tcp_frames
 from manigrasp.planners.hold import loads
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
 from manigrasp.planners.nms import DEFAULT_ANGLE, DEFAULT_DISTANCE, suppress
+from manigrasp.sim.compose import HAND_PREFIX
 
 CENTROID_WEIGHT = 10.0  # the pads' centroid a tenth of the object's radius from the centre of mass costs 0.1
 # Weights of the energy's terms for this planner [-] (DexGraspNet's relative scale, distances in m): a pad 1 cm
@@ -285,6 +286,8 @@ class Synthesis:
             not used to rank (module docstring, step 6).
         fingers, bodies: (k,) the finger (index into `Hand.finger_bodies`, 0 the thumb) and the body (id in
             `HandKinematics.model`) of each pad in `contacts`.
+        friction: (k, 2) sliding [-] and torsional [m] friction of the hand geom each pad lies on, as the scene
+            compiled it (`surface_friction`), or None where a pad's geom cannot be found there.
         close: what the simulated close gave (`CloseSimulation.check`), None if not simulated (step 7).
     """
 
@@ -302,6 +305,7 @@ class Synthesis:
     friction_used: float = 0.0
     fingers: np.ndarray | None = None
     bodies: np.ndarray | None = None
+    friction: np.ndarray | None = None
     close: CloseResult | None = None
 
 
@@ -357,7 +361,11 @@ class DexOptPlanner:
         friction: sliding friction [-] of the hand-object contacts the hold test assumes; None (the
             default): the scene's, `PlanContext.contact_friction` (the fingertips' rubber, 1.0, with
             ``scene.pads: compliant``; the hand's 0.5 with rigid pads), or 0.5 (`STANDARD_MU`) when the
-            context does not know it (a planner called directly, `manigrasp plan`). `contact_friction`.
+            context does not know it (a planner called directly, `manigrasp plan`). `contact_friction`. That
+            friction is the fingertips' (`Hand.fingertip_geoms`); pads elsewhere (`palm`, `wrap`) are held at the
+            scene's own friction of their link, the hand's 0.5 (`hold_friction`), unless `friction` is set.
+            The candidates carry each contact's friction as the scene compiled it
+            (`GraspCandidate.contact_friction`), which the trial's planned metrics use.
         torsion: torsional friction [m] of those contacts (soft fingers).
         min_hold_margin: grasps whose hold margin (step 6) reaches this come first [-] (2: at margin >= 2, 63
             of 78 dexopt trials of the dexterous config succeeded, at [1, 2) 29 of 60, step 6; the order alone,
@@ -466,6 +474,22 @@ class DexOptPlanner:
             return float(context.contact_friction)
         return STANDARD_MU
 
+    def hold_friction(self, hk: HandKinematics, geoms: np.ndarray, surface: np.ndarray | None,
+                      context: PlanContext | None = None) -> np.ndarray:
+        """(k,) the sliding friction [-] the hold test assumes at pads on the hand geoms `geoms` (ids in
+        `hk.model`): `friction` if set; else, in a scene whose grasping surfaces' friction the context knows,
+        `contact_friction` on those surfaces (`Hand.fingertip_geoms`, `Hand.pad_geoms`) and the scene's compiled
+        friction `surface` (k, 2) (`surface_friction`) on the other links and the palm (`wrap`, `palm`: the
+        hand's 0.5, not the fingertips' rubber); else `contact_friction` everywhere."""
+        context = resolve(context)
+        tip = self.contact_friction(context)
+        k = len(geoms)
+        if self.friction is not None or context.contact_friction is None or surface is None:
+            return np.full(k, tip)
+        grasping = set(hk.hand.fingertip_geoms) | set(hk.hand.pad_geoms)
+        on_tip = np.array([hk.model.geom(int(g)).name in grasping for g in geoms], bool)
+        return np.where(on_tip, tip, surface[:, 0])
+
     # ------------------------------------------------------------------ planner interface
     def plan(self, observation: Observation, hand: Hand, n: int, rng: np.random.Generator,
              context: PlanContext | None = None) -> list[GraspCandidate]:
@@ -483,7 +507,7 @@ class DexOptPlanner:
                                           ContactModel(min_friction=False)).epsilon_l1[0])
             out.append(GraspCandidate(
                 pose=s.pose, score=1.0 / (1.0 + s.energy), width=None, preshape=0.0, contacts=s.contacts,
-                contact_normals=s.normals, epsilon_l1=eps,
+                contact_normals=s.normals, contact_friction=s.friction, epsilon_l1=eps,
                 force_closure=None if eps is None else bool(eps > EPSILON_TOLERANCE),
                 pregrasp_offset=offset, planner=self.name, joints=s.joints))
         return out
@@ -661,7 +685,6 @@ class DexOptPlanner:
         context = resolve(context)
         grip = context.grip_force_for(hk.hand)
         external = loads(observation.object_mass(self.density), context.perturbation)
-        mu = self.contact_friction(context)
         probe = HandProbe(hk.hand, observation, clearance=0.0, config=context.scene)
         addresses = probe.hand_qpos_addresses()
         need = min(self.min_contacts, len(np.unique(hk.pad_finger)))
@@ -710,11 +733,14 @@ class DexOptPlanner:
             joints, press, opened, torque = path
             caps = squeeze_caps(press[touching], hk.pad_finger[chosen][touching] == 0, grip,
                                 hk.body_finger[hk.contacts.bodies[chosen][touching]] < 0)
+            surface = surface_friction(probe, hk, hk.pad_geom[chosen][touching])
+            mu_k = self.hold_friction(hk, hk.pad_geom[chosen][touching], surface, context)
             hold = hold_margin(x[touching], normal[touching], caps, observation.center_of_mass, external,
-                               mu, self.torsion)
+                               mu_k, self.torsion)
             jac = pad_jacobians(x, hk._slot[hk.contacts.bodies[chosen]], jp[0], jr[0], xpos[0])
+            least = float(mu_k.min())
             used = squeeze_friction(x[touching], normal[touching], jac[touching], torque,
-                                    observation.center_of_mass) / mu if mu > 0 else float("inf")
+                                    observation.center_of_mass) / least if least > 0 else float("inf")
             stiffness = grasp_stiffness(x[touching], normal[touching], jac[touching],
                                         held_joint_stiffness(hk, qi, joints[1] - joints[0]),
                                         observation.center_of_mass, CONTACT_STIFFNESS)
@@ -724,7 +750,7 @@ class DexOptPlanner:
                                     contacts=x[touching], normals=normal[touching], penetration=depth, hold=hold,
                                     rotation=rotation, opened=opened, friction_used=used,
                                     fingers=hk.pad_finger[chosen][touching],
-                                    bodies=hk.contacts.bodies[chosen][touching]))
+                                    bodies=hk.contacts.bodies[chosen][touching], friction=surface))
         if not passed:
             return []
         # Grasps that hold the loads first (lowest energy first among them), then the rest by hold margin; in
@@ -996,6 +1022,26 @@ def pad_forces(rows: np.ndarray, torque: np.ndarray) -> np.ndarray:
     from scipy.optimize import nnls
 
     return nnls(np.asarray(rows, float).T, np.asarray(torque, float))[0]
+
+
+def surface_friction(probe: HandProbe, hk: HandKinematics, geoms: np.ndarray) -> np.ndarray | None:
+    """(k, 2) sliding [-] and torsional [m] friction of the hand geoms `geoms` (ids in `hk.model`) as the probe's
+    scene compiled them (the hand geoms have contact priority, so theirs is the contact's), or None if one cannot
+    be found there. A geom is found as the same geom of its body (many hand geoms have no name): the body by
+    name, the geom by its rank among the body's geoms, checked by its type and size."""
+    model, own = probe.scene.model, hk.model
+    found = []
+    for g in np.asarray(geoms, int):
+        body = int(own.geom_bodyid[g])
+        there = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, HAND_PREFIX + own.body(body).name)
+        rank = g - int(own.body_geomadr[body])
+        if there < 0 or rank >= int(model.body_geomnum[there]):
+            return None
+        sid = int(model.body_geomadr[there]) + rank
+        if model.geom_type[sid] != own.geom_type[g] or not np.allclose(model.geom_size[sid], own.geom_size[g]):
+            return None
+        found.append(sid)
+    return model.geom_friction[np.array(found, int), :2].reshape(-1, 2).copy()
 
 
 def palm_reaction(press: np.ndarray, normals: np.ndarray, rigid: np.ndarray) -> np.ndarray:
