@@ -10,7 +10,7 @@ of thickness h on a sphere of radius R pressed with F: compression d = sqrt(F h 
 a = sqrt(2 R d), and the torsional friction of that patch per newton, (8/15) a mu; for the Allegro's 12 mm tip
 spheres, E the pads' 0.34 MPa and h = 1, 2, 3 mm. MuJoCo's soft contact (solref 0.02, solimp 0.9-0.95 over 1 mm,
 set per geom pair and scaled by the bodies' inverse weights at compile time) already lets the fingertip sink by as
-much (this is why no softer contact is applied to the fingertips; README "Dexterous fingertips").
+much (this is why no softer contact is applied to the fingertips; docs/protocol.md "Dexterous fingertips").
 
     .venv/bin/python benchmarks/bench_fingertips.py
 """

@@ -1,4 +1,4 @@
-"""A random grasp policy on manigrasp's dm_env environment (the README's "For learning users").
+"""A random grasp policy on manigrasp's dm_env environment (docs/learning.md).
 
 Each episode settles one object at a random yaw and place; the policy aims the TCP at
 the centroid of the observed surface points, moved by a random horizontal offset

@@ -1,4 +1,4 @@
-"""A minimal user grasp planner for manigrasp (the README's example).
+"""A minimal user grasp planner for manigrasp (the example of docs/planners.md, "Your own planner").
 
 Load it as ``top_down_planner:TopDownPlanner`` with this folder on the Python
 path, e.g. ``PYTHONPATH=examples manigrasp plan --object mug --hand

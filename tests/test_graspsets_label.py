@@ -71,7 +71,7 @@ def test_round_trip_gives_the_same_statuses_trial_for_trial(labelled, tmp_path):
         assert [back[(label_, i)] for i in range(3)] == [original[(source, i)] for i in range(3)]
     assert len(set(original.values())) > 1  # the comparison covers successes and failures
     # Each grasp is executed where its trial executed it, to rounding: the object-frame round trip
-    # (inv(object) @ grasp, then object @) is not bit-exact (README), which a chaotic trial may feel.
+    # (inv(object) @ grasp, then object @) is not bit-exact (docs/grasp-sets.md), which a chaotic trial may feel.
     poses_back, poses = _grasp_positions(tmp_path / "again"), _grasp_positions(run_dir)
     for source, label_ in zip(("antipodal", "random"), labels, strict=True):
         for i in range(3):

@@ -120,7 +120,7 @@ def _plan(args: argparse.Namespace) -> int:
           f"{observation.asset.name!r} in {result.planning_time_s:.3f} s (seed {args.seed})")
     if any(c.epsilon_l1 is not None for c in result.candidates):
         print("epsilon L1 and force closure are the planner's own figures (its contact model and torque scale); "
-              "a benchmark trial stores its own as planned_epsilon_l1 (README: Grasp mechanics)")
+              "a benchmark trial stores its own as planned_epsilon_l1 (docs/grasp-mechanics.md)")
     if not result.candidates:
         print("manigrasp: note: the planner found no grasp (is the object wider than the hand opens?)",
               file=sys.stderr)

@@ -115,7 +115,7 @@ Parameters (`PadModel`) and their source:
   inverse weights of the element and the object: d 0.99 -> 0.995 and an 11x
   armature (a lighter inverse weight along the joint) bring the torsion row's
   R to 293 (`tests/test_pads.py`), and those grasps hold (the four replayed
-  failures of the phone box and scissors held; README: the whole figures).
+  failures of the phone box and scissors held; docs/protocol.md, "The creep fix of the pad elements").
   Neither alone did (1 of 4 each). d 0.997 held them too, with less creep (R
   187), but cost 25 % more time per trial (the solver iterates more); 0.998 and
   above squeezed a scissors ring out of the grip during the close.
@@ -151,7 +151,7 @@ before the creep fix above, against this model's 16 and 17; with the fix, 3 of
 2 x 3 cm pad costs 38 us but holds scissors 6, and on the egg-crate keeps 1.49x
 its flat torque; a looser CCD tolerance (1e-4) saved 2 us; condim 3 saves about
 1 us and loses the cell torsion a one-element contact needs. This model costs
-2.08x a rigid trial's CPU time on quick (2.09x on a quieter machine; README).
+2.08x a rigid trial's CPU time on quick (docs/protocol.md, "Cost of compliant pads").
 
 Where this version's time goes (thread CPU per step, `parallel_jaw` closing on a 5 cm mesh cube on the
 table, 500 warm consecutive steps; quick's own from `benchmarks/bench_pad_speed.py`): rigid 15.5 us,

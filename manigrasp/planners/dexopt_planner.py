@@ -344,7 +344,7 @@ class DexOptPlanner:
         close_only: the squeeze moves each actuator only along the hand's own closing direction (open ->
             closed command); an actuator whose best force would open it stays put. On (the default): on the
             dexterous config it raised the successes from 22, 11, 5/80 to 26, 18, 8/80 (Inspire, Fourier,
-            Allegro; fewer stalled closes), README.
+            Allegro; fewer stalled closes), docs/planners.md.
         balanced_squeeze: the squeeze may press the pads with the internal forces that need the least friction
             (`grasp.forces.balanced_forces`) instead of equal pushes along their normals, where the actuators turn
             them into a squeeze using less friction (module docstring, step 5). Off (the default): measured no

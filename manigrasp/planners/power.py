@@ -53,8 +53,8 @@ rolled the ball 30-60 mm along the table, and the two tips left squeezed it out:
 whose fingers push toward the palm (mostly thumb and middle, the palm 1-45 mm off) held, the thumb pressing
 the ball into the palm: of the 90 candidates with 2+ fingers of one planning call (seed 0), each simulated
 under `standard` at 10 N, 22 of the 24 that pass the test succeeded, 3 of the 66 others. The dexterous
-config's 7 objects x 10, `standard` at 10 N, with the test against without: the README's power-planner
-paragraph.
+config's 7 objects x 10, `standard` at 10 N, with the test against without: docs/planners.md, "power: the
+wrap test".
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ The scene's gravity and table are restored afterwards, whatever happens.
 The load is DexGraspBench's: its force-closure test applies ``10 * direction * obj_mass``
 newtons to the object (its `FCMocapEval`; mass 0.1 kg, friction 0.6, 5 cm / 15 deg thresholds
 in its `config/task/eval.yaml`). Until 2026-12-03 this protocol applied 10 m g_0, ten times
-that load, so its results of that time are not DexGraspBench's (README: the dexterous figures).
+that load, so its results of that time are not DexGraspBench's (docs/planners.md, "Measurements and history").
 Unlike DexGraspBench, the object keeps its own mass and the hand squeezes to a grip force
 (`GraspParams`) instead of commanding a squeeze pose.
 """

@@ -66,7 +66,7 @@ ROTATION_KP = 50.0
 # (the thumb folding through itself on a full close). 1e-2 keeps every stop within 0.005 rad under the tendon
 # forces; free closing speed is unchanged (it is set by the joints' damping, 1 N m s/rad: 0.6 rad/s per N m).
 ARMATURE = 1e-2
-# What the real hands' fingertips are covered with (shown in the hand's notes; README "Dexterous fingertips").
+# What the real hands' fingertips are covered with (shown in the hand's notes; docs/protocol.md "Dexterous fingertips").
 # With `pads: compliant` the distal links' collision geoms (`fingertip_geoms`) touch with the pad rubber's
 # friction, `SceneConfig.pad_friction`.
 FINGERTIP_COVER = {
