@@ -73,8 +73,10 @@ def read(path: str | Path) -> GraspSet:
 def _read_json(path: Path) -> GraspSet:
     try:
         data = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, ValueError) as exc:  # ValueError: JSONDecodeError, UnicodeDecodeError, an integer of 4300+ digits
         raise GraspFileError(f"{path}: not valid JSON ({exc})") from exc
+    except RecursionError as exc:  # arrays nested thousands deep: Python's parser gives up
+        raise GraspFileError(f"{path}: JSON nested too deeply to read") from exc
     if not isinstance(data, dict):
         raise GraspFileError(f"{path}: the top level must be an object with a 'grasps' list")
     _unknown(data, _TOP_KEYS, str(path))
@@ -157,7 +159,7 @@ def _array(value: Any, where: str) -> np.ndarray:
     try:
         return np.array([np.nan if v is None else v for v in np.ravel(np.array(value, dtype=object))],
                         dtype=float).reshape(np.shape(value))
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:  # OverflowError: an integer beyond a float's range
         raise GraspFileError(f"{where} must be numbers ({exc})") from exc
 
 
@@ -166,7 +168,11 @@ def _number(value: Any, where: str, default: float) -> float:
         return default
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise GraspFileError(f"{where} must be a number, got {value!r}")
-    return float(value)
+    try:
+        return float(value)
+    except OverflowError:  # a JSON integer of hundreds of digits: no float holds it
+        raise GraspFileError(f"{where} must be a number a float can hold, got an integer of "
+                             f"{value.bit_length()} bits") from None
 
 
 def _width(value: Any, where: str) -> float:
