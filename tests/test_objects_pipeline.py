@@ -101,6 +101,34 @@ def test_debris_is_dropped_and_recorded():
     assert report.pieces == 2 and any("dropped 1 small" in r for r in report.repairs)
 
 
+def _open_tube() -> trimesh.Trimesh:
+    """A 4 cm wide, 6 cm tall cylinder without its caps: 32-sided holes that trimesh's fill_holes leaves open."""
+    cylinder = trimesh.creation.cylinder(radius=0.02, height=0.06)
+    tube = trimesh.Trimesh(cylinder.vertices, cylinder.faces[np.abs(cylinder.face_normals[:, 2]) < 0.5])
+    tube.remove_unreferenced_vertices()
+    return tube
+
+
+def test_meshfix_repairs_each_piece_and_loses_none():
+    """MeshFix keeps only the largest connected piece of what it is given: a closed box beside an open tube came
+    out as the tube alone, and two boxes sharing an edge (non-manifold) as one box, recorded as "closed holes (0
+    open edges)": half the object lost without a word."""
+    box = trimesh.creation.box((0.05, 0.04, 0.03))
+    tube = _open_tube().apply_translation([0.1, 0, 0])
+    mesh, report = validate_and_repair(trimesh.util.concatenate([box, tube]))
+    assert mesh.volume == pytest.approx(box.volume + trimesh.creation.cylinder(radius=0.02, height=0.06).volume,
+                                        rel=1e-6)
+    assert report.pieces == 2 and any("one by one" in r for r in report.repairs)
+    twin = box.copy().apply_translation([0.05, 0.04, 0])  # shares one edge with `box`
+    mesh, report = validate_and_repair(trimesh.util.concatenate([box, twin]))
+    assert mesh.volume == pytest.approx(2 * box.volume, rel=1e-6) and report.pieces == 2
+    assert any("made manifold (1 edges" in r for r in report.repairs), report.repairs
+    speck = _open_tube().apply_scale(0.05).apply_translation([0, 0.2, 0])  # debris is still dropped
+    pair = validate_and_repair(trimesh.util.concatenate([box, tube]))[0].volume
+    mesh, report = validate_and_repair(trimesh.util.concatenate([box, tube, speck]))
+    assert mesh.volume == pytest.approx(pair, rel=1e-9) and any("dropped 1 small" in r for r in report.repairs)
+
+
 def test_overlapping_shells_count_their_shared_volume_once_and_a_cavity_stays():
     """Two closed boxes sharing 30 mm of length were concatenated: 4.8e-4 m^3 where the solid is 3.36e-4 (its
     mass and inertia with it); a box inside a box counted both. A cavity (an inward-facing inner shell) is kept."""
