@@ -129,6 +129,21 @@ def test_meshfix_repairs_each_piece_and_loses_none():
     assert mesh.volume == pytest.approx(pair, rel=1e-9) and any("dropped 1 small" in r for r in report.repairs)
 
 
+def test_an_inside_out_piece_beside_the_body_is_turned_outward_not_taken_for_a_cavity():
+    """A 5 cm cube beside an inverted 4 cm cube enclosed 61 cm^3 (125 - 64: the second cube's volume subtracted,
+    as if it were a hollow), with the mass, centre of mass and inertia to match; an inverted cube inside the
+    first is a cavity and stays one."""
+    body = trimesh.creation.box((0.05, 0.05, 0.05))
+    beside = trimesh.creation.box((0.04, 0.04, 0.04)).apply_translation([0.2, 0, 0])
+    beside.invert()
+    mesh, report = validate_and_repair(trimesh.util.concatenate([body, beside]))
+    assert mesh.volume == pytest.approx(189e-6) and any("turned 1 inside-out" in r for r in report.repairs)
+    cavity = trimesh.creation.box((0.02, 0.02, 0.02))
+    cavity.invert()
+    mesh, report = validate_and_repair(trimesh.util.concatenate([body, cavity]))
+    assert mesh.volume == pytest.approx(117e-6) and not any("turned" in r for r in report.repairs)
+
+
 def test_overlapping_shells_count_their_shared_volume_once_and_a_cavity_stays():
     """Two closed boxes sharing 30 mm of length were concatenated: 4.8e-4 m^3 where the solid is 3.36e-4 (its
     mass and inertia with it); a box inside a box counted both. A cavity (an inward-facing inner shell) is kept."""
