@@ -305,6 +305,9 @@ def test_unsupported_suffix_and_missing_file(tmp_path):
         load_mesh(tmp_path / "part.step")
     with pytest.raises(MeshError, match="no such mesh file"):
         load_mesh(tmp_path / "missing.obj")
+    (tmp_path / "folder.obj").mkdir()  # was "no such mesh file": it exists, as a folder
+    with pytest.raises(MeshError, match="folder.obj: a folder, not a mesh file"):
+        load_mesh(tmp_path / "folder.obj")
 
 
 def test_objects_list_json_has_the_documented_keys(capsys):
