@@ -236,6 +236,10 @@ def _label_columns(labels: list[dict], where: str) -> dict[str, np.ndarray]:
 
 
 def _read_npz(path: Path) -> GraspSet:
+    import zipfile
+
+    if not zipfile.is_zipfile(path):  # np.load reads anything else as a pickle and says so ("pickled data")
+        raise GraspFileError(f"{path}: not an NPZ file (an NPZ is a zip archive of arrays, as numpy.savez writes)")
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
