@@ -88,3 +88,16 @@ def test_rerunning_a_finished_run_under_other_code_records_no_mix(tmp_path):
     meta = rundir.read_meta(run)
     assert "resumed_with_other_code" not in meta and len(meta["resumed"]) == 1
     assert not any("other code" in line for line in warning_lines(meta))
+
+
+def test_a_refused_config_names_the_field_of_an_object_or_planner_that_differs(tmp_path):
+    """An object's mass or a planner's parameter that differs was shown as the whole list cut at 60 characters
+    (`objects: [{"name": "025_mug", "mesh": null, "ycb": null, "scale": ... -> [{"name": ...`), the value that
+    differs cut off."""
+    rundir.prepare(tmp_path / "run", parse_config(dict(ONE, objects=["025_mug", "011_banana"])))
+    heavier = parse_config(dict(ONE, objects=["025_mug", {"name": "011_banana", "mass": 0.3}]))
+    with pytest.raises(ConfigError, match=r"\(objects\[1\]\.mass: null -> 0\.3\)"):
+        rundir.check(tmp_path / "run", heavier)
+    more = parse_config(dict(ONE, objects=["025_mug", "011_banana", "004_sugar_box"]))
+    with pytest.raises(ConfigError, match=r"objects: \[\{"):  # lists of other lengths still compare whole
+        rundir.check(tmp_path / "run", more)
