@@ -353,6 +353,9 @@ def _h5_group_transforms(path: Path) -> Path:
     (lambda d: d / "digits.json" if (d / "digits.json").write_text('{"grasps": [{"score": ' + "9" * 5000 + "}]}")
      else None, "not valid JSON"),
     (lambda d: _write_json(d / "json.npz", {"grasps": [{"pose": GOOD_POSE}]}), "json.npz: not an NPZ file"),
+    (lambda d: _npz(d / "width.npz", width=np.array([0.03])), "unknown array 'width' \\(did you mean 'widths'\\?\\)"),
+    (lambda d: _npz(d / "both.npz", positions=np.zeros((1, 3)), quaternions=np.array([[1.0, 0, 0, 0]])),
+     "give 'poses' or 'positions' and 'quaternions', not both"),
     (lambda d: _h5_group_transforms(d / "group.h5"), "'grasps/transforms' must be a dataset, not a group"),
     (lambda d: _h5(d / "name.h5", grasps__transforms=np.eye(4)[None], object__file="m.obj", object__scale=1.0,
                    object__manigrasp__name=np.array([1, 2])), "'object/manigrasp/name' must be one string"),

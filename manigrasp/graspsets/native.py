@@ -58,6 +58,8 @@ SUFFIXES = (".json", ".npz")
 _TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "grasps")
 _GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label", "joints")
 _OBJECT_KEYS = ("name", "mesh", "scale", "mass", "built")
+_NPZ_KEYS = ("poses", "positions", "quaternions", "widths", "preshapes", "scores", "joints", "hand", "hand_kind",
+             "frame", "object_name", "object_mesh", "object_scale", "object_mass", "object_built")
 
 
 def read(path: str | Path) -> GraspSet:
@@ -245,6 +247,15 @@ def _read_npz(path: Path) -> GraspSet:
             arrays = {k: data[k] for k in data.files}
     except (OSError, ValueError) as exc:
         raise GraspFileError(f"{path}: not a readable NPZ file ({exc})") from exc
+    unknown = sorted(k for k in arrays if k not in _NPZ_KEYS and not k.startswith("label_"))
+    if unknown:  # a misspelled array ('width', 'score') was ignored: every grasp ran without it
+        from manigrasp.registry import nearest
+
+        hint = nearest(unknown[0], _NPZ_KEYS)
+        raise GraspFileError(f"{path}: unknown array {unknown[0]!r}" + (f" (did you mean {hint!r}?)" if hint else "")
+                             + f"; valid: {', '.join(_NPZ_KEYS)}, label_<name>")
+    if "poses" in arrays and ("positions" in arrays or "quaternions" in arrays):
+        raise GraspFileError(f"{path}: give 'poses' or 'positions' and 'quaternions', not both")
     if "poses" in arrays:
         poses = _floats(arrays, "poses", path)
         if poses.ndim != 3 or poses.shape[1:] != (4, 4):
