@@ -319,3 +319,11 @@ def test_objects_list_json_has_the_documented_keys(capsys):
     mug = next(r for r in records if r["name"] == "025_mug")
     assert {"name", "ycb_id", "extents_m", "mass_kg"} <= set(mug)
     assert mug["ycb_id"] == "025" and mug["mass_kg"] == pytest.approx(0.118) and len(mug["extents_m"]) == 3
+
+
+def test_the_convex_hull_of_a_flat_mesh_is_a_mesh_error_not_a_qhull_traceback():
+    """`objects build --mesh triangle.obj --convex-hull` ended in scipy's QhullError ("not enough points to
+    construct initial simplex"), a traceback that stopped the whole build."""
+    triangle = trimesh.Trimesh([[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0]], [[0, 1, 2]], process=False)
+    with pytest.raises(MeshError, match="encloses no volume .*convex hull cannot be built"):
+        validate_and_repair(triangle, convex_hull_fallback=True)

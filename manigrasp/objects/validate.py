@@ -136,7 +136,11 @@ def _close(
                                   "faces)")
         elif convex_hull_fallback:
             report.repairs.append(f"replaced by its convex hull ({holes_before} open edges could not be closed)")
-            mesh = mesh.convex_hull
+            try:
+                mesh = mesh.convex_hull
+            except Exception as exc:  # Qhull on 3 points or a flat set: QhullError, a traceback before
+                raise MeshError(f"{source}: mesh encloses no volume (flat or degenerate): its convex hull cannot be "
+                                f"built ({type(exc).__name__})") from None
         else:
             raise MeshError(
                 f"{source}: mesh is open ({_boundary_edges(mesh)} boundary edges) and hole filling failed; "
