@@ -56,3 +56,15 @@ def test_build_options_are_applied_to_one_ycb_folder_or_refused(tmp_path, isolat
                  ["--ycb", str(folder.parent), "--scale", "0.001"], ["--all", "--density", "900"]):
         assert main(["objects", "build", *argv]) == 2, argv
         assert "not used here" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [["objects", "build", "--help"], ["plan", "--help"]])
+def test_the_mesh_option_names_every_mesh_type_read(argv, capsys):
+    """--mesh's help listed OBJ, STL, PLY and GLB/GLTF; OFF is read too (`meshio.MESH_SUFFIXES`)."""
+    from manigrasp.objects.meshio import MESH_SUFFIXES
+
+    with pytest.raises(SystemExit):
+        main(argv)
+    text = " ".join(capsys.readouterr().out.split())
+    for suffix in MESH_SUFFIXES:
+        assert suffix[1:].upper() in text, suffix

@@ -38,7 +38,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Build shipped objects by name (or --all), a mesh file (--mesh), or a YCB download (--ycb).")
     p.add_argument("names", nargs="*", metavar="NAME", help="shipped object names")
     p.add_argument("--all", action="store_true", help="build every shipped object")
-    p.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, GLB/GLTF) to build")
+    p.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, OFF, GLB/GLTF) to build")
     p.add_argument("--name", help="name of the --mesh object (or of one --ycb object folder): letters, digits, "
                    "_-. (at most 64), not a shipped object's (default: the file stem, + _mesh if shipped); later "
                    "runs name the mesh by its file")

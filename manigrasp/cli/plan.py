@@ -26,7 +26,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                     "(built-in name or package.module:attribute). The object rests upright on the table.")
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument("--object", help="shipped object name, e.g. 025_mug or mug")
-    source.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, GLB/GLTF), built and decomposed first")
+    source.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, OFF, GLB/GLTF), built and decomposed first")
     p.add_argument("--scale", type=float, default=1.0, help="scale the --mesh vertices (0.001: mm to m)")
     p.add_argument("--hand", required=True, help="hand name or package.module:attribute")
     p.add_argument("--planner", required=True, help=f"one of {', '.join(planners.names())} or package.module:attr")
