@@ -128,3 +128,17 @@ def test_a_mesh_edited_during_the_run_gives_no_trial_of_another_object(tmp_path,
         rows = list(store.rows())
     assert len(rows) == 2 and all(r["status"] == "harness_fault" for r in rows), [r["status"] for r in rows]
     assert all("mesh changed during the run" in r["detail"] for r in rows)
+
+
+def test_a_mesh_file_gone_since_the_run_started_is_named_as_gone_not_changed(tmp_path):
+    """A resume whose mesh file had been moved away said the file 'changed since this run started; use another
+    --out': another --out cannot build a missing mesh; putting the file back resumes the run."""
+    mesh = tmp_path / "part.stl"
+    trimesh.creation.box((0.05, 0.04, 0.03)).export(mesh)
+    config = parse_config(dict(ONE, objects=[{"mesh": str(mesh), "name": "part"}]))
+    rundir.prepare(tmp_path / "run", config)
+    mesh.rename(tmp_path / "moved.stl")
+    with pytest.raises(ConfigError, match="mesh file of part is missing or unreadable .* put it back"):
+        rundir.check(tmp_path / "run", config)
+    (tmp_path / "moved.stl").rename(mesh)
+    assert rundir.check(tmp_path / "run", config) is not None

@@ -194,6 +194,10 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
                               "); use another --out to start a new run")
         old, ident = existing.get("identity", {}), identity(config, base)
         changed = _changed_files(old, ident, "mesh_sha256")
+        gone = [name for name in changed if not ident["mesh_sha256"][name]]  # `_content_hash`: "" if unreadable
+        if gone:  # was "changed": the file is missing or unreadable, which another --out does not mend
+            raise ConfigError(f"{run_dir}: the mesh file of {', '.join(gone)} is missing or unreadable (it was "
+                              "read when this run started); put it back to resume the run")
         if changed:
             raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
                               "use another --out to start a new run")
