@@ -175,3 +175,16 @@ def test_the_help_says_what_a_nan_width_means_in_each_format():
     assert "NaN: invalid)" not in text
     assert '"width" (jaw opening [m]; absent or null: not given; NaN or Infinity: invalid_grasp)' in text
     assert "widths (NaN: not given; +-inf: invalid_grasp)" in text
+
+
+@pytest.mark.parametrize("extra", [[], ["--any-object"]])
+def test_an_object_path_that_is_no_mesh_file_is_named_as_such(tmp_path, capsys, captured, extra):
+    """A mistyped mesh path was taken for an object name: 'holds grasps of object 025_mug, not /x/missing.obj'
+    (whose advice, --any-object, then gave "unknown object '/x/missing.obj'"); a folder likewise."""
+    path = _grasp_file(tmp_path / "g.json", object={"name": "025_mug"})
+    (tmp_path / "folder.obj").mkdir()
+    for given, phrase in ((tmp_path / "missing.obj", "no such mesh file"), ("missing.stl", "no such mesh file"),
+                          (tmp_path / "folder.obj", "a folder, not a mesh file")):
+        err = _error(capsys, ["evaluate", str(path), "--out", str(tmp_path / "run"), "--object", str(given), *extra])
+        assert f"--object {given}: {phrase}" in err, err
+    assert not captured

@@ -147,3 +147,17 @@ def test_cli_show_and_unknown_name(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["hands", "show", "pandaa"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "unknown hand 'pandaa'" in err
+
+
+def test_a_user_hand_of_the_wrong_kind_is_refused_before_it_is_called(tmp_path, monkeypatch, capsys):
+    """`hands show os:system` and `plan --hand os:system` called os.system (a TypeError traceback, exit 1; an
+    attribute such as os:abort would have run); a config refused it before calling it, these did not. A factory
+    that raises is one line too."""
+    monkeypatch.chdir(tmp_path)
+    for argv in (["hands", "show", "os:system"], ["hands", "show", "os:getcwd"],
+                 ["plan", "--object", "025_mug", "--hand", "os:system", "--planner", "random", "-n", "1"],
+                 ["hands", "show", "faulty_planners:raising_hand"]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("manigrasp: error: hand ") and "\n" not in err, err
+        assert "it was not called" in err or "building it raised RuntimeError: no hand today" in err, err

@@ -337,3 +337,27 @@ def test_a_label_h5_reads_writes_and_reads_back_the_same_set_in_either_format(tm
         _assert_same_set(again, read(write(again, tmp_path / f"twice{suffix}")))
     assert main(["evaluate", str(tmp_path / "conv.json"), "--out", str(tmp_path / "ev"), "--quiet"]) == 0
     assert captured[0].objects[0].name == CAN and captured[0].objects[0].mesh is None
+
+
+def test_the_native_file_names_the_object_its_labels_were_measured_on(tmp_path):
+    """The native file named its object by name alone: a config's mass (a 3 kg sugar box) was lost, so
+    `evaluate FILE.json` re-ran its drops as successes at the shipped mass, and a mesh object's file was refused
+    (an unknown object) where the .h5 beside it ran."""
+    import trimesh
+
+    _store(tmp_path, [Status.SUCCESS, Status.SLIPPED_LIFT])
+    (item,), _ = export_dataset(tmp_path, parse_config(dict(CONFIG, objects=[{"name": CAN, "mass": 0.9}])))
+    ref = read(next(f for f in item.files if f.suffix == ".json")).object
+    assert (ref.name, ref.mass, ref.mesh) == (CAN, 0.9, None)
+    (item,), _ = export_dataset(tmp_path, parse_config(CONFIG))  # the shipped mass: none written, as before
+    assert read(next(f for f in item.files if f.suffix == ".json")).object == ObjectRef(name=CAN)
+    mesh = tmp_path / "part.stl"
+    trimesh.creation.box((50.0, 60.0, 80.0)).export(mesh)  # in millimetres
+    run = tmp_path / "mesh_run"
+    _store(run, [Status.SUCCESS], label="part")
+    config = parse_config(dict(CONFIG, objects=[{"mesh": str(mesh), "name": "part", "scale": 0.001,
+                                                  "density": 800.0}]))
+    (item,), _ = export_dataset(run, config)
+    ref = read(next(f for f in item.files if f.suffix == ".json")).object
+    assert (ref.name, ref.mesh, ref.scale) == ("part", str(mesh.resolve()), 0.001)
+    assert ref.mass == pytest.approx(800.0 * 0.05 * 0.06 * 0.08)  # evaluate has no density: the mass it gave

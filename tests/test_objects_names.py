@@ -130,3 +130,15 @@ def test_unknown_name_of_a_built_mesh_says_how_to_refer_to_it(tmp_path, cube, is
     with pytest.raises(UnknownNameError) as caught:
         catalog.shipped("never_built")
     assert "was built from" not in str(caught.value)
+
+
+def test_a_ycb_folder_of_an_odd_name_is_named_like_an_odd_file_stem(tmp_path, cube):
+    """A YCB folder `001 thing` (or `café`) was refused as the object name '001 thing_ycb', and a dataset holding
+    it built none of its objects; a mesh file's stem was made a valid name all along."""
+    for folder, name in (("001 thing", "001_thing_ycb"), ("café", "caf__ycb"), ("025_mug", "025_mug_ycb"),
+                         ("x" * 80, "x" * (NAME_MAX - 4) + "_ycb")):
+        mesh = tmp_path / folder / "google_16k" / "textured.obj"
+        mesh.parent.mkdir(parents=True)
+        mesh.write_bytes(cube.read_bytes())
+        assert catalog.from_ycb_folder(tmp_path / folder).name == name
+        assert ObjectEntry(ycb=str(tmp_path / folder)).source(tmp_path).name == name

@@ -101,6 +101,49 @@ def test_debris_is_dropped_and_recorded():
     assert report.pieces == 2 and any("dropped 1 small" in r for r in report.repairs)
 
 
+def _open_tube() -> trimesh.Trimesh:
+    """A 4 cm wide, 6 cm tall cylinder without its caps: 32-sided holes that trimesh's fill_holes leaves open."""
+    cylinder = trimesh.creation.cylinder(radius=0.02, height=0.06)
+    tube = trimesh.Trimesh(cylinder.vertices, cylinder.faces[np.abs(cylinder.face_normals[:, 2]) < 0.5])
+    tube.remove_unreferenced_vertices()
+    return tube
+
+
+def test_meshfix_repairs_each_piece_and_loses_none():
+    """MeshFix keeps only the largest connected piece of what it is given: a closed box beside an open tube came
+    out as the tube alone, and two boxes sharing an edge (non-manifold) as one box, recorded as "closed holes (0
+    open edges)": half the object lost without a word."""
+    box = trimesh.creation.box((0.05, 0.04, 0.03))
+    tube = _open_tube().apply_translation([0.1, 0, 0])
+    mesh, report = validate_and_repair(trimesh.util.concatenate([box, tube]))
+    assert mesh.volume == pytest.approx(box.volume + trimesh.creation.cylinder(radius=0.02, height=0.06).volume,
+                                        rel=1e-6)
+    assert report.pieces == 2 and any("one by one" in r for r in report.repairs)
+    twin = box.copy().apply_translation([0.05, 0.04, 0])  # shares one edge with `box`
+    mesh, report = validate_and_repair(trimesh.util.concatenate([box, twin]))
+    assert mesh.volume == pytest.approx(2 * box.volume, rel=1e-6) and report.pieces == 2
+    assert any("made manifold (1 edges" in r for r in report.repairs), report.repairs
+    speck = _open_tube().apply_scale(0.05).apply_translation([0, 0.2, 0])  # debris is still dropped
+    pair = validate_and_repair(trimesh.util.concatenate([box, tube]))[0].volume
+    mesh, report = validate_and_repair(trimesh.util.concatenate([box, tube, speck]))
+    assert mesh.volume == pytest.approx(pair, rel=1e-9) and any("dropped 1 small" in r for r in report.repairs)
+
+
+def test_an_inside_out_piece_beside_the_body_is_turned_outward_not_taken_for_a_cavity():
+    """A 5 cm cube beside an inverted 4 cm cube enclosed 61 cm^3 (125 - 64: the second cube's volume subtracted,
+    as if it were a hollow), with the mass, centre of mass and inertia to match; an inverted cube inside the
+    first is a cavity and stays one."""
+    body = trimesh.creation.box((0.05, 0.05, 0.05))
+    beside = trimesh.creation.box((0.04, 0.04, 0.04)).apply_translation([0.2, 0, 0])
+    beside.invert()
+    mesh, report = validate_and_repair(trimesh.util.concatenate([body, beside]))
+    assert mesh.volume == pytest.approx(189e-6) and any("turned 1 inside-out" in r for r in report.repairs)
+    cavity = trimesh.creation.box((0.02, 0.02, 0.02))
+    cavity.invert()
+    mesh, report = validate_and_repair(trimesh.util.concatenate([body, cavity]))
+    assert mesh.volume == pytest.approx(117e-6) and not any("turned" in r for r in report.repairs)
+
+
 def test_overlapping_shells_count_their_shared_volume_once_and_a_cavity_stays():
     """Two closed boxes sharing 30 mm of length were concatenated: 4.8e-4 m^3 where the solid is 3.36e-4 (its
     mass and inertia with it); a box inside a box counted both. A cavity (an inward-facing inner shell) is kept."""
@@ -262,6 +305,9 @@ def test_unsupported_suffix_and_missing_file(tmp_path):
         load_mesh(tmp_path / "part.step")
     with pytest.raises(MeshError, match="no such mesh file"):
         load_mesh(tmp_path / "missing.obj")
+    (tmp_path / "folder.obj").mkdir()  # was "no such mesh file": it exists, as a folder
+    with pytest.raises(MeshError, match="folder.obj: a folder, not a mesh file"):
+        load_mesh(tmp_path / "folder.obj")
 
 
 def test_objects_list_json_has_the_documented_keys(capsys):
@@ -273,3 +319,11 @@ def test_objects_list_json_has_the_documented_keys(capsys):
     mug = next(r for r in records if r["name"] == "025_mug")
     assert {"name", "ycb_id", "extents_m", "mass_kg"} <= set(mug)
     assert mug["ycb_id"] == "025" and mug["mass_kg"] == pytest.approx(0.118) and len(mug["extents_m"]) == 3
+
+
+def test_the_convex_hull_of_a_flat_mesh_is_a_mesh_error_not_a_qhull_traceback():
+    """`objects build --mesh triangle.obj --convex-hull` ended in scipy's QhullError ("not enough points to
+    construct initial simplex"), a traceback that stopped the whole build."""
+    triangle = trimesh.Trimesh([[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0]], [[0, 1, 2]], process=False)
+    with pytest.raises(MeshError, match="encloses no volume .*convex hull cannot be built"):
+        validate_and_repair(triangle, convex_hull_fallback=True)

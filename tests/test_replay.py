@@ -97,3 +97,12 @@ def test_a_file_planner_trial_replays_with_its_stored_detail(tmp_path):
         replay = replay_trial(tmp_path / "run", trial_id)
         assert replay.same_status and replay.replayed.detail == replay.stored.detail, (
             trial_id, replay.stored.detail, replay.replayed.detail)
+
+
+def test_replay_help_names_the_default_base_the_code_uses(capsys):
+    """`replay --help` said relative mesh paths default to the working directory; the code takes the config
+    file's folder that run.json records (`stored_trials`: ``base or config_dir(run_dir)``)."""
+    with pytest.raises(SystemExit):
+        main(["replay", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "(default: working directory)" not in text and "the config file's folder, as run.json records it" in text

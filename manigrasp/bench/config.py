@@ -45,7 +45,7 @@ class ObjectEntry:
     Attributes:
         name: shipped object name ("025_mug" or "mug"), or the name given to a mesh or a YCB folder (default: the
             mesh's file stem, the folder's name + "_ycb").
-        mesh: path of a mesh file (OBJ, STL, PLY, GLB/GLTF), relative to the config file.
+        mesh: path of a mesh file (OBJ, STL, PLY, OFF, GLB/GLTF), relative to the config file.
         ycb: one object folder of a real YCB download.
         scale: factor applied to a mesh's vertices (0.001 for millimetres).
         mass: mass [kg] (default: the shipped figure, else from density).

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import time
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -166,9 +166,9 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
             continue
         first = kept[0]
         hand = hands.load(str(first["hand"]))
-        grasps = grasp_set(kept, hand.kind)
-        files = [native.write(grasps, _with_suffix(stem, native_suffix))]
         source = sources.get(object_name(first))
+        grasps = replace(grasp_set(kept, hand.kind), object=native_object(object_name(first), source))
+        files = [native.write(grasps, _with_suffix(stem, native_suffix))]
         note = ""
         if hand.kind != "parallel":
             note = (f"no ACRONYM file: its layout holds parallel-jaw grasps only, {hand.name!r} is {hand.kind} "
@@ -183,6 +183,32 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
         out.append(Exported(group, str(first["object"]), str(first["hand"]), len(grasps), successes, tuple(files),
                             note, tuple(str(r["trial_id"]) for r in kept)))
     return out, dict(without_grasp)
+
+
+def native_object(name: str, source) -> ObjectRef:
+    """The object as the native file names it, so that `manigrasp evaluate FILE.json` runs the grasps on the
+    object their labels were measured on: a shipped object by its name, with the config's mass where that is not
+    the shipped one (by name alone, a 3 kg sugar box's drops re-ran as successes at 0.514 kg); a mesh or a YCB
+    download by its mesh file (absolute), scale and mass (by name alone, `evaluate` refused it: an unknown
+    object). `source` None (a mesh moved since the run): the name alone."""
+    from manigrasp.objects import catalog
+    from manigrasp.objects.meshio import ycb_mesh_file
+    from manigrasp.objects.pipeline import DEFAULT_DENSITY
+
+    if source is None:
+        return ObjectRef(name=name)
+    try:
+        if catalog.is_shipped_name(source.name):
+            shipped = catalog.shipped(source.name).mass
+            return ObjectRef(name=name, mass=None if source.mass in (None, shipped) else float(source.mass))
+        mesh = source.mesh if source.mesh is not None else ycb_mesh_file(source.ycb_folder or "")
+        mass = source.mass
+        if mass is None and source.density != DEFAULT_DENSITY:  # evaluate has no density: give the mass it made
+            mass = float(catalog.build(source).asset.mass)
+    except ManigraspError:
+        return ObjectRef(name=name)
+    return ObjectRef(name=name, mesh=str(Path(mesh).resolve()), scale=float(source.scale),
+                     mass=None if mass is None else float(mass))
 
 
 def _with_suffix(stem: Path, suffix: str) -> Path:
@@ -272,8 +298,6 @@ def _file_names(groups: dict[str, list[dict]]) -> dict[str, str]:
 
 def _in_visual_frame(grasps: GraspSet, source) -> GraspSet:
     """The set as ACRONYM sees it: poses in the frame of the built object's visual mesh (= the object frame)."""
-    from dataclasses import replace
-
     from manigrasp.objects import catalog
 
     asset = catalog.build(source).asset

@@ -171,7 +171,8 @@ def record_trials(run_dir: Path, which: str | Iterable[str] = "failures", base: 
         run_dir: the run directory.
         which: a recording policy (as ``--record``: "failures", "successes", "all" or a count N, the first
             N trials of each group), or an iterable of trial ids.
-        base: the directory the run's config gave relative mesh paths against (default: the working directory).
+        base: the directory the run's config gave relative mesh paths against (default: the config file's folder
+            stored in run.json, else the working directory).
         directory: where the files go (default ``run_dir/recordings``), named as the run names them
             (`manigrasp.record.policy.trial_file_name`), so `manigrasp view RUN_DIR` finds them.
         overwrite: re-record trials whose file already exists (default: skip them).

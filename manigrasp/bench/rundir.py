@@ -132,12 +132,20 @@ def _content_hash(path: Path) -> str:
 
 
 def differing_keys(old: object, new: object, prefix: str = "") -> list[str]:
-    """Dotted keys whose values differ between two plain-data trees (a list compares as a whole)."""
+    """Dotted keys whose values differ between two plain-data trees. Two lists of as many entries, of which some
+    are mappings (objects, planners: ``objects[0].mass``), compare entry by entry; other lists as a whole (an
+    object's mass was shown as ``objects: [{"name": "025_mug", "mesh": null, ... -> [{"name": ...``, cut before
+    the value that differs)."""
     if isinstance(old, dict) and isinstance(new, dict):
         out = []
         for key in sorted(set(old) | set(new), key=str):
             out += differing_keys(old.get(key), new.get(key), f"{prefix}{key}.")
         return out
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new) and old != new \
+            and any(isinstance(v, dict) for v in old + new):
+        base = prefix.rstrip(".")
+        return [k for i, (a, b) in enumerate(zip(old, new, strict=True))
+                for k in differing_keys(a, b, f"{base}[{i}].")]
     return [] if old == new else [prefix.rstrip(".") or "(whole config)"]
 
 
@@ -151,8 +159,13 @@ def _describe(keys: list[str], old: dict, new: dict) -> str:
 
 
 def _get(tree: object, dotted: str) -> object:
+    """The value at a key of `differing_keys` (``protocol.name``, ``objects[0].mass``), or None."""
     for part in dotted.split("."):
-        tree = tree.get(part) if isinstance(tree, dict) else None
+        name, _, index = part.partition("[")
+        tree = tree.get(name) if isinstance(tree, dict) else None
+        if index:
+            position = int(index.rstrip("]"))
+            tree = tree[position] if isinstance(tree, list) and position < len(tree) else None
     return tree
 
 
@@ -181,6 +194,10 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
                               "); use another --out to start a new run")
         old, ident = existing.get("identity", {}), identity(config, base)
         changed = _changed_files(old, ident, "mesh_sha256")
+        gone = [name for name in changed if not ident["mesh_sha256"][name]]  # `_content_hash`: "" if unreadable
+        if gone:  # was "changed": the file is missing or unreadable, which another --out does not mend
+            raise ConfigError(f"{run_dir}: the mesh file of {', '.join(gone)} is missing or unreadable (it was "
+                              "read when this run started); put it back to resume the run")
         if changed:
             raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
                               "use another --out to start a new run")

@@ -19,7 +19,7 @@ import sqlite3
 import sys
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from manigrasp.bench import rundir
@@ -204,7 +204,8 @@ def run_benchmark(
             store, stored = _open_store(run_dir)
             store.close()
             _refuse_unnamed(run_dir, stored, named)
-        _prebuild_objects(all_groups, jobs, progress)
+        keys = _prebuild_objects(all_groups, jobs, progress) or {}
+        all_groups = [replace(g, object_key=keys.get(g.object_source.name, "")) for g in all_groups]
         meta = rundir.start(run_dir, config, existing, base, grip_limits(config))
         settings = RecordSettings.for_run(run_dir, policy)
         problem = recording_problem(settings)
@@ -309,9 +310,10 @@ def _add(store: ResultsStore, key: TrialKey, result: TrialResult, replace_fault:
                              "far are kept, and re-running the same command resumes from there") from None
 
 
-def _prebuild_objects(all_groups: list[Group], jobs: int, progress: bool = False) -> None:
+def _prebuild_objects(all_groups: list[Group], jobs: int, progress: bool = False) -> dict[str, str]:
     """Build (or load from cache) every object once, in parallel, before workers need them; with
-    `progress`, say which object is being built and how it went (a cold cache builds for minutes)."""
+    `progress`, say which object is being built and how it went (a cold cache builds for minutes). Returns each
+    object's hull key (`Group.object_key`: the workers' builds must match it)."""
     from manigrasp.objects import catalog
 
     sources = list({g.object_source.name: g.object_source for g in all_groups}.values())
@@ -329,6 +331,7 @@ def _prebuild_objects(all_groups: list[Group], jobs: int, progress: bool = False
     failed = [o for o in outcomes if o.error]
     if failed:
         raise ConfigError("; ".join(f"object {o.name}: {o.error}" for o in failed))
+    return {o.name: str(o.result.asset.metadata.get("hull_key", "")) for o in outcomes if o.result is not None}
 
 
 def _progress_bar(total: int, initial: int, enabled: bool):

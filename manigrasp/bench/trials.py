@@ -88,6 +88,10 @@ class Group:
             "": the protocol's name).
         object_label: the object's label in trial ids and tables ("": its name; ``<name>@rest<i>``
             for resting pose i under ``rest: stable_k``).
+        object_key: the hull key (``ObjectAsset.metadata["hull_key"]``: a hash of the repaired mesh, its
+            decomposition parameters and CoACD's version) of the object as the run's main process built it before
+            any trial ("": not checked). A worker builds its own copy from the mesh file; one whose build differs
+            (the file edited during the run) refuses it, so that no trial of the run is of another object.
     """
 
     object_source: ObjectSource
@@ -104,6 +108,7 @@ class Group:
     camera_label: str = ""
     protocol_label: str = ""
     object_label: str = ""
+    object_key: str = ""
 
     @property
     def observation_label(self) -> str:

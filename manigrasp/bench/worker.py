@@ -82,7 +82,15 @@ def _asset(group: Group):
 
     name = group.object_source.name
     if name not in _ASSETS:
-        _ASSETS[name] = catalog.build(group.object_source).asset
+        asset = catalog.build(group.object_source).asset
+        built = asset.metadata.get("hull_key", "")
+        if group.object_key and built != group.object_key:  # a harness fault of the group or trial, not physics
+            from manigrasp.errors import MeshError
+
+            raise MeshError(f"object {name}: its mesh changed during the run (built as {built[:12]}, the run's "
+                            f"{group.object_key[:12]}): a trial on it would be of another object; start a new "
+                            "--out for the edited mesh")
+        _ASSETS[name] = asset
     return _ASSETS[name]
 
 

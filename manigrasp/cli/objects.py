@@ -38,12 +38,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Build shipped objects by name (or --all), a mesh file (--mesh), or a YCB download (--ycb).")
     p.add_argument("names", nargs="*", metavar="NAME", help="shipped object names")
     p.add_argument("--all", action="store_true", help="build every shipped object")
-    p.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, GLB/GLTF) to build")
-    p.add_argument("--name", help="name of the --mesh object: letters, digits, _-. (at most 64), not a shipped "
-                   "object's (default: the file stem, + _mesh if shipped); later runs name the mesh by its file")
-    p.add_argument("--scale", type=float, default=1.0, help="scale the --mesh vertices (0.001: mm to m)")
-    p.add_argument("--mass", type=float, help="mass of the --mesh object [kg] (default: from --density)")
-    p.add_argument("--density", type=float, default=DEFAULT_DENSITY, help="density [kg/m^3] when no mass is given")
+    p.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, OFF, GLB/GLTF) to build")
+    p.add_argument("--name", help="name of the --mesh object (or of one --ycb object folder): letters, digits, "
+                   "_-. (at most 64), not a shipped object's (default: the file stem, + _mesh if shipped); later "
+                   "runs name the mesh by its file")
+    p.add_argument("--scale", type=float, help="scale the --mesh vertices (0.001: mm to m; default 1)")
+    p.add_argument("--mass", type=float, help="mass of the --mesh object (or of one --ycb object folder) [kg] "
+                   "(default: from --density)")
+    p.add_argument("--density", type=float, help=f"density of the --mesh object [kg/m^3] when no mass is given "
+                   f"(default {DEFAULT_DENSITY:g})")
     p.add_argument("--convex-hull", action="store_true",
                    help="accept the convex hull of a mesh whose holes cannot be closed")
     p.add_argument("--ycb", metavar="FOLDER",
@@ -132,22 +135,38 @@ def rounded(value: Any, digits: int = 6, noise: float = 0.0) -> Any:
 
 
 def _sources(args: argparse.Namespace) -> list[ObjectSource]:
-    sources = [catalog.shipped(n) for n in (recipes.names() if args.all else args.names)]
-    if args.mesh:
-        from pathlib import Path
+    """The objects to build. The per-object options (--name, --scale, --mass, --density, --convex-hull) are the
+    --mesh file's; without --mesh, --name and --mass are one --ycb object folder's; given where nothing takes
+    them, they are refused (they were ignored: `--ycb FOLDER --mass 0.2` built the default mass)."""
+    from pathlib import Path
 
+    sources = [catalog.shipped(n) for n in (recipes.names() if args.all else args.names)]
+    given = [flag for flag, value in (("--name", args.name), ("--scale", args.scale), ("--mass", args.mass),
+                                      ("--density", args.density), ("--convex-hull", args.convex_hull or None))
+             if value is not None]
+    if args.mesh:
         mesh = Path(args.mesh).resolve()
         sources.append(ObjectSource(name=args.name if args.name is not None else catalog.default_mesh_name(mesh),
-                                    mesh=str(mesh), scale=args.scale,
-                                    mass=args.mass, density=args.density, convex_hull_fallback=args.convex_hull))
+                                    mesh=str(mesh), scale=1.0 if args.scale is None else args.scale,
+                                    mass=args.mass, density=DEFAULT_DENSITY if args.density is None else args.density,
+                                    convex_hull_fallback=args.convex_hull))
+        given = []
+    folders: list[Path] = []
     if args.ycb:
-        from pathlib import Path
-
         from manigrasp.objects.meshio import ycb_dataset
 
         folder = Path(args.ycb)
         folders = [folder] if (folder / "google_16k").is_dir() or (folder / "poisson").is_dir() or (
             folder / "tsdf").is_dir() else [folder / n for n in ycb_dataset(folder)]
+    own = len(folders) == 1 and not args.mesh  # one YCB object: --name and --mass are its own
+    unused = [flag for flag in given if not (own and flag in ("--name", "--mass"))]
+    if unused:
+        raise ConfigError(f"{', '.join(unused)}: not used here: --name, --scale, --mass, --density and --convex-hull "
+                          "are the options of a --mesh file (--name and --mass also of one --ycb object folder), not "
+                          "of a shipped object or a YCB dataset of several folders")
+    if own:
+        sources.append(catalog.from_ycb_folder(folders[0], mass=args.mass, name=args.name))
+    else:
         sources.extend(catalog.from_ycb_folder(f) for f in folders)
     if not sources:
         raise ConfigError("nothing to build: name objects, or use --all, --mesh FILE or --ycb FOLDER")

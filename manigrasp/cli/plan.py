@@ -26,13 +26,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                     "(built-in name or package.module:attribute). The object rests upright on the table.")
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument("--object", help="shipped object name, e.g. 025_mug or mug")
-    source.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, GLB/GLTF), built and decomposed first")
+    source.add_argument("--mesh", help="a mesh file (OBJ, STL, PLY, OFF, GLB/GLTF), built and decomposed first")
     p.add_argument("--scale", type=float, default=1.0, help="scale the --mesh vertices (0.001: mm to m)")
     p.add_argument("--hand", required=True, help="hand name or package.module:attribute")
     p.add_argument("--planner", required=True, help=f"one of {', '.join(planners.names())} or package.module:attr")
     p.add_argument("-n", type=int, default=100, help="most grasps to return (default 100)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table: each candidate's TCP pose "
+                   "in the world, and the object's pose (object_pose; a grasp file's poses are "
+                   "inv(object_pose) @ pose)")
     p.add_argument("--record", type=Path, metavar="FILE.rrd",
                    help="also write the object and the candidates (frames coloured by score) as a rerun recording")
     p.set_defaults(func=_plan)
@@ -56,9 +58,10 @@ def _finite(value: float | None) -> float | None:
 
 
 def candidate_record(c: GraspCandidate) -> dict[str, Any]:
-    """The JSON record of one candidate (lengths in m): with a dexterous hand's pre-shape synergy and, when the
-    planner gives one, its own hand path (``joints``: pre-shape and squeeze actuator commands), so the record
-    holds everything `manigrasp evaluate` needs to run the grasp again."""
+    """The JSON record of one candidate (lengths in m; the pose is the TCP's in the world): with a dexterous hand's
+    pre-shape synergy and, when the planner gives one, its own hand path (``joints``: pre-shape and squeeze
+    actuator commands), so that, with the printed ``object_pose`` (a grasp file's poses are in the object's frame:
+    inv(object_pose) @ pose), the record holds everything `manigrasp evaluate` needs to run the grasp again."""
     record = {"pose": c.pose.tolist(), "width_m": _finite(c.width), "score": c.score,
               "epsilon_l1": _finite(c.epsilon_l1), "force_closure": c.force_closure,
               "min_friction": _finite(c.min_friction), "contacts": c.contacts.tolist(), "preshape": c.preshape}
@@ -111,8 +114,9 @@ def _plan(args: argparse.Namespace) -> int:
             raise ConfigError(f"--record {args.record}: cannot write it: {exc.strerror or exc}") from None
         print(f"recording written: {args.record}", file=sys.stderr)
     if args.json:
-        print_json({"object": observation.asset.name, "hand": hand.name, "planner": result.planner,
-                    "seed": args.seed, "planning_time_s": result.planning_time_s,
+        print_json({"object": observation.asset.name, "object_pose": observation.object_pose.tolist(),
+                    "hand": hand.name, "planner": result.planner, "seed": args.seed,
+                    "planning_time_s": result.planning_time_s,
                     "candidates": [candidate_record(c) for c in result.candidates]})
         return 0
     print(format_table(_HEADERS, [_row(i + 1, c) for i, c in enumerate(result.candidates)]))

@@ -20,7 +20,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("trial_id", metavar="TRIAL_ID")
     p.add_argument("--record", type=Path, metavar="FILE.rrd", help="write a rerun recording of the replay")
     p.add_argument("--base", type=Path, metavar="DIR",
-                   help="directory the run's config gave relative mesh paths against (default: working directory)")
+                   help="directory the run's config gave relative mesh paths against (default: the config file's "
+                        "folder, as run.json records it; the working directory for a run that does not record it)")
     p.set_defaults(func=_replay)
 
 

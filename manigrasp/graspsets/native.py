@@ -58,6 +58,8 @@ SUFFIXES = (".json", ".npz")
 _TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "grasps")
 _GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label", "joints")
 _OBJECT_KEYS = ("name", "mesh", "scale", "mass", "built")
+_NPZ_KEYS = ("poses", "positions", "quaternions", "widths", "preshapes", "scores", "joints", "hand", "hand_kind",
+             "frame", "object_name", "object_mesh", "object_scale", "object_mass", "object_built")
 
 
 def read(path: str | Path) -> GraspSet:
@@ -73,8 +75,10 @@ def read(path: str | Path) -> GraspSet:
 def _read_json(path: Path) -> GraspSet:
     try:
         data = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, ValueError) as exc:  # ValueError: JSONDecodeError, UnicodeDecodeError, an integer of 4300+ digits
         raise GraspFileError(f"{path}: not valid JSON ({exc})") from exc
+    except RecursionError as exc:  # arrays nested thousands deep: Python's parser gives up
+        raise GraspFileError(f"{path}: JSON nested too deeply to read") from exc
     if not isinstance(data, dict):
         raise GraspFileError(f"{path}: the top level must be an object with a 'grasps' list")
     _unknown(data, _TOP_KEYS, str(path))
@@ -157,7 +161,7 @@ def _array(value: Any, where: str) -> np.ndarray:
     try:
         return np.array([np.nan if v is None else v for v in np.ravel(np.array(value, dtype=object))],
                         dtype=float).reshape(np.shape(value))
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:  # OverflowError: an integer beyond a float's range
         raise GraspFileError(f"{where} must be numbers ({exc})") from exc
 
 
@@ -166,7 +170,11 @@ def _number(value: Any, where: str, default: float) -> float:
         return default
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise GraspFileError(f"{where} must be a number, got {value!r}")
-    return float(value)
+    try:
+        return float(value)
+    except OverflowError:  # a JSON integer of hundreds of digits: no float holds it
+        raise GraspFileError(f"{where} must be a number a float can hold, got an integer of "
+                             f"{value.bit_length()} bits") from None
 
 
 def _width(value: Any, where: str) -> float:
@@ -230,11 +238,24 @@ def _label_columns(labels: list[dict], where: str) -> dict[str, np.ndarray]:
 
 
 def _read_npz(path: Path) -> GraspSet:
+    import zipfile
+
+    if not zipfile.is_zipfile(path):  # np.load reads anything else as a pickle and says so ("pickled data")
+        raise GraspFileError(f"{path}: not an NPZ file (an NPZ is a zip archive of arrays, as numpy.savez writes)")
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
     except (OSError, ValueError) as exc:
         raise GraspFileError(f"{path}: not a readable NPZ file ({exc})") from exc
+    unknown = sorted(k for k in arrays if k not in _NPZ_KEYS and not k.startswith("label_"))
+    if unknown:  # a misspelled array ('width', 'score') was ignored: every grasp ran without it
+        from manigrasp.registry import nearest
+
+        hint = nearest(unknown[0], _NPZ_KEYS)
+        raise GraspFileError(f"{path}: unknown array {unknown[0]!r}" + (f" (did you mean {hint!r}?)" if hint else "")
+                             + f"; valid: {', '.join(_NPZ_KEYS)}, label_<name>")
+    if "poses" in arrays and ("positions" in arrays or "quaternions" in arrays):
+        raise GraspFileError(f"{path}: give 'poses' or 'positions' and 'quaternions', not both")
     if "poses" in arrays:
         poses = _floats(arrays, "poses", path)
         if poses.ndim != 3 or poses.shape[1:] != (4, 4):

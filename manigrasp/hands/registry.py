@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import types
 from collections.abc import Callable
 from functools import cache
 
-from manigrasp.errors import HandError, ManigraspError
+from manigrasp.errors import ConfigError, HandError, ManigraspError
 from manigrasp.hands.base import Hand
 from manigrasp.registry import Registry, import_attribute
 
@@ -63,7 +64,19 @@ def load(name: str) -> Hand:
     if name in HANDS:
         return HANDS.load(name)
     entry = HANDS.resolve(name) if ":" not in name else import_attribute(name, "hand")
-    hand = entry if isinstance(entry, Hand) or not callable(entry) else entry()
+    if ":" in name and callable(entry) and not (isinstance(entry, types.FunctionType)
+                                                or (isinstance(entry, type) and issubclass(entry, Hand))):
+        # Refused before it is called, wherever a hand is named (`plan --hand`, `hands show`), as a config's is
+        # (`bench.runner.validate`): `hands show os:system` called os.system (a TypeError traceback; os:abort
+        # would have aborted).
+        raise ConfigError(f"hand {name!r} is a {type(entry).__name__}: only a Hand, a Hand class or a Python function "
+                        "returning one is accepted (it was not called)")
+    try:
+        hand = entry if isinstance(entry, Hand) or not callable(entry) else entry()
+    except ManigraspError:
+        raise
+    except Exception as exc:  # a user factory's own failure: one line, not a traceback
+        raise ConfigError(f"hand {name!r}: building it raised {type(exc).__name__}: {exc}") from exc
     if not isinstance(hand, Hand):
         raise HandError(f"hand {name!r} is a {type(hand).__name__}, not a manigrasp.hands.Hand "
                         "(or a callable that returns one)")

@@ -51,8 +51,13 @@ def check_name(name: object) -> str:
 
 def name_from_path(path: str | Path) -> str:
     """A valid object name from a mesh file's stem (other characters become ``_``, cut to `NAME_MAX`)."""
-    name = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(path).stem).lstrip(".-")[:NAME_MAX]
-    return name or "mesh"
+    return name_from_text(Path(path).stem) or "mesh"
+
+
+def name_from_text(text: str, length: int = NAME_MAX) -> str:
+    """`text` made a valid object name: characters other than letters, digits, ``_``, ``-`` and ``.`` become ``_``,
+    leading dots and dashes go, cut to `length`; "" if nothing is left."""
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", text).lstrip(".-")[:length]
 
 
 def inside(root: Path, name: str) -> Path:

@@ -23,7 +23,7 @@ from pathlib import Path
 from manigrasp.errors import ConfigError, UnknownNameError
 from manigrasp.objects import recipes, scans
 from manigrasp.objects.cache import NAME_MAX as NAME_MAX
-from manigrasp.objects.cache import check_name, inside
+from manigrasp.objects.cache import check_name, inside, name_from_text
 from manigrasp.objects.cache import name_from_path as name_from_path
 from manigrasp.objects.decompose import DecompositionParams, coacd_version
 from manigrasp.objects.meshio import ycb_mesh_file
@@ -133,11 +133,13 @@ def _user_mesh_hint(name: str, cache_root: Path | None = None) -> str:
 def from_ycb_folder(folder: str | Path, mass: float | None = None, name: str | None = None) -> ObjectSource:
     """The source of one object folder of a real YCB download (e.g. .../025_mug), named `name` or by default
     the folder's name with `YCB_SUFFIX` (``025_mug_ycb``: the folder's own name is the shipped recipe's, whose
-    trials, reports and grasp sets it would pass for; the report pairs the two as scan and recipe)."""
+    trials, reports and grasp sets it would pass for; the report pairs the two as scan and recipe), with the
+    folder name's other characters made ``_`` as a mesh file's stem is (`name_from_path`): a folder ``001 thing``
+    is ``001_thing_ycb``, where it was refused as an object name (and a YCB dataset holding it built nothing)."""
     folder = Path(folder)
     ycb_mesh_file(folder)  # fail early with a clear message
-    return ObjectSource(name=name if name is not None else folder.name + YCB_SUFFIX, ycb_folder=str(folder),
-                        mass=mass)
+    default = (name_from_text(folder.name, NAME_MAX - len(YCB_SUFFIX)) or "object") + YCB_SUFFIX
+    return ObjectSource(name=name if name is not None else default, ycb_folder=str(folder), mass=mass)
 
 
 def recipe_params(name: str) -> DecompositionParams:

@@ -35,6 +35,8 @@ def load_mesh(path: str | Path) -> trimesh.Trimesh:
             or holds no triangles.
     """
     path = Path(path)
+    if path.is_dir():
+        raise MeshError(f"{path}: a folder, not a mesh file")
     if not path.is_file():
         raise MeshError(f"{path}: no such mesh file")
     if path.suffix.lower() not in MESH_SUFFIXES:

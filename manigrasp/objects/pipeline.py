@@ -85,7 +85,7 @@ def build_object(
     """Build an object from a mesh file or a `trimesh.Trimesh`.
 
     Args:
-        source: mesh file (OBJ, STL, PLY, GLB/GLTF) or mesh, in metres after `scale`.
+        source: mesh file (OBJ, STL, PLY, OFF, GLB/GLTF) or mesh, in metres after `scale`.
         name: object name (default: the file's stem).
         scale: factor applied to the vertices first (0.001 for a mesh in mm).
         mass: object mass [kg]; if None, from `density` [kg/m^3] and the volume.

@@ -24,6 +24,8 @@ from manigrasp.errors import MeshError, MeshUnitsError
 MAX_EXTENT_M = 1.5
 MIN_EXTENT_M = 0.005
 DEBRIS_VOLUME_FRACTION = 0.01
+# Open pieces (no volume yet) smaller in area than this fraction of the largest piece are debris [-].
+DEBRIS_AREA_FRACTION = 0.01
 # Pieces whose union is smaller than their summed volume by more than this fraction overlap [-] (manifold3d
 # computes in single precision: disjoint pieces lose up to about 1e-7).
 OVERLAP_TOLERANCE = 1e-4
@@ -124,15 +126,21 @@ def _close(
     mesh: trimesh.Trimesh, source: str, report: MeshReport, convex_hull_fallback: bool
 ) -> trimesh.Trimesh:
     if not mesh.is_watertight:
-        holes_before = _boundary_edges(mesh)
+        holes_before, mesh_before = _boundary_edges(mesh), mesh.copy()
         trimesh.repair.fill_holes(mesh)
         if not mesh.is_watertight:
-            mesh = _meshfix(mesh, report)
+            mesh = _meshfix_pieces(mesh, report)
         if mesh.is_watertight:
-            report.repairs.append(f"closed holes ({holes_before} open edges)")
+            report.repairs.append(f"closed holes ({holes_before} open edges)" if holes_before else
+                                  f"made manifold ({_nonmanifold_edges(mesh_before)} edges shared by more than two "
+                                  "faces)")
         elif convex_hull_fallback:
             report.repairs.append(f"replaced by its convex hull ({holes_before} open edges could not be closed)")
-            mesh = mesh.convex_hull
+            try:
+                mesh = mesh.convex_hull
+            except Exception as exc:  # Qhull on 3 points or a flat set: QhullError, a traceback before
+                raise MeshError(f"{source}: mesh encloses no volume (flat or degenerate): its convex hull cannot be "
+                                f"built ({type(exc).__name__})") from None
         else:
             raise MeshError(
                 f"{source}: mesh is open ({_boundary_edges(mesh)} boundary edges) and hole filling failed; "
@@ -144,6 +152,32 @@ def _close(
         report.repairs.append("inverted inside-out mesh")
     trimesh.repair.fix_normals(mesh)
     return mesh
+
+
+def _meshfix_pieces(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
+    """`_meshfix`, which keeps only the largest connected piece of what it is given: a mesh of several pieces
+    (any two with areas within `DEBRIS_AREA_FRACTION` of the largest) is repaired piece by piece, its closed
+    pieces kept as they are, so that a second body (a box beside an open tube, two boxes sharing an edge) is
+    not silently lost. Small pieces still open after MeshFix are dropped as debris, and recorded. A mesh of one
+    such piece (and debris) is given to MeshFix whole, as before."""
+    pieces = mesh.split(only_watertight=False)
+    areas = np.array([float(p.area) for p in pieces])
+    large = areas >= DEBRIS_AREA_FRACTION * areas.max() if len(pieces) else areas.astype(bool)
+    if int(large.sum()) <= 1:
+        return _meshfix(mesh, report)
+    kept, dropped = [], 0
+    for piece, is_large in zip(pieces, large, strict=True):
+        if not piece.is_watertight:
+            piece = _meshfix(piece, report)
+        if piece.is_watertight or is_large:  # a large piece still open leaves the mesh open: refused by the caller
+            kept.append(piece)
+        else:
+            dropped += 1
+    report.warnings[:] = list(dict.fromkeys(report.warnings))
+    report.repairs.append(f"repaired {int(large.sum())} pieces one by one (MeshFix keeps one piece of a mesh)")
+    if dropped:
+        report.repairs.append(f"dropped {dropped} small open pieces that could not be closed")
+    return trimesh.util.concatenate(kept)
 
 
 def _meshfix(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
@@ -179,6 +213,11 @@ def _captured_stderr() -> Iterator[list[str]]:
             out[0] = tmp.read().decode(errors="replace")
 
 
+def _nonmanifold_edges(mesh: trimesh.Trimesh) -> int:
+    _, counts = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
+    return int((counts > 2).sum())
+
+
 def _boundary_edges(mesh: trimesh.Trimesh) -> int:
     edges = mesh.edges_sorted
     _, counts = np.unique(edges, axis=0, return_counts=True)
@@ -190,6 +229,7 @@ def _drop_debris(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
     report.pieces = len(pieces)
     if len(pieces) <= 1:
         return mesh
+    pieces = _turn_outward(pieces, report)
     volumes = np.array([abs(p.volume) for p in pieces])
     keep = volumes >= DEBRIS_VOLUME_FRACTION * volumes.max()
     dropped = int((~keep).sum())
@@ -201,6 +241,26 @@ def _drop_debris(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
     if len(kept) > 1:
         report.repairs.append(f"{len(kept)} disconnected pieces kept as one rigid body")
     return trimesh.util.concatenate(kept)
+
+
+def _turn_outward(pieces: list[trimesh.Trimesh], report: MeshReport) -> list[trimesh.Trimesh]:
+    """`pieces` with each closed inside-out piece (negative volume) that lies inside no outward piece turned
+    outward: it is a body of its own whose faces point in, not a cavity (an inward shell inside another piece's
+    material, kept as it is). Left so, its volume was subtracted from the object's (a 5 cm cube beside an
+    inverted 4 cm one: 61 cm^3 instead of 189, the centre of mass and inertia wrong)."""
+    outward = [p for p in pieces if p.is_watertight and p.volume > 0]
+    turned = 0
+    for piece in pieces:
+        if not (piece.is_watertight and piece.volume < 0):
+            continue
+        inside = any(np.all(o.bounds[0] <= piece.bounds[0]) and np.all(piece.bounds[1] <= o.bounds[1])
+                     and np.mean(o.contains(piece.vertices)) > 0.5 for o in outward)
+        if not inside:
+            piece.invert()
+            turned += 1
+    if turned:
+        report.repairs.append(f"turned {turned} inside-out pieces outward (not inside another piece: not cavities)")
+    return pieces
 
 
 def _merge_overlaps(pieces: list[trimesh.Trimesh], report: MeshReport) -> list[trimesh.Trimesh]:
