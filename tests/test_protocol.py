@@ -8,6 +8,7 @@ at the cube's centre, approach straight down, closing along world -y.
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -89,6 +90,19 @@ def test_grasp_beside_the_object_is_no_contact(scenes: dict) -> None:
     assert result.status is Status.NO_CONTACT, result.detail
     assert result.last_phase == "approach"
     assert result.fingers_in_contact == ()
+    assert result.detail == "the hand closed without touching the object"  # it reached the grasp pose in free air
+
+
+def test_a_grasp_below_the_table_top_says_where_the_approach_stopped(scenes: dict) -> None:
+    """The same grasp beside the cube, 4 cm lower: the fingertips meet the table on the way down, the hand
+    closes where it stopped, and the detail says so rather than only 'without touching the object'."""
+    scene, rest = scenes["light"]
+    result = _run(scene, top_grasp(rest, (0.05, 0.0, -0.04)), rest)
+    assert result.status is Status.NO_CONTACT, result.detail
+    match = re.fullmatch(r"the hand closed without touching the object \(the hand stopped (\d+) mm short of the "
+                         r"grasp pose, against the table\)", result.detail)
+    assert match, result.detail
+    assert 5 < int(match.group(1)) <= 40
 
 
 def test_pregrasp_inside_the_table_is_pregrasp_collision(scenes: dict) -> None:

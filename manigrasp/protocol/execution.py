@@ -224,6 +224,7 @@ class TrialRun:
         self.torque_scale = params.torque_scale or radius_of_gyration(scene)
         self.joints: np.ndarray | None = None  # (2, n_act) the grasp's own hand path, None: the hand's
         self.pregrasp_offset = params.pregrasp_offset  # [m] where the open hand starts, back along the approach
+        self.approach_note = ""  # how far short of the grasp pose the last approach stopped, and against what
 
     def use_grasp(self, grasp: Grasp) -> None:
         """Execute `grasp` (checked by `check_grasp`): its hand path (`Grasp.joints`, else the hand's own)

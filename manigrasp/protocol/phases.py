@@ -190,13 +190,36 @@ def ramp(start: np.ndarray, delta: np.ndarray, duration: float) -> Trajectory:
 
 
 def approach(run: TrialRun, start: np.ndarray, goal: np.ndarray) -> None:
-    """Move the impedance set-point in a straight line from `start` to `goal`, then settle there."""
+    """Move the impedance set-point in a straight line from `start` to `goal`, then settle there.
+
+    A hand that ends over `APPROACH_SHORTFALL` from `goal` (it ran into the table or the object on the way in)
+    leaves a note in `run.approach_note`, which a failed trial's detail ends with (`trial.execute`): the hand
+    closed where it stopped, not where the grasp is."""
     with run.phase(Phase.APPROACH):
         delta = goal[:3, 3] - start[:3, 3]
         n = max(1, run.n_steps(float(np.linalg.norm(delta)) / run.params.approach_speed))
         run.step(n, ramp(start, delta, n * run.dt))
         run.hold_target(goal)
         run.hold_for(run.params.approach_settle_s)
+        run.approach_note = approach_shortfall(run.scene, goal)
+
+
+APPROACH_SHORTFALL = 0.005
+"""[m] how far from the grasp pose the TCP may end the approach before a `no_contact` says where it stopped
+(the impedance-controlled hand ends within a millimetre of it in free air)."""
+
+
+def approach_shortfall(scene: Scene, goal: np.ndarray) -> str:
+    """"the hand stopped N mm short of the grasp pose, against the table" (or the object, or the table and the
+    object), or "" where the TCP is within `APPROACH_SHORTFALL` of `goal`."""
+    short = float(np.linalg.norm(scene.tcp_pose()[:3, 3] - goal[:3, 3]))
+    if short <= APPROACH_SHORTFALL:
+        return ""
+    touching = read_hand_contacts(scene, "any")
+    on_object = np.isin(touching.other_geom, scene.object_geoms)
+    against = [name for name, hit in (("the table", (~on_object).any()), ("the object", on_object.any())) if hit]
+    where = f", against {' and '.join(against)}" if against else ""
+    return f"the hand stopped {short * 1e3:.0f} mm short of the grasp pose{where}"
 
 
 def close(run: TrialRun, preshape: float, metrics: bool = True, detail: str = "") -> None:

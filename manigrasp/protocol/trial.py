@@ -23,6 +23,11 @@ Body = Callable[[TrialRun, np.ndarray, np.ndarray, Grasp], tuple[str, ...]]
 It returns only on success and raises `Abort` for every failure."""
 
 
+SHORT_APPROACH_STATUSES = frozenset({Status.NO_CONTACT, Status.SLIPPED_LIFT, Status.DROPPED_PERTURB})
+"""The failures whose detail ends with where a short approach stopped (`phases.approach_shortfall`): the hand
+closed there, not at the grasp pose, which may be why it missed or held badly."""
+
+
 def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline: float | None,
             object_pose: np.ndarray | None, seed: int, clock: Callable[[], float] = time.monotonic,
             observer: TrialObserver | None = None) -> TrialResult:
@@ -71,6 +76,8 @@ def execute(scene: Scene, grasp: Any, params: GraspParams, body: Body, deadline:
         fingers = body(run, pose, rest, grasp)
     except Abort as abort:
         status, detail = abort.status, abort.detail
+        if run.approach_note and status in SHORT_APPROACH_STATUSES:  # it closed where it stopped, not at the grasp
+            detail = f"{detail} ({run.approach_note})"
         fingers = _fingers_now(run)
     except SimulationError as exc:
         status, detail = Status.UNSTABLE, str(exc)
