@@ -30,6 +30,22 @@ def test_a_misspelled_scan_is_suggested_by_its_own_name(capsys):
     assert "did you mean '003_cracker_box_scan'?" in _one_line_error(capsys)
 
 
+@pytest.mark.parametrize("name", ["part.obj", "scans/Part.STL", "/tmp/x/part"])
+def test_a_mesh_path_given_as_an_object_name_points_at_the_mesh_option(name, capsys):
+    """plan --object part.obj listed the shipped names only; a path is no object name, and --mesh takes it."""
+    assert main(["plan", "--object", name, "--hand", "parallel_jaw", "--planner", "random"]) == 2
+    err = _one_line_error(capsys)
+    assert "is a path, not an object name" in err and f"plan --mesh {name}" in err
+
+
+def test_a_run_without_recordings_names_replay_as_well(tmp_path, capsys):
+    """view on an `evaluate` run advised re-running `bench CONFIG --record`, which evaluate has no config for."""
+    (tmp_path / "run").mkdir()
+    assert main(["view", str(tmp_path / "run")]) == 2
+    err = _one_line_error(capsys)
+    assert "has no recordings" in err and f"manigrasp replay {tmp_path / 'run'} TRIAL_ID --record" in err
+
+
 def test_scale_is_refused_for_a_shipped_object(capsys):
     """plan --object mug --scale 2 planned on the real-size mug, ignoring --scale."""
     assert main(["plan", "--object", "mug", "--scale", "2", "--hand", "parallel_jaw", "--planner", "random"]) == 2

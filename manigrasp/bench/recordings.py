@@ -25,7 +25,8 @@ def recordings_dir(run_dir: str | Path) -> Path:
     if not folder.is_dir() or not any(folder.glob(f"*{SUFFIX}")):
         raise ConfigError(f"run {run_dir} has no recordings: re-run its `manigrasp bench CONFIG --out {run_dir}` "
                           "command with --record failures|successes|all|N (its stored trials are re-simulated "
-                          "from their stored grasp and seed and recorded)")
+                          "from their stored grasp and seed and recorded), or record one trial with `manigrasp "
+                          f"replay {run_dir} TRIAL_ID --record FILE.rrd` (any run, `evaluate`'s too)")
     return folder
 
 
