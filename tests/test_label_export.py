@@ -361,3 +361,35 @@ def test_the_native_file_names_the_object_its_labels_were_measured_on(tmp_path):
     ref = read(next(f for f in item.files if f.suffix == ".json")).object
     assert (ref.name, ref.mesh, ref.scale) == ("part", str(mesh.resolve()), 0.001)
     assert ref.mass == pytest.approx(800.0 * 0.05 * 0.06 * 0.08)  # evaluate has no density: the mass it gave
+
+
+def test_a_dataset_records_what_it_was_labelled_under_and_evaluate_runs_under_it(tmp_path, captured, capsys):
+    """A set labelled under `lift` with rigid pads re-ran under `standard` with compliant pads by default: its
+    labels (drops of a protocol it never ran) no longer described the run. The files now record the protocol
+    with its parameters and the scene's non-default parameters (not the resting pose), and evaluate uses them."""
+    _store(tmp_path, [Status.SUCCESS, Status.SLIPPED_LIFT])
+    config = parse_config(dict(CONFIG, protocol={"name": "lift", "params": {"hold_s": 1.0}},
+                               scene={"pads": "rigid", "rest": "most_stable"}))
+    (item,), _ = export_dataset(tmp_path, config)
+    expected = {"protocol": {"name": "lift", "params": {"hold_s": 1.0}}, "scene": {"pads": "rigid"}}
+    for path in item.files:
+        assert read(path).labelled_under == expected, path.suffix
+    native_file = next(f for f in item.files if f.suffix == ".json")
+    assert main(["evaluate", str(native_file), "--out", str(tmp_path / "ev"), "--quiet"]) == 0
+    assert "protocol lift(hold_s=1.0), as the file was labelled; scene pads=rigid" in capsys.readouterr().err
+    assert main(["evaluate", str(native_file), "--out", str(tmp_path / "ev2"), "--quiet", "--protocol",
+                 "standard"]) == 0
+    first, second = captured
+    assert (first.protocol.name, dict(first.protocol.params), first.scene.pads) == ("lift", {"hold_s": 1.0}, "rigid")
+    assert (second.protocol.name, second.scene.pads) == ("standard", "rigid")  # --protocol wins; the scene stays
+    # A file without the record runs as before (standard, default scene); a malformed record is a file error.
+    plain = tmp_path / "plain.json"
+    write(replace(read(native_file), labelled_under=None), plain)
+    assert main(["evaluate", str(plain), "--out", str(tmp_path / "ev3"), "--quiet"]) == 0
+    assert captured[-1].protocol.name == "standard" and captured[-1].scene.pads == "compliant"
+    data = json.loads(native_file.read_text())
+    data["labelled_under"] = {"protocol": "lift", "sceen": {}}
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(data))
+    assert main(["evaluate", str(bad), "--out", str(tmp_path / "ev4"), "--quiet"]) == 2
+    assert "labelled_under: unknown key 'sceen'" in capsys.readouterr().err

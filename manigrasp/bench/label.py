@@ -27,6 +27,7 @@ them by status.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections import defaultdict
@@ -167,7 +168,8 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
         first = kept[0]
         hand = hands.load(str(first["hand"]))
         source = sources.get(object_name(first))
-        grasps = replace(grasp_set(kept, hand.kind), object=native_object(object_name(first), source))
+        grasps = replace(grasp_set(kept, hand.kind), object=native_object(object_name(first), source),
+                         labelled_under=labelled_under(config, str(first["protocol"])))
         files = [native.write(grasps, _with_suffix(stem, native_suffix))]
         note = ""
         if hand.kind != "parallel":
@@ -183,6 +185,24 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
         out.append(Exported(group, str(first["object"]), str(first["hand"]), len(grasps), successes, tuple(files),
                             note, tuple(str(r["trial_id"]) for r in kept)))
     return out, dict(without_grasp)
+
+
+def labelled_under(config: BenchConfig, protocol_label: str) -> dict:
+    """What a group's labels were measured under (`GraspSet.labelled_under`): the protocol its trials ran
+    (``protocol_label``, a label of `BenchConfig.protocol_labels`) with its parameters, and the scene as the
+    parameters that differ from their defaults (the resting-pose settings left out: `evaluate` places a set's
+    grasps on the object's default rest, see `export_dataset`), so that `manigrasp evaluate FILE` re-runs the
+    grasps as they were labelled (under the defaults, a set labelled under `lift` or with rigid pads re-ran under
+    `standard` with compliant pads)."""
+    from manigrasp.config import to_mapping
+    from manigrasp.sim.config import SceneConfig
+
+    entries = dict(zip(config.protocol_labels, config.protocol_entries, strict=True))
+    entry = entries.get(protocol_label, config.protocol_entries[0])
+    plain = json.loads(json.dumps(to_mapping(SceneConfig()), default=str))
+    scene = json.loads(json.dumps(to_mapping(config.scene), default=str))
+    return {"protocol": {"name": entry.name, "params": json.loads(json.dumps(dict(entry.params), default=str))},
+            "scene": {k: v for k, v in scene.items() if plain.get(k) != v and not k.startswith("rest")}}
 
 
 def native_object(name: str, source) -> ObjectRef:

@@ -55,7 +55,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                                                "for a shipped object, which has its real size")
     p.add_argument("--mass", type=float, help="object mass [kg] (default: the file's, else from density)")
     p.add_argument("--hand", help="hand name (default: the file's hand, else parallel_jaw)")
-    p.add_argument("--protocol", default="standard", help="trial protocol (default standard)")
+    p.add_argument("--protocol", help="trial protocol (default: the one the file's labels were measured under, "
+                                      "with its parameters, as `manigrasp label` records it; else standard). The "
+                                      "scene the file records (rigid pads, say) is used either way")
     p.add_argument("--transfer", action="store_true",
                    help="run grasps made for another hand of the same kind (default: invalid_grasp)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
@@ -83,18 +85,34 @@ def _evaluate(args: argparse.Namespace) -> int:
     params = {"path": str(args.grasps.resolve()), "transfer": args.transfer}
     if _other_object(args, grasps, entry):
         params["check_object"] = False  # checked here (left out otherwise: the run's identity stays as it was)
-    config = parse_config({
+    under = grasps.labelled_under or {}
+    protocol = args.protocol or under.get("protocol") or "standard"
+    data = {
         "name": f"evaluate {args.grasps.name}",
         "objects": [entry],
         "hands": [args.hand or grasps.hand or "parallel_jaw"],
         "planners": [{"name": "file", "params": params}],
         "grasps_per_object": len(grasps),
-        "protocol": args.protocol,
-    }, where="evaluate")
+        "protocol": protocol,
+    }
+    if under.get("scene"):
+        data["scene"] = under["scene"]
+    if under:
+        shown = protocol if isinstance(protocol, str) else _entry_text(protocol)
+        scene = ", ".join(f"{k}={v}" for k, v in sorted(under.get("scene", {}).items())) or "defaults"
+        print(f"evaluate: protocol {shown}{' (--protocol)' if args.protocol else ', as the file was labelled'}; "
+              f"scene {scene}, as the file was labelled", file=sys.stderr)
+    config = parse_config(data, where=f"evaluate ({args.grasps.name}: labelled_under)" if under else "evaluate")
     summary = runner.run_benchmark(config, args.out, jobs=args.jobs, progress=not args.quiet)
     print(f"{summary.ran} grasps run, {summary.already_done} already stored ({summary.seconds:.0f} s)",
           file=sys.stderr)
     return report.print_report(args.out, as_json=False)
+
+
+def _entry_text(entry: dict) -> str:
+    """"lift" or "standard(grip_force=10.0)": a protocol entry of a file's `labelled_under`."""
+    params = entry.get("params") or {}
+    return entry["name"] + (f"({', '.join(f'{k}={v}' for k, v in sorted(params.items()))})" if params else "")
 
 
 def _object_entry(args: argparse.Namespace, grasps) -> dict:

@@ -24,6 +24,8 @@ Files written by manigrasp add ``grasps/qualities/manigrasp/*`` (the planner's s
 back as the scores, and the set's labels, read back by their own names, ``status`` not ``manigrasp/status``:
 from `manigrasp label` status, success (1 = the protocol's success; no ``flex/*`` key, which would claim
 ACRONYM's FleX physics), trial id, seed, measures), ``grasps/manigrasp/widths``,
+``grasps/manigrasp/labelled_under`` (JSON text: the protocol and scene the labels were measured under,
+`GraspSet.labelled_under`),
 ``object/manigrasp/name``, the manigrasp object's name, and ``gripper/manigrasp/hand``, the hand the grasps were
 made for (`GraspSet.hand`, read back; ACRONYM's ``gripper/type`` is written, as ``panda``, only when that hand
 is the Panda: the transforms are always in the Panda gripper's frame, the widths and labels are the named hand's).
@@ -35,6 +37,7 @@ by its mesh file's stem.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +59,7 @@ WIDTH_KEY = "grasps/manigrasp/widths"
 NAME_KEY = "object/manigrasp/name"
 BUILT_KEY = "object/manigrasp/built"
 HAND_KEY = "gripper/manigrasp/hand"
+LABELLED_UNDER_KEY = "grasps/manigrasp/labelled_under"  # JSON text: `GraspSet.labelled_under`
 PANDA = "panda"  # ACRONYM's gripper/type of the Franka Panda hand, and manigrasp's name of that hand
 
 
@@ -105,6 +109,8 @@ def read(path: str | Path) -> GraspSet:
         name = _string(_dataset(handle, NAME_KEY, path), NAME_KEY, path) if NAME_KEY in handle else None
         built = bool(_scalar(_dataset(handle, BUILT_KEY, path), BUILT_KEY, path)) if BUILT_KEY in handle else False
         hand = _string(_dataset(handle, HAND_KEY, path), HAND_KEY, path) if HAND_KEY in handle else None
+        under = _json(_string(_dataset(handle, LABELLED_UNDER_KEY, path), LABELLED_UNDER_KEY, path),
+                      LABELLED_UNDER_KEY, path) if LABELLED_UNDER_KEY in handle else None
     scores = _numbers(labels.pop(SCORE_KEY, np.zeros(n)), f"grasps/qualities/{SCORE_KEY}", path)
     labels = _unprefixed(labels, path)
     mesh_path = _string(mesh, "object/file", path)
@@ -112,7 +118,14 @@ def read(path: str | Path) -> GraspSet:
                     built=built and bool(name))
     poses = tcp_from_acronym(_numbers(transforms, "grasps/transforms", path))
     return GraspSet(poses, widths, np.zeros(n), scores, frame="mesh", hand=hand, hand_kind="parallel", object=ref,
-                    labels=labels, source=str(path))
+                    labels=labels, source=str(path), labelled_under=under)
+
+
+def _json(text: str, key: str, path: Path) -> Any:
+    try:
+        return json.loads(text)
+    except ValueError as exc:
+        raise GraspFileError(f"{path}: {key!r} is not JSON text ({exc})") from exc
 
 
 def _string(value: Any, key: str, path: Path) -> str:
@@ -224,4 +237,6 @@ def write(grasps: GraspSet, path: str | Path) -> Path:
             handle[HAND_KEY] = str(grasps.hand)
         if grasps.hand == PANDA:
             handle["gripper/type"] = PANDA
+        if grasps.labelled_under is not None:
+            handle[LABELLED_UNDER_KEY] = json.dumps(grasps.labelled_under)
     return path

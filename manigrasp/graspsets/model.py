@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -47,6 +47,36 @@ class ObjectRef:
     built: bool = False
 
 
+LABELLED_UNDER_KEYS = ("protocol", "scene")
+
+
+def check_labelled_under(value: Any, where: str) -> dict[str, Any]:
+    """`GraspSet.labelled_under` checked: a mapping of ``protocol`` (``{"name": text, "params": {...}}``) and
+    ``scene`` (a mapping of scene parameters), either optional; `GraspFileError` naming what is wrong. The values
+    themselves are checked where they are used (`manigrasp evaluate` builds its config from them)."""
+    if not isinstance(value, Mapping):
+        raise GraspFileError(f"{where}: labelled_under must be an object with protocol and scene, got {value!r}")
+    extra = sorted(set(value) - set(LABELLED_UNDER_KEYS))
+    if extra:
+        raise GraspFileError(f"{where}: labelled_under: unknown key {extra[0]!r}; valid keys: "
+                             f"{', '.join(LABELLED_UNDER_KEYS)}")
+    out: dict[str, Any] = {}
+    protocol = value.get("protocol")
+    if protocol is not None:
+        if not isinstance(protocol, Mapping) or not isinstance(protocol.get("name"), str) \
+                or not isinstance(protocol.get("params", {}), Mapping) or set(protocol) - {"name", "params"}:
+            raise GraspFileError(f"{where}: labelled_under: protocol must be {{name: text, params: {{...}}}}, got "
+                                 f"{protocol!r}")
+        out["protocol"] = {"name": protocol["name"], "params": dict(protocol.get("params", {}))}
+    scene = value.get("scene")
+    if scene is not None:
+        if not isinstance(scene, Mapping) or not all(isinstance(k, str) for k in scene):
+            raise GraspFileError(f"{where}: labelled_under: scene must be a mapping of scene parameters, got "
+                                 f"{scene!r}")
+        out["scene"] = dict(scene)
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class GraspSet:
     """Grasps of one hand kind on one object.
@@ -69,6 +99,9 @@ class GraspSet:
         joints: (n, 2, n_act) each grasp's own hand path of a dexterous hand (`GraspCandidate.joints`:
             row 0 pre-shape, row 1 squeeze target, actuator commands), or None (every grasp uses the
             hand's own path). An all-NaN (2, n_act) entry: that grasp uses the hand's own path.
+        labelled_under: what a labelled set's labels were measured under, or None (not recorded):
+            ``{"protocol": {"name": ..., "params": {...}}, "scene": {...}}``, the scene as the scene parameters
+            that differ from their defaults (`manigrasp label` writes it; `manigrasp evaluate` runs under it).
     """
 
     poses: np.ndarray
@@ -82,6 +115,7 @@ class GraspSet:
     labels: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
     joints: np.ndarray | None = None
+    labelled_under: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         where = self.source or "grasp set"
@@ -124,6 +158,8 @@ class GraspSet:
                 raise GraspFileError(f"{where}: joints must be (n, 2, n_actuators) with n = {n} (a pre-shape and "
                                      f"a squeeze row per grasp), got shape {joints.shape}")
             object.__setattr__(self, "joints", joints)
+        if self.labelled_under is not None:
+            object.__setattr__(self, "labelled_under", check_labelled_under(self.labelled_under, where))
 
     def grasp_joints(self, index: int) -> np.ndarray | None:
         """(2, n_act) the own hand path of grasp `index`, or None (the hand's own path)."""

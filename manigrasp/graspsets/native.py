@@ -9,6 +9,9 @@ JSON::
      "object": {"name": "box", "mesh": "box.obj", "scale": 1.0, "mass": 0.2},   # optional, any of these;
                                              # "built": true: the mesh is the built visual mesh of the
                                              # manigrasp object "name" (`ObjectRef.built`, from `label`'s .h5)
+     "labelled_under": {"protocol": {"name": "lift", "params": {}}, "scene": {"pads": "rigid"}},
+                                             # optional (written by `manigrasp label`): what the labels were
+                                             # measured under; `evaluate` runs under it
      "grasps": [
        {"pose": [[...4...], [...], [...], [0, 0, 0, 1]],   # TCP in the object frame [m], or:
         "position": [x, y, z], "quaternion": [w, x, y, z],   # (not both: refused)
@@ -55,7 +58,7 @@ from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef
 FORMAT = "manigrasp.grasps"
 VERSION = 1
 SUFFIXES = (".json", ".npz")
-_TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "grasps")
+_TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "labelled_under", "grasps")
 _GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label", "joints")
 _OBJECT_KEYS = ("name", "mesh", "scale", "mass", "built")
 _NPZ_KEYS = ("poses", "positions", "quaternions", "widths", "preshapes", "scores", "joints", "hand", "hand_kind",
@@ -107,7 +110,7 @@ def _read_json(path: Path) -> GraspSet:
     return GraspSet(np.array(poses).reshape(-1, 4, 4), np.array(widths), np.array(preshapes), np.array(scores),
                     frame=data.get("frame", "object"), hand=data.get("hand"), hand_kind=data.get("hand_kind"),
                     object=_object(data.get("object") or {}, str(path)), labels=columns, source=str(path),
-                    joints=_joints_column(joints, str(path)))
+                    joints=_joints_column(joints, str(path)), labelled_under=data.get("labelled_under"))
 
 
 def _pose(grasp: dict, where: str) -> np.ndarray:
@@ -342,7 +345,7 @@ def _json_payload(grasps: GraspSet) -> dict[str, Any]:
             row["label"] = {k: _nulls(v[i].item()) for k, v in grasps.labels.items()}
         rows.append(row)
     head = {"format": FORMAT, "version": VERSION, "hand": grasps.hand, "hand_kind": grasps.hand_kind,
-            "frame": grasps.frame, "object": obj}
+            "frame": grasps.frame, "object": obj, "labelled_under": grasps.labelled_under}
     return {**{k: v for k, v in head.items() if v is not None}, "grasps": rows}
 
 
