@@ -60,7 +60,9 @@ def test_partial_view_grasps_close_across_faces_that_exist(one_view, jaw):
         assert np.sign(local[0, k]) != np.sign(local[1, k]), f"{where} lie on one face"
         assert np.all(np.abs(local) <= HALF + 0.002), f"{where} are off the box"
         assert k in (0, 1), "the 12 cm height does not fit the 8 cm jaw"
-        assert abs(c.width - BOX[k]) < 0.002, f"width {1000 * c.width:.1f} mm across a {1000 * BOX[k]:.0f} mm box"
+        # a single-sided width ends past the top's far edge (its noisy points, plus half a sampling gap): over
+        # the 50 mm side in this view +1.0 mm median, +1.9 mm 95th percentile, +3.2 mm at most (near the top)
+        assert abs(c.width - BOX[k]) < 0.0035, f"width {1000 * c.width:.1f} mm across a {1000 * BOX[k]:.0f} mm box"
         hidden += bool(np.any(local[:, k] < 0))  # the -x and -y faces are hidden from the camera
     assert hidden >= 5, "grasps reach the hidden faces"
 
@@ -135,3 +137,21 @@ def test_two_views_find_visible_pairs_on_both_sides(box_table, jaw):
     for c in top:
         k, off = across(c.contacts)
         assert np.all(np.abs(off) < 0.002) and abs(c.width - BOX[k]) < 0.002
+
+
+def test_single_sided_lines_under_a_seen_top_end_at_its_footprint(one_view, jaw):
+    """The camera sees the box's top, so its hidden -x and -y faces lie under the top's edges (the assumption
+    `hidden_margin` makes for the hand): single-sided lines are bounded there over the box's whole height, not
+    only near the top where the camera sees past the far face (before, the shadow behind the far face left the
+    lines of the lower half 3 cm of uncertainty, more than `hidden_uncertainty`, and they were dropped)."""
+    from manigrasp.planners.partial import free_space_target
+
+    planner = planners.load("antipodal")
+    pairs, *_, confidence = free_space_target(planner, one_view, jaw, np.random.default_rng(0))
+    single = confidence < 1.0
+    low = single & (0.5 * (pairs.p[:, 2] + pairs.q[:, 2]) < 0.5 * BOX[2])
+    assert low.sum() >= 30, f"{low.sum()} single-sided pairs in the box's lower half"
+    u = (1.0 - confidence[low] / planner.hidden_weight) * 2.0 * planner.hidden_uncertainty
+    assert np.median(u) < 0.005, f"median uncertainty {1000 * np.median(u):.1f} mm"
+    off = np.min(np.abs(pairs.width[low, None] - np.array(BOX[:2])[None]), axis=1)
+    assert np.median(off) < 0.0015, f"median width error {1000 * np.median(off):.1f} mm across the box"

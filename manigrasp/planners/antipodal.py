@@ -200,7 +200,8 @@ class AntipodalPlanner:
         free_space_tau: half-width of the measured surface band of the free-space test [m].
         region_margin: the object's region is the cloud's bounding box grown by this much [m].
         hidden_margin: unknown (occluded) space blocks the hand only within this distance [m] of the seen
-            points' footprint (the object's hidden part lies under its seen surfaces); None: all of it
+            points' footprint (the object's hidden part lies under its seen surfaces), and a single-sided
+            line's far contact is bounded by the same footprint (`partial`, step 2); None: all of it
             inside the region (strict).
         pad_footprint: score each pose of a mesh plan on what its pads touch (module docstring, "Pads'
             footprint"); False: the pair's score for all its poses (as before).
