@@ -64,6 +64,7 @@ from manigrasp.hands.base import Hand
 from manigrasp.planners.cloud import CompletedCloud
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.context import resolve
+from manigrasp.planners.footprint import PadFootprint, Seat
 from manigrasp.planners.free_space import OCCUPIED, UNKNOWN, FreeSpace
 from manigrasp.planners.pairs import Pairs
 from manigrasp.sim.config import SceneConfig
@@ -321,6 +322,7 @@ class SpaceProbe(HandProbe):
             seen = space.classify(grid[blocked]) == OCCUPIED
             near = footprint_mask(observation.points, self.low, shape, voxel, hidden_margin)
             blocked[np.flatnonzero(blocked)[~seen]] = near.reshape(-1)[np.flatnonzero(blocked)[~seen]]
+        self._solid = np.pad(blocked.reshape(shape), 1).ravel()  # the blocked space itself (`seat`)
         self.distance = distance_transform_edt(~blocked.reshape(shape), sampling=voxel)
         self.margin = clearance + 0.5 * np.sqrt(3.0) * voxel
         hit = np.pad(self.distance <= self.margin, 1)  # a free border for points off the grid
@@ -363,6 +365,36 @@ class SpaceProbe(HandProbe):
         np.clip(index, 0, self._limit[None, :, None], out=index)
         flat = (index[:, 0] * self._strides[0] + index[:, 1] * self._strides[1] + index[:, 2])
         return self._hit[flat].any(axis=1)
+
+    def _lookup(self, grid: np.ndarray, poses: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(b, k) `grid` (a padded flat boolean grid of the probe's voxels) at `points` (k, 3) (TCP frame) at TCP
+        poses (b, 4, 4); points off the grid land on its False border."""
+        world = poses[:, :3, :3].astype(np.float32) @ points.T.astype(np.float32)  # (b, 3, k)
+        world += poses[:, :3, 3, None].astype(np.float32)
+        index = np.floor((world - self.low[None, :, None].astype(np.float32)) / self.voxel).astype(np.int32) + 1
+        np.clip(index, 0, self._limit[None, :, None], out=index)
+        return grid[index[:, 0] * self._strides[0] + index[:, 1] * self._strides[1] + index[:, 2]]
+
+    def seat(self, footprint: PadFootprint, poses: np.ndarray, chunk: int = 4096) -> Seat:
+        """How the pads of `footprint` sit at TCP poses (k, 4, 4) [m] on the space the views saw blocked (the
+        object as the views know it: its seen surfaces, and under `hidden_margin` the occluded space under
+        them), as `footprint.PadFootprint.seat` on a mesh: a cell touches where the blocked space lies across
+        the jaws' midplane under it (the TCP's y = 0), else it overhangs the object (off an edge, over space
+        a view saw through). Both pads take the cells of that midplane (a grasp across parallel faces, which
+        is what a single-sided pair assumes); the gaps of touching cells are taken as 0 (a voxel is coarser
+        than the pad's compression), so the patch's tilt is not measured (NaN: the pair's normals)."""
+        from manigrasp.planners.footprint import patch_support, patch_torsion, pressure
+
+        cells = footprint.cells
+        local = np.column_stack([cells[:, 0], np.zeros(len(cells)), cells[:, 1]])
+        poses = np.asarray(poses, float)
+        touch = np.zeros((len(poses), len(cells)), bool)
+        for start in range(0, len(poses), chunk):
+            touch[start:start + chunk] = self._lookup(self._solid, poses[start:start + chunk], local)
+        gaps = np.where(touch, 0.0, np.inf)[:, None, :].repeat(2, axis=1)  # (k, 2, n)
+        weights = pressure(gaps, footprint.compression)
+        ratio, pivot = patch_torsion(weights, cells)
+        return Seat(ratio, pivot, np.full((len(poses), 2), np.nan), patch_support(weights, cells))
 
     def collides(self, poses: np.ndarray) -> np.ndarray:
         """(n,) True where the open hand at TCP poses (n, 4, 4) meets blocked space or the table."""
