@@ -45,9 +45,11 @@ Ranking: the antipodal score (hold x quality) of every pair, times a
 confidence of 1 for a visible pair and
 ``hidden_weight * (1 - 0.5 * u / max_uncertainty)`` for a single-sided one
 (less trust in a contact nobody saw, and less the farther the object may
-extend); mass: density x the volume of the convex hull of the cloud and its
-footprint on the table (the object rests on it), centre of mass at that
-hull's centroid.
+extend); with the planner's `pad_footprint` (the default) each pose's hold
+margin takes the torsion ratio of what its pads touch in the blocked space of
+step 3 (`SpaceProbe.seat`), so a pad half over an edge ranks lower; mass:
+density x the volume of the convex hull of the cloud and its footprint on the
+table (the object rests on it), centre of mass at that hull's centroid.
 """
 
 from __future__ import annotations
