@@ -60,7 +60,9 @@ def test_partial_view_grasps_close_across_faces_that_exist(one_view, jaw):
         assert np.sign(local[0, k]) != np.sign(local[1, k]), f"{where} lie on one face"
         assert np.all(np.abs(local) <= HALF + 0.002), f"{where} are off the box"
         assert k in (0, 1), "the 12 cm height does not fit the 8 cm jaw"
-        assert abs(c.width - BOX[k]) < 0.002, f"width {1000 * c.width:.1f} mm across a {1000 * BOX[k]:.0f} mm box"
+        # a single-sided width ends past the top's far edge (its noisy points, plus half a sampling gap): over
+        # the 50 mm side in this view +1.0 mm median, +1.9 mm 95th percentile, +3.2 mm at most (near the top)
+        assert abs(c.width - BOX[k]) < 0.0035, f"width {1000 * c.width:.1f} mm across a {1000 * BOX[k]:.0f} mm box"
         hidden += bool(np.any(local[:, k] < 0))  # the -x and -y faces are hidden from the camera
     assert hidden >= 5, "grasps reach the hidden faces"
 
@@ -135,3 +137,64 @@ def test_two_views_find_visible_pairs_on_both_sides(box_table, jaw):
     for c in top:
         k, off = across(c.contacts)
         assert np.all(np.abs(off) < 0.002) and abs(c.width - BOX[k]) < 0.002
+
+
+def test_single_sided_lines_under_a_seen_top_end_at_its_footprint(one_view, jaw):
+    """The camera sees the box's top, so its hidden -x and -y faces lie under the top's edges (the assumption
+    `hidden_margin` makes for the hand): single-sided lines are bounded there over the box's whole height, not
+    only near the top where the camera sees past the far face (before, the shadow behind the far face left the
+    lines of the lower half 3 cm of uncertainty, more than `hidden_uncertainty`, and they were dropped)."""
+    from manigrasp.planners.partial import free_space_target
+
+    planner = planners.load("antipodal")
+    pairs, *_, confidence = free_space_target(planner, one_view, jaw, np.random.default_rng(0))
+    single = confidence < 1.0
+    low = single & (0.5 * (pairs.p[:, 2] + pairs.q[:, 2]) < 0.5 * BOX[2])
+    assert low.sum() >= 30, f"{low.sum()} single-sided pairs in the box's lower half"
+    u = (1.0 - confidence[low] / planner.hidden_weight) * 2.0 * planner.hidden_uncertainty
+    assert np.median(u) < 0.005, f"median uncertainty {1000 * np.median(u):.1f} mm"
+    off = np.min(np.abs(pairs.width[low, None] - np.array(BOX[:2])[None]), axis=1)
+    assert np.median(off) < 0.0015, f"median width error {1000 * np.median(off):.1f} mm across the box"
+
+
+def box_pose(y: float, depth: float, reach: float) -> np.ndarray:
+    """A top-down TCP pose closing along x across the box (pads on its +-x faces, 2 cm wide along y), shifted
+    `y` [m] along the box's 3 cm side, fingertips `depth` [m] below its top."""
+    return tcp_frames(np.array([[0.0, y, BOX[2] - depth + reach]]), np.array([[0.0, 0.0, -1.0]]),
+                      np.array([[1.0, 0.0, 0.0]]))[0]
+
+
+def test_the_pads_seat_on_the_views_space_sees_a_pad_over_an_edge(one_view, jaw, tall_box_asset):
+    """`SpaceProbe.seat` (what the pads touch, from the views alone) agrees with the true box's seat
+    (`footprint.PadFootprint.seat` on its mesh): fully seated when centred on the faces, lower with a pad half
+    over the box's side edge or its top edge. The -x pad sits on the face the camera does not see."""
+    import trimesh
+
+    from manigrasp.planners.footprint import pad_footprint
+
+    probe = SpaceProbe(jaw, one_view, FreeSpace(one_view.views), object_region(one_view.points, 0.0, 0.03),
+                       0.001, hidden_margin=0.002)
+    footprint = pad_footprint(probe)
+    reach = probe.finger_extents()[0]
+    poses = np.stack([box_pose(0.0, 0.035, reach), box_pose(0.018, 0.035, reach), box_pose(-0.018, 0.035, reach),
+                      box_pose(0.0, 0.012, reach)])
+    seen = probe.seat(footprint, poses).ratio
+    true = footprint.seat(trimesh.creation.box(BOX).apply_translation(CENTRE), poses).ratio
+    np.testing.assert_allclose(seen, true, atol=0.12)
+    assert seen[0] > 0.95 and np.all(seen[1:] < 0.9), f"seat ratios {np.round(seen, 2)}"
+
+
+def test_a_single_view_ranks_grasps_whose_pads_sit_on_the_box(one_view, jaw, tall_box_asset):
+    """With a grip too weak to hold everywhere (5 % of the hand's), the pads' seat decides the ranking: the
+    best single-view grasps sit on the true box as well as the ground truth's do (before, a cloud's poses were
+    scored on their pair alone, and three of the best ten sat at 0.56-0.79, a pad hanging over an edge)."""
+    import trimesh
+
+    from manigrasp.planners.footprint import pad_footprint
+
+    planner = planners.load("antipodal", grip_fraction=0.05)
+    top = planners.plan(planner, one_view, jaw, 10, np.random.default_rng(0)).candidates
+    probe = true_box_probe(jaw, tall_box_asset)
+    seat = pad_footprint(probe).seat(trimesh.creation.box(BOX).apply_translation(CENTRE),
+                                     np.stack([c.pose for c in top])).ratio
+    assert np.all(seat > 0.8), f"true seat ratios of the best ten: {np.round(seat, 2)}"

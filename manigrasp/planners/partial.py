@@ -12,7 +12,12 @@ with normals and the depth views it came from (`free_space.ViewedObservation`).
    the hidden side of a top or bottom face is the table or the object's
    inside). Along the line p + t d the views give two bounds on where the
    object ends: it ends before t_free, the first point of a 3 mm run of
-   FREE space (a camera ray passed there), and it reaches at least t_seen,
+   FREE space (a camera ray passed there) or, with `hidden_margin` (the
+   default), of occluded space outside the seen points' footprint (`Footprint`:
+   the object's hidden part lies under its seen surfaces, as step 3 assumes for
+   the hand; without it the shadow behind a box seen from 45 degrees left the
+   lines of its lower part 3 cm of uncertainty, more than `max_uncertainty`,
+   and only lines near its top and side edges were kept), and it reaches at least t_seen,
    the farthest seen point s lying vertically over the line (within `radius`
    of its vertical sheet, at or above it, before t_free: a box's top face
    over a line below it; sides are taken as vertical). The seen surface ends
@@ -40,9 +45,11 @@ Ranking: the antipodal score (hold x quality) of every pair, times a
 confidence of 1 for a visible pair and
 ``hidden_weight * (1 - 0.5 * u / max_uncertainty)`` for a single-sided one
 (less trust in a contact nobody saw, and less the farther the object may
-extend); mass: density x the volume of the convex hull of the cloud and its
-footprint on the table (the object rests on it), centre of mass at that
-hull's centroid.
+extend); with the planner's `pad_footprint` (the default) each pose's hold
+margin takes the torsion ratio of what its pads touch in the blocked space of
+step 3 (`SpaceProbe.seat`), so a pad half over an edge ranks lower; mass:
+density x the volume of the convex hull of the cloud and its footprint on the
+table (the object rests on it), centre of mass at that hull's centroid.
 """
 
 from __future__ import annotations
@@ -59,6 +66,7 @@ from manigrasp.hands.base import Hand
 from manigrasp.planners.cloud import CompletedCloud
 from manigrasp.planners.collision import HandProbe
 from manigrasp.planners.context import resolve
+from manigrasp.planners.footprint import PadFootprint, Seat
 from manigrasp.planners.free_space import OCCUPIED, UNKNOWN, FreeSpace
 from manigrasp.planners.pairs import Pairs
 from manigrasp.sim.config import SceneConfig
@@ -67,6 +75,7 @@ MAX_VERTICAL = 0.9  # |d_z| above which a single-sided line is not tried (within
 FLAT_COS = np.cos(np.radians(15.0))  # a single-sided line starts where the neighbours' normals agree this well
 DENSE_CHECKS = 8000  # the most poses of the antipodal planner's dense grid tested on a viewed cloud (planning time)
 FREE_RUN = 3  # consecutive FREE samples that end the object along a line
+FOOTPRINT_VOXEL = 0.002  # [m] cell of the footprint map that bounds single-sided lines (the probe's voxel)
 EDGE_REACH = 0.006  # [m] how far beyond the farthest seen point its surface's edge is looked for
 PLACEHOLDER = np.array([[50.0, 50.0, 50.0], [50.1, 50.0, 50.0], [50.0, 50.1, 50.0], [50.0, 50.0, 50.1]])
 
@@ -88,30 +97,70 @@ def object_region(points: np.ndarray, table_height: float, margin: float) -> tup
 
 
 def _blocked(space: FreeSpace, points: np.ndarray, low: np.ndarray, high: np.ndarray,
-             table_height: float) -> np.ndarray:
+             table_height: float, footprint: Footprint | None = None) -> np.ndarray:
     """(n,) True for points no view saw through inside the region [low, high], or below the table.
 
     Within 2 `space.tau` above the table the measured surface is the table's (MuJoCo tests the table):
-    only occluded (UNKNOWN) points there are blocked.
+    only occluded (UNKNOWN) points there are blocked. With a `footprint`, an occluded point is blocked only
+    under it (`Footprint.covers`: the object's hidden part lies under its seen surfaces).
     """
     inside = np.all((points >= low) & (points <= high), axis=1)
     out = points[:, 2] < table_height
     check = np.flatnonzero(inside & ~out)
     state = space.classify(points[check])
     band = points[check, 2] < table_height + 2.0 * space.tau
-    out[check] = (state == UNKNOWN) | ((state == OCCUPIED) & ~band)
+    unknown = state == UNKNOWN
+    if footprint is not None:
+        unknown[unknown] = footprint.covers(points[check[unknown]])
+    out[check] = unknown | ((state == OCCUPIED) & ~band)
     return out
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """Where an object resting on the table, whose hidden part lies under its seen surfaces, can be: within
+    `margin` horizontally of the seen points' vertical projection and at most `margin` above the highest seen
+    point there (`footprint_mask`, point-wise).
+
+    Attributes:
+        low: (3,) corner of the map [m]; voxel: its cell edge [m]; margin: [m].
+        top: (nx, ny) the highest seen point within `margin` (a square of cells) of each cell [m] (-inf: none).
+    """
+
+    low: np.ndarray
+    voxel: float
+    margin: float
+    top: np.ndarray
+
+    @classmethod
+    def of(cls, points: np.ndarray, low: np.ndarray, high: np.ndarray, voxel: float, margin: float) -> Footprint:
+        """The footprint of the seen `points` (n, 3) [m] over the box [low, high] (3,) [m]."""
+        low = np.asarray(low, float)
+        shape = np.ceil((np.asarray(high, float) - low) / voxel).astype(int) + 1
+        return cls(low, voxel, margin, _footprint_top(points, low, shape, voxel, margin))
+
+    def covers(self, points: np.ndarray) -> np.ndarray:
+        """(n,) True for `points` (n, 3) [m] within the footprint (and not above it)."""
+        cells = np.floor((points[:, :2] - self.low[:2]) / self.voxel).astype(int)
+        inside = np.all((cells >= 0) & (cells < np.array(self.top.shape)), axis=1)
+        out = np.zeros(len(points), bool)
+        top = self.top[cells[inside, 0], cells[inside, 1]]
+        out[inside] = np.isfinite(top) & (points[inside, 2] <= top + self.margin)
+        return out
 
 
 def hidden_pairs(cloud: CompletedCloud, chosen: np.ndarray, space: FreeSpace, widths: tuple[float, float],
                  radius: float, max_uncertainty: float, region: tuple[np.ndarray, np.ndarray],
-                 table_height: float, step: float = 0.001) -> HiddenPairs:
+                 table_height: float, step: float = 0.001, footprint: Footprint | None = None) -> HiddenPairs:
     """Single-sided pairs from the observed points `chosen` (indices) of `cloud` (module docstring, step 2).
 
     Args:
         widths: (min, max) jaw width [m]; radius: half-width of a line's vertical sheet [m].
         max_uncertainty: largest t_free - w kept [m]; region: the object's box (`object_region`).
         step: spacing of the samples along each line [m].
+        footprint: None: all occluded space in `region` may hold the object; a `Footprint`: only occluded
+            space under it (the hidden part lies under the seen surfaces), so t_free is where the line leaves
+            the footprint, as the hand's probe assumes (`SpaceProbe` with `hidden_margin`).
     """
     p, n = cloud.points[chosen], cloud.normals[chosen]
     d = -n
@@ -119,7 +168,7 @@ def hidden_pairs(cloud: CompletedCloud, chosen: np.ndarray, space: FreeSpace, wi
     p, n, d = p[keep], n[keep], d[keep]
     t = np.arange(step, widths[1] + max_uncertainty + (FREE_RUN + 1) * step, step)
     samples = p[:, None] + t[None, :, None] * d[:, None]  # (m, T, 3)
-    blocked = _blocked(space, samples.reshape(-1, 3), *region, table_height).reshape(len(p), len(t))
+    blocked = _blocked(space, samples.reshape(-1, 3), *region, table_height, footprint).reshape(len(p), len(t))
     free = ~blocked
     run = np.ones((len(p), len(t) - FREE_RUN + 1), bool)
     for k in range(FREE_RUN):
@@ -214,17 +263,24 @@ def footprint_mask(points: np.ndarray, low: np.ndarray, shape: np.ndarray, voxel
     `margin` [m] horizontally of the vertical projection of `points` (n, 3) and at most `margin` above the
     highest point over them: where an object resting on the table, whose hidden part lies under its
     seen surfaces, can be."""
+    top = _footprint_top(points, low, shape, voxel, margin)
+    near = np.isfinite(top)
+    z = low[2] + voxel * (np.arange(shape[2]) + 0.5)
+    return near[:, :, None] & (z[None, None, :] <= top[:, :, None] + margin)
+
+
+def _footprint_top(points: np.ndarray, low: np.ndarray, shape: np.ndarray, voxel: float,
+                   margin: float) -> np.ndarray:
+    """(nx, ny) the highest of `points` (n, 3) [m] within `margin` [m] (a square of cells) of each cell of a
+    grid (corner `low`, `shape`, edge `voxel` [m]); -inf where none."""
     from scipy.ndimage import maximum_filter
 
     cells = np.floor((points[:, :2] - low[:2]) / voxel).astype(int)
     keep = np.all((cells >= 0) & (cells < shape[:2]), axis=1)
     top = np.full(tuple(shape[:2]), -np.inf)
     np.maximum.at(top, (cells[keep, 0], cells[keep, 1]), points[keep, 2])
-    reach = int(np.ceil(margin / voxel))  # the highest point within `margin` (a square of cells) of each cell
-    top = maximum_filter(top, size=2 * reach + 1, mode="constant", cval=-np.inf)
-    near = np.isfinite(top)
-    z = low[2] + voxel * (np.arange(shape[2]) + 0.5)
-    return near[:, :, None] & (z[None, None, :] <= top[:, :, None] + margin)
+    reach = int(np.ceil(margin / voxel))
+    return maximum_filter(top, size=2 * reach + 1, mode="constant", cval=-np.inf)
 
 
 class SpaceProbe(HandProbe):
@@ -268,6 +324,7 @@ class SpaceProbe(HandProbe):
             seen = space.classify(grid[blocked]) == OCCUPIED
             near = footprint_mask(observation.points, self.low, shape, voxel, hidden_margin)
             blocked[np.flatnonzero(blocked)[~seen]] = near.reshape(-1)[np.flatnonzero(blocked)[~seen]]
+        self._solid = np.pad(blocked.reshape(shape), 1).ravel()  # the blocked space itself (`seat`)
         self.distance = distance_transform_edt(~blocked.reshape(shape), sampling=voxel)
         self.margin = clearance + 0.5 * np.sqrt(3.0) * voxel
         hit = np.pad(self.distance <= self.margin, 1)  # a free border for points off the grid
@@ -310,6 +367,36 @@ class SpaceProbe(HandProbe):
         np.clip(index, 0, self._limit[None, :, None], out=index)
         flat = (index[:, 0] * self._strides[0] + index[:, 1] * self._strides[1] + index[:, 2])
         return self._hit[flat].any(axis=1)
+
+    def _lookup(self, grid: np.ndarray, poses: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(b, k) `grid` (a padded flat boolean grid of the probe's voxels) at `points` (k, 3) (TCP frame) at TCP
+        poses (b, 4, 4); points off the grid land on its False border."""
+        world = poses[:, :3, :3].astype(np.float32) @ points.T.astype(np.float32)  # (b, 3, k)
+        world += poses[:, :3, 3, None].astype(np.float32)
+        index = np.floor((world - self.low[None, :, None].astype(np.float32)) / self.voxel).astype(np.int32) + 1
+        np.clip(index, 0, self._limit[None, :, None], out=index)
+        return grid[index[:, 0] * self._strides[0] + index[:, 1] * self._strides[1] + index[:, 2]]
+
+    def seat(self, footprint: PadFootprint, poses: np.ndarray, chunk: int = 4096) -> Seat:
+        """How the pads of `footprint` sit at TCP poses (k, 4, 4) [m] on the space the views saw blocked (the
+        object as the views know it: its seen surfaces, and under `hidden_margin` the occluded space under
+        them), as `footprint.PadFootprint.seat` on a mesh: a cell touches where the blocked space lies across
+        the jaws' midplane under it (the TCP's y = 0), else it overhangs the object (off an edge, over space
+        a view saw through). Both pads take the cells of that midplane (a grasp across parallel faces, which
+        is what a single-sided pair assumes); the gaps of touching cells are taken as 0 (a voxel is coarser
+        than the pad's compression), so the patch's tilt is not measured (NaN: the pair's normals)."""
+        from manigrasp.planners.footprint import patch_support, patch_torsion, pressure
+
+        cells = footprint.cells
+        local = np.column_stack([cells[:, 0], np.zeros(len(cells)), cells[:, 1]])
+        poses = np.asarray(poses, float)
+        touch = np.zeros((len(poses), len(cells)), bool)
+        for start in range(0, len(poses), chunk):
+            touch[start:start + chunk] = self._lookup(self._solid, poses[start:start + chunk], local)
+        gaps = np.where(touch, 0.0, np.inf)[:, None, :].repeat(2, axis=1)  # (k, 2, n)
+        weights = pressure(gaps, footprint.compression)
+        ratio, pivot = patch_torsion(weights, cells)
+        return Seat(ratio, pivot, np.full((len(poses), 2), np.nan), patch_support(weights, cells))
 
     def collides(self, poses: np.ndarray) -> np.ndarray:
         """(n,) True where the open hand at TCP poses (n, 4, 4) meets blocked space or the table."""
@@ -372,8 +459,10 @@ def free_space_target(planner, observation, hand: Hand, rng: np.random.Generator
                        widths, 0.5 * hand.max_width, radius, rng)
     region = object_region(done.points, observation.table_height, planner.region_margin)
     chosen = rng.choice(done.observed, size=min(planner.n_samples, done.observed), replace=False)
+    footprint = None if planner.hidden_margin is None else Footprint.of(
+        done.points, region[0], region[1], FOOTPRINT_VOXEL, planner.hidden_margin)
     hidden = hidden_pairs(done, chosen, space, widths, radius, planner.hidden_uncertainty, region,
-                          observation.table_height)
+                          observation.table_height, footprint=footprint)
     seen = seen.take(thin_pairs(seen, planner.pair_cell))
     keep = thin_pairs(hidden.pairs, planner.pair_cell)  # each kind thinned on its own: visible pairs stay
     unseen, uncertainty = hidden.pairs.take(keep), hidden.uncertainty[keep]
