@@ -95,25 +95,29 @@ def write_config(out: Path, objects: list[str], meshes: dict[str, Path], args: a
     return path
 
 
-def build_summary(objects: list[str], meshes: dict[str, Path], jobs: int) -> None:
+def build_summary(objects: list[str], meshes: dict[str, Path], jobs: int) -> list[str]:
     """Build (or load from the cache) every object, then one line per recipe: hulls and coverage of the recipe
-    and of its pseudo-scan, and the pseudo-scan's repairs."""
+    and of its pseudo-scan, and the pseudo-scan's repairs. Returns the recipes whose pair built (a pseudo-scan
+    the pipeline refuses is reported and left out of the runs)."""
     sources = []
     for name in objects:
         sources += [shipped(name), ObjectSource(name=name + SUFFIX, mesh=str(meshes[name]),
                                                 mass=recipes.get(name).mass_kg)]
     outcomes = {o.name: o for o in build_many(sources, jobs=jobs)}
-    print(f"\n## builds (hulls, coverage = hull union / mesh volume; pseudo-scan repairs)")
+    print("\n## builds (hulls, coverage = hull union / mesh volume; pseudo-scan repairs)")
+    built = []
     for name in objects:
         rec, ps = outcomes[name], outcomes[name + SUFFIX]
         if rec.result is None or ps.result is None:
-            print(f"{name:20s} {rec.error or ''} {ps.error or ''}")
+            print(f"{name:20s} NOT BUILT, left out of the runs: {rec.error or ''} {ps.error or ''}")
             continue
+        built.append(name)
         rm, pm = rec.result.asset.metadata, ps.result.asset.metadata
         repairs = "; ".join(str(r) for r in pm.get("repairs", [])) or "none"
         print(f"{name:20s} recipe {rm['n_hulls']:3d} hulls cov {rm['coverage']:.3f} vol {rec.result.asset.volume * 1e6:7.1f}"
               f" cm3 | pseudo-scan {pm['n_hulls']:3d} hulls cov {pm['coverage']:.3f} vol "
               f"{ps.result.asset.volume * 1e6:7.1f} cm3 | repairs: {repairs}")
+    return built
 
 
 def run(config_path: Path, out: Path, mode: str, seeds: list[int], jobs: int) -> dict:
@@ -166,8 +170,8 @@ def main() -> None:
           f"seeds {args.seeds}, pads {args.modes}; {args.jobs} job(s); {os.cpu_count()} cores, "
           f"{platform.processor() or platform.machine()}", flush=True)
     meshes = make_meshes(objects, args.out / "meshes", params)
+    objects = build_summary(objects, meshes, args.jobs)
     config_path = write_config(args.out, objects, meshes, args)
-    build_summary(objects, meshes, args.jobs)
     groups = {mode: run(config_path, args.out, mode, args.seeds, args.jobs) for mode in args.modes}
 
     print(f"\n## recipe vs pseudo-scan (successes/trials pooled over seeds {args.seeds}; gap = recipe - pseudo-scan "
