@@ -19,6 +19,7 @@ Fisher exact p of the difference, and the failure modes of each; a gap over 10 p
     .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan --seeds 0 1 2 --objects 025_mug 024_bowl
     .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan --modes compliant rigid --objects 024_bowl
     .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan2 --noise-mm 1.0 --scan-seed 1  # other scans
+    .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan_r5 --planner-params '{"normal_radius": 0.005}'
 
 `--graspable` keeps only the objects the 8 cm parallel jaw can grasp from their resting pose (it leaves out
 the master chef can, tuna can, wood block and pudding box, whose recipes give `no_grasp`). Deterministic for
@@ -85,7 +86,9 @@ def write_config(out: Path, objects: list[str], meshes: dict[str, Path], args: a
     for name in objects:
         entries += [name, {"mesh": os.path.relpath(meshes[name], out), "name": name + SUFFIX,
                            "mass": recipes.get(name).mass_kg}]
-    config = {"name": "pseudo_scans", "seed": 0, "objects": entries, "hands": args.hands, "planners": args.planners,
+    params = json.loads(args.planner_params) if args.planner_params else {}
+    planners = [{"name": p, "params": params} if params else p for p in args.planners]
+    config = {"name": "pseudo_scans", "seed": 0, "objects": entries, "hands": args.hands, "planners": planners,
               "grasps_per_object": args.grasps, "protocol": args.protocol, "observation": "ground_truth",
               "scene": {"pads": "compliant", "rest": "file"}}
     path = out / "pseudo_scans.yaml"
@@ -131,6 +134,11 @@ def run(config_path: Path, out: Path, mode: str, seeds: list[int], jobs: int) ->
     return summarize(results).groups
 
 
+def _is(label: str, planner: str) -> bool:
+    """Whether a group's planner label names `planner` (a planner with params may be labelled name[key=value])."""
+    return label == planner or label.startswith(planner + "[")
+
+
 def modes_text(rate) -> str:
     return ",".join(f"{k}:{v}" for k, v in sorted(rate.failure_modes.items(), key=lambda kv: -kv[1])) or "-"
 
@@ -145,6 +153,8 @@ def main() -> None:
     parser.add_argument("--modes", nargs="+", default=["compliant"], help="pad models: compliant, rigid (default compliant)")
     parser.add_argument("--hands", nargs="+", default=["parallel_jaw"])
     parser.add_argument("--planners", nargs="+", default=["antipodal"])
+    parser.add_argument("--planner-params", default=None,
+                        help='JSON parameters of every planner, e.g. \'{"normal_radius": 0.005}\' (default: none)')
     parser.add_argument("--protocol", default="standard")
     parser.add_argument("--grasps", type=int, default=20, help="grasps per object and seed (default 20)")
     parser.add_argument("--jobs", type=int, default=1)
@@ -185,8 +195,9 @@ def main() -> None:
                 print(f"{'object':20s} {'recipe':>8s} {'pscan':>8s} {'gap':>5s} {'p':>6s} {'flag':4s}  "
                       f"failure modes recipe | pseudo-scan")
                 for name in objects:
-                    rk = next((k for k in rows if k[0] == hand and k[1] == planner and k[-1] == name), None)
-                    pk = next((k for k in rows if k[0] == hand and k[1] == planner and k[-1] == name + SUFFIX), None)
+                    rk = next((k for k in rows if k[0] == hand and _is(k[1], planner) and k[-1] == name), None)
+                    pk = next((k for k in rows if k[0] == hand and _is(k[1], planner) and k[-1] == name + SUFFIX),
+                              None)
                     if rk is None or pk is None:
                         continue
                     r, s = rows[rk], rows[pk]
@@ -197,8 +208,8 @@ def main() -> None:
                         flagged.append(f"{name} ({mode}, {gap:+.0f}, p={p:.3f})")
                     print(f"{name:20s} {r.successes:>3d}/{r.trials:<4d} {s.successes:>3d}/{s.trials:<4d} {gap:+5.0f} "
                           f"{p:6.3f} {flag:4s}  {modes_text(r)} | {modes_text(s)}")
-                tr = sum(rows[k].successes for k in rows if k[0] == hand and k[1] == planner and k[-1] in objects)
-                ts = sum(rows[k].successes for k in rows if k[0] == hand and k[1] == planner
+                tr = sum(rows[k].successes for k in rows if k[0] == hand and _is(k[1], planner) and k[-1] in objects)
+                ts = sum(rows[k].successes for k in rows if k[0] == hand and _is(k[1], planner)
                          and k[-1].removesuffix(SUFFIX) in objects and k[-1].endswith(SUFFIX))
                 print(f"{'total':20s} {tr:>8d} {ts:>8d}")
     print("\nflagged: " + ("; ".join(flagged) if flagged else "none"))
