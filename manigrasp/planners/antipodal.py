@@ -214,9 +214,10 @@ class AntipodalPlanner:
             (`geometry.SmoothNormals`). On a scanned mesh a facet tilted by its bumps is otherwise paired with
             a face it is not opposite (bench_pseudo_scans: the gelatin box's pseudo-scan got 5 of its 20 grasps
             so, 18-24 mm pinches across its top edge, all failed). Opt-in, not a default: at 5 mm it removes those
-            pinches (gelatin box pseudo-scan 50 -> 52 of 60, seeds 0-2, every planned grasp held) but the mustard
-            bottle lost (recipe 37 -> 24, pseudo-scan 59 -> 42 of 60): the patch is gathered from face centres,
-            so on a mesh of large faces a vertex's few near faces stand for its whole patch.
+            pinches (gelatin box pseudo-scan 50 -> 52 of 60, seeds 0-2, every planned grasp held) but the recipes
+            lost (mustard bottle 37 -> 24 of 60, seeds 0-2; seed 0, of 20: scissors 18 -> 10, hammer 8 -> 0, drill
+            19 -> 16): the patch is gathered from face centres, so on a recipe's mesh of large faces a vertex's few
+            near faces stand for its whole patch (an area-sampled patch would not).
     """
 
     name: ClassVar[str] = "antipodal"
