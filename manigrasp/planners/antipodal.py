@@ -215,7 +215,7 @@ class AntipodalPlanner:
             a face it is not opposite (bench_pseudo_scans: the gelatin box's pseudo-scan got 5 of its 20 grasps
             so, 18-24 mm pinches across its top edge, all failed). Opt-in, not a default: at 5 mm it removes those
             pinches (gelatin box pseudo-scan 50 -> 52 of 60, seeds 0-2, every planned grasp held) but the recipes
-            lost (mustard bottle 37 -> 24 of 60, seeds 0-2; seed 0, of 20: scissors 18 -> 10, hammer 8 -> 0, drill
+            lost (mustard bottle 37 -> 24 of 60, seeds 0-2; seed 0, of 20: scissors 17 -> 10, hammer 8 -> 0, drill
             19 -> 16): the patch is gathered from face centres, so on a recipe's mesh of large faces a vertex's few
             near faces stand for its whole patch (an area-sampled patch would not).
     """
