@@ -117,7 +117,8 @@ def build_summary(objects: list[str], meshes: dict[str, Path], jobs: int) -> lis
         built.append(name)
         rm, pm = rec.result.asset.metadata, ps.result.asset.metadata
         repairs = "; ".join(str(r) for r in pm.get("repairs", [])) or "none"
-        print(f"{name:20s} recipe {rm['n_hulls']:3d} hulls cov {rm['coverage']:.3f} vol {rec.result.asset.volume * 1e6:7.1f}"
+        print(f"{name:20s} recipe {rm['n_hulls']:3d} hulls cov {rm['coverage']:.3f} vol "
+              f"{rec.result.asset.volume * 1e6:7.1f}"
               f" cm3 | pseudo-scan {pm['n_hulls']:3d} hulls cov {pm['coverage']:.3f} vol "
               f"{ps.result.asset.volume * 1e6:7.1f} cm3 | repairs: {repairs}")
     return built
@@ -145,12 +146,14 @@ def modes_text(rate) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, required=True, help="output folder (meshes/, config, one run per mode x seed)")
+    parser.add_argument("--out", type=Path, required=True,
+                        help="output folder (meshes/, config, one run per mode x seed)")
     parser.add_argument("--objects", nargs="+", default=None, help="recipes (default: all 20 shipped)")
     parser.add_argument("--graspable", action="store_true",
                         help=f"leave out the recipes the parallel jaw cannot grasp ({', '.join(NO_JAW_GRASP)})")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="benchmark root seeds, pooled (default 0)")
-    parser.add_argument("--modes", nargs="+", default=["compliant"], help="pad models: compliant, rigid (default compliant)")
+    parser.add_argument("--modes", nargs="+", default=["compliant"],
+                        help="pad models: compliant, rigid (default compliant)")
     parser.add_argument("--hands", nargs="+", default=["parallel_jaw"])
     parser.add_argument("--planners", nargs="+", default=["antipodal"])
     parser.add_argument("--planner-params", default=None,

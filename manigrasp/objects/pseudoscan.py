@@ -9,7 +9,8 @@ transfers to scanned ones (``benchmarks/bench_pseudo_scans.py``):
 1. sample `n_points` points uniformly on the surface (seeded);
 2. leave out the underside the scanner does not see well: each point whose face looks down (normal z below
    -0.7) within `underside_height_m` of the lowest point is kept only with probability 1 - `underside_drop`;
-3. blur the points (`blur_m`: the scanner's resolution, which rounds edges), then move each point along its surface normal by Gaussian noise of standard deviation `noise_m` (seeded);
+3. blur the points (`blur_m`: the scanner's resolution, which rounds edges), then move each point along its
+   surface normal by Gaussian noise of standard deviation `noise_m` (seeded);
 4. estimate normals from the noisy points (`normal_k` nearest neighbours), oriented like the true normals
    (a scanner knows which way it looked);
 5. screened Poisson reconstruction (Open3D, octree `depth`, one thread so that it is deterministic), then the

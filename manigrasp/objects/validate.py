@@ -176,13 +176,14 @@ FAN_FILL_MAX_AREA = 0.01
 def _fan_fill(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
     """Close each boundary loop of at most `FAN_FILL_MAX_EDGES` edges by a fan of triangles about a new vertex at
     its centroid, wound against the loop's faces. Returns `mesh` unchanged unless that makes it watertight with
-    consistent winding, adding at most `FAN_FILL_MAX_AREA` of its area (a loop that is not a simple cycle, a loop too long, or a vertex on two loops: unchanged)."""
+    consistent winding, adding at most `FAN_FILL_MAX_AREA` of its area (a loop that is not a simple cycle, a loop
+    too long, or a vertex on two loops: unchanged)."""
     edges = np.asarray(mesh.edges)  # directed, as the faces wind them
     _, inverse, counts = np.unique(np.sort(edges, axis=1), axis=0, return_inverse=True, return_counts=True)
     boundary = edges[counts[inverse.ravel()] == 1]
     if len(boundary) == 0:
         return mesh
-    following = dict(zip(boundary[:, 0].tolist(), boundary[:, 1].tolist()))
+    following = dict(zip(boundary[:, 0].tolist(), boundary[:, 1].tolist(), strict=True))
     if len(following) != len(boundary):  # a vertex starts two boundary edges: not simple loops
         return mesh
     loops, seen = [], set()
@@ -211,7 +212,8 @@ def _fan_fill(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
     added = filled.area_faces[len(mesh.faces):].sum()
     if not (filled.is_watertight and filled.is_winding_consistent) or added > FAN_FILL_MAX_AREA * mesh.area:
         return mesh
-    report.repairs.append(f"closed {len(loops)} hole(s) MeshFix left open ({len(boundary)} edges) with fans of triangles")
+    report.repairs.append(f"closed {len(loops)} hole(s) MeshFix left open ({len(boundary)} edges) with fans of "
+                          "triangles")
     return filled
 
 
