@@ -151,6 +151,16 @@ def _pad_loads(scene) -> tuple[float, int]:  # noqa: ANN001
     return (float(force[element].sum() / total) if total > 0 else float("nan")), min(touching, default=0)
 
 
+def _object_sources(run_dir: Path) -> dict:
+    """Object name -> its `ObjectSource` as the run's config gives it (user meshes too: `{mesh: FILE, name: ..}`)."""
+    from manigrasp.bench.config import parse_config
+    from manigrasp.bench.rundir import config_dir, load_meta
+    from manigrasp.bench.trials import groups
+
+    config = parse_config(load_meta(run_dir)["config"], where=f"{run_dir}/run.json")
+    return {g.object_source.name: g.object_source for g in groups(config, config_dir(run_dir))}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run_dir", type=Path)
@@ -166,11 +176,12 @@ def main() -> None:
     for key, result in load_results(args.run_dir):
         if (args.objects is None or key.object in args.objects) and np.isfinite(result.grasp.x_m):
             trials[(key.hand, key.planner, key.object)].append((key.grasp_index, result))
+    sources = _object_sources(args.run_dir)
     print(f"{'hand':13s} {'planner':10s} {'object':26s} succ   ratio mean  min   <{args.below:g} (succ)  "
           "succ. tilt  kern succ/fail [mm]  failures' ratio/tilt [deg]")
     for (hand_name, planner, name), rows in sorted(trials.items()):
         hand = hands.load(hand_name)
-        asset = catalog.build(catalog.shipped(name)).asset
+        asset = catalog.build(sources.get(name) or catalog.shipped(name)).asset
         rows.sort(key=lambda r: r[0])
         object_pose = rows[0][1].object_pose.matrix()
         observation = Observation.from_asset(asset, object_pose)

@@ -130,6 +130,8 @@ def _close(
         trimesh.repair.fill_holes(mesh)
         if not mesh.is_watertight:
             mesh = _meshfix_pieces(mesh, report)
+        if not mesh.is_watertight:
+            mesh = _fan_fill(mesh, report)
         if mesh.is_watertight:
             report.repairs.append(f"closed holes ({holes_before} open edges)" if holes_before else
                                   f"made manifold ({_nonmanifold_edges(mesh_before)} edges shared by more than two "
@@ -194,6 +196,59 @@ def _meshfix(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
     if len(faces) == 0:
         return mesh
     return trimesh.Trimesh(vertices, faces, process=True)
+
+
+FAN_FILL_MAX_EDGES = 64
+"""Longest boundary loop `_fan_fill` closes [edges]: what MeshFix leaves open is a few small loops (a hexagon of
+6 edges on a Poisson-reconstructed scan, which trimesh's fill_holes, triangles and quads only, does not close)."""
+
+FAN_FILL_MAX_AREA = 0.01
+"""Largest area `_fan_fill` adds, as a fraction of the mesh's: it closes holes, it does not make up missing surface
+(an open sheet stays refused)."""
+
+
+def _fan_fill(mesh: trimesh.Trimesh, report: MeshReport) -> trimesh.Trimesh:
+    """Close each boundary loop of at most `FAN_FILL_MAX_EDGES` edges by a fan of triangles about a new vertex at
+    its centroid, wound against the loop's faces. Returns `mesh` unchanged unless that makes it watertight with
+    consistent winding, adding at most `FAN_FILL_MAX_AREA` of its area (a loop that is not a simple cycle, a loop
+    too long, or a vertex on two loops: unchanged)."""
+    edges = np.asarray(mesh.edges)  # directed, as the faces wind them
+    _, inverse, counts = np.unique(np.sort(edges, axis=1), axis=0, return_inverse=True, return_counts=True)
+    boundary = edges[counts[inverse.ravel()] == 1]
+    if len(boundary) == 0:
+        return mesh
+    following = dict(zip(boundary[:, 0].tolist(), boundary[:, 1].tolist(), strict=True))
+    if len(following) != len(boundary):  # a vertex starts two boundary edges: not simple loops
+        return mesh
+    loops, seen = [], set()
+    for start in following:
+        if start in seen:
+            continue
+        loop, vertex = [], start
+        while vertex not in seen:
+            seen.add(vertex)
+            loop.append(vertex)
+            vertex = following.get(vertex)
+            if vertex is None:
+                return mesh
+        if vertex != start or len(loop) > FAN_FILL_MAX_EDGES:
+            return mesh
+        loops.append(loop)
+    vertices = [np.asarray(mesh.vertices)]
+    faces = [np.asarray(mesh.faces)]
+    index = len(mesh.vertices)
+    for loop in loops:
+        vertices.append(np.asarray(mesh.vertices)[loop].mean(axis=0, keepdims=True))
+        a = np.asarray(loop)
+        faces.append(np.column_stack([np.roll(a, -1), a, np.full(len(a), index)]))
+        index += 1
+    filled = trimesh.Trimesh(np.vstack(vertices), np.vstack(faces), process=False)
+    added = filled.area_faces[len(mesh.faces):].sum()
+    if not (filled.is_watertight and filled.is_winding_consistent) or added > FAN_FILL_MAX_AREA * mesh.area:
+        return mesh
+    report.repairs.append(f"closed {len(loops)} hole(s) MeshFix left open ({len(boundary)} edges) with fans of "
+                          "triangles")
+    return filled
 
 
 @contextlib.contextmanager
