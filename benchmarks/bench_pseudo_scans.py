@@ -19,7 +19,7 @@ Fisher exact p of the difference, and the failure modes of each; a gap over 10 p
     .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan --seeds 0 1 2 --objects 025_mug 024_bowl
     .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan --modes compliant rigid --objects 024_bowl
     .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan2 --noise-mm 1.0 --scan-seed 1  # other scans
-    .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan_r5 --planner-params '{"normal_radius": 0.005}'
+    .venv/bin/python benchmarks/bench_pseudo_scans.py --out /tmp/pscan_np --planner-params '{"pad_footprint": false}'
 
 `--graspable` keeps only the objects the 8 cm parallel jaw can grasp from their resting pose (it leaves out
 the master chef can, tuna can, wood block and pudding box, whose recipes give `no_grasp`). Deterministic for
@@ -157,7 +157,7 @@ def main() -> None:
     parser.add_argument("--hands", nargs="+", default=["parallel_jaw"])
     parser.add_argument("--planners", nargs="+", default=["antipodal"])
     parser.add_argument("--planner-params", default=None,
-                        help='JSON parameters of every planner, e.g. \'{"normal_radius": 0.005}\' (default: none)')
+                        help='JSON parameters of every planner, e.g. \'{"pad_footprint": false}\' (default: none)')
     parser.add_argument("--protocol", default="standard")
     parser.add_argument("--grasps", type=int, default=20, help="grasps per object and seed (default 20)")
     parser.add_argument("--jobs", type=int, default=1)

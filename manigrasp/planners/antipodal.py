@@ -123,7 +123,7 @@ from manigrasp.planners.collision import DEFAULT_CLEARANCE, HandProbe
 from manigrasp.planners.context import PlanContext, resolve
 from manigrasp.planners.footprint import DEFAULT_COMPRESSION, DEFAULT_GRID, on_pivot, pad_footprint
 from manigrasp.planners.free_space import DEFAULT_TAU
-from manigrasp.planners.geometry import PatchNormals, SmoothNormals, sample_surface
+from manigrasp.planners.geometry import SmoothNormals, sample_surface
 from manigrasp.planners.hold import hold_margin, loads, required_grip
 from manigrasp.planners.jaw_poses import PoseGrid, ranked_poses
 from manigrasp.planners.metrics import ContactModel, grasp_metrics, torque_scale
@@ -217,15 +217,6 @@ class AntipodalPlanner:
         footprint_grid: cells across and along each pad's face where the surface is sampled.
         pair_cell: pairs are thinned to the most antipodal one per cell of this size [m] and ~10 degrees
             of line direction before scoring (`thin_pairs`).
-        normal_radius: on a mesh, the pair search's normals are the surface's mean over this radius [m]
-            (`geometry.PatchNormals`, the scale of a pad); 0 (the default): each face's own, creases sharp
-            (`geometry.SmoothNormals`). On a scanned mesh a facet tilted by its bumps is otherwise paired with
-            a face it is not opposite (bench_pseudo_scans: the gelatin box's pseudo-scan got 5 of its 20 grasps
-            so, 18-24 mm pinches across its top edge, all failed). Opt-in, not a default: at 5 mm it removes those
-            pinches (gelatin box pseudo-scan 50 -> 52 of 60, seeds 0-2, every planned grasp held) but the recipes
-            lost (mustard bottle 37 -> 24 of 60, seeds 0-2; seed 0, of 20: scissors 17 -> 10, hammer 8 -> 0, drill
-            19 -> 16): the patch is gathered from face centres, so on a recipe's mesh of large faces a vertex's few
-            near faces stand for its whole patch (an area-sampled patch would not).
     """
 
     name: ClassVar[str] = "antipodal"
@@ -271,14 +262,11 @@ class AntipodalPlanner:
     pad_footprint: bool = True
     pad_compression: float = DEFAULT_COMPRESSION
     footprint_grid: tuple[int, int] = DEFAULT_GRID
-    normal_radius: float = 0.0
 
     def __post_init__(self) -> None:
         for key in ("n_samples", "rays_per_sample", "n_approaches", "max_checks", "dense_approaches", "dense_checks"):
             if int(getattr(self, key)) < 1:
                 raise ConfigError(f"antipodal: {key} must be >= 1, got {getattr(self, key)}")
-        if not (np.isfinite(self.normal_radius) and self.normal_radius >= 0):
-            raise ConfigError(f"antipodal: normal_radius must be a finite number >= 0, got {self.normal_radius}")
         if not 0.0 <= self.ray_cone <= 1.0:
             raise ConfigError(f"antipodal: ray_cone must be in [0, 1], got {self.ray_cone}")
         depth, lateral = ("[0, 1)", lambda x: 0.0 <= x < 1.0), ("(-1, 1)", lambda x: -1.0 < x < 1.0)
@@ -443,7 +431,7 @@ class AntipodalPlanner:
         """Antipodal pairs of `mesh` (world frame) that fit `hand` (steps 1-3)."""
         half_angle = float(np.arctan(self.contact.mu))
         samples = sample_surface(mesh, self.n_samples, rng)
-        normals = PatchNormals(mesh, self.normal_radius) if self.normal_radius > 0 else SmoothNormals(mesh)
+        normals = SmoothNormals(mesh)
         n_out = normals.at(samples.faces, samples.barycentric)
         rays = cone_rays(-n_out, self.rays_per_sample, self.ray_cone * half_angle, rng).reshape(-1, 3)
         reps = self.rays_per_sample

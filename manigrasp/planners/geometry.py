@@ -72,35 +72,6 @@ class SmoothNormals:
         return np.where(length > 1e-9, normals / np.maximum(length, 1e-12), fallback)
 
 
-class PatchNormals(SmoothNormals):
-    """Outward normals at the scale of a finger pad: each vertex's normal is the area-weighted mean of the face
-    normals whose face centres lie within `radius` of it, interpolated over each face like `SmoothNormals`.
-
-    A scanned surface's facets tilt by tens of degrees with its millimetre bumps (one facet of a pseudo-scanned
-    gelatin box's top face stood 73 deg off it), and a crease-keeping normal takes each facet's own: the pair
-    search then pairs such a facet with a face it is not opposite (a 24 mm pinch across the box's edge, which a
-    2 x 3 cm pad cannot make). A pad feels the surface's mean over its patch. On a clean mesh a flat face keeps
-    its normal farther than `radius` from its edges; nearer, the normal turns toward the neighbouring face.
-    """
-
-    def __init__(self, mesh: trimesh.Trimesh, radius: float) -> None:
-        super().__init__(mesh)
-        from scipy.sparse import csr_matrix
-        from scipy.spatial import cKDTree
-
-        centres = np.asarray(mesh.triangles_center, float)
-        weighted = np.asarray(mesh.area_faces, float)[:, None] * np.asarray(mesh.face_normals, float)
-        near = cKDTree(np.asarray(mesh.vertices, float)).sparse_distance_matrix(
-            cKDTree(centres), float(radius), output_type="coo_matrix")
-        patch = csr_matrix((np.ones(near.nnz), (near.row, near.col)), shape=(len(mesh.vertices), len(centres)))
-        normals = patch @ weighted
-        length = np.linalg.norm(normals, axis=1, keepdims=True)
-        ok = length[:, 0] > 1e-12  # a vertex with no face centre within the radius keeps its smooth normals
-        corners = (normals / np.maximum(length, 1e-12))[np.asarray(mesh.faces)]
-        keep = ok[np.asarray(mesh.faces)]
-        self.corners = np.where(keep[..., None], corners, self.corners)
-
-
 def barycentric_of(mesh: trimesh.Trimesh, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
     """(n, 3) barycentric coordinates of `points` (n, 3) on faces `faces` (n,)."""
     return trimesh.triangles.points_to_barycentric(mesh.triangles[faces], points)
