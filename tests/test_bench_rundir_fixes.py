@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import warnings
 
+import numpy as np
 import pytest
 import trimesh
 
@@ -127,7 +128,7 @@ def test_a_mesh_edited_during_the_run_gives_no_trial_of_another_object(tmp_path,
     with ResultsStore(tmp_path / "run" / "results.sqlite") as store:
         rows = list(store.rows())
     assert len(rows) == 2 and all(r["status"] == "harness_fault" for r in rows), [r["status"] for r in rows]
-    assert all("mesh changed during the run" in r["detail"] for r in rows)
+    assert all("build differs from the run" in r["detail"] for r in rows)
 
 
 def test_a_mesh_file_gone_since_the_run_started_is_named_as_gone_not_changed(tmp_path):
@@ -141,4 +142,17 @@ def test_a_mesh_file_gone_since_the_run_started_is_named_as_gone_not_changed(tmp
     with pytest.raises(ConfigError, match="mesh file of part is missing or unreadable .* put it back"):
         rundir.check(tmp_path / "run", config)
     (tmp_path / "moved.stl").rename(mesh)
+    assert rundir.check(tmp_path / "run", config) is not None
+
+
+def test_a_grasp_file_gone_since_the_run_started_is_named_as_gone_not_changed(tmp_path):
+    """As for a mesh: a `file` planner's grasp file moved away was 'changed since this run started'."""
+    grasps = tmp_path / "g.json"
+    grasps.write_text(json.dumps({"object": {"name": "004_sugar_box"}, "grasps": [{"pose": np.eye(4).tolist()}]}))
+    config = parse_config(dict(ONE, planners=[{"name": "file", "params": {"path": str(grasps)}}]))
+    rundir.prepare(tmp_path / "run", config)
+    grasps.rename(tmp_path / "moved.json")
+    with pytest.raises(ConfigError, match="grasp file of planner 'file' is missing or unreadable .* put it back"):
+        rundir.check(tmp_path / "run", config)
+    (tmp_path / "moved.json").rename(grasps)
     assert rundir.check(tmp_path / "run", config) is not None

@@ -17,6 +17,7 @@ from manigrasp.bench.config import parse_config
 from manigrasp.bench.label import export_dataset
 from manigrasp.bench.store import ResultsStore, TrialKey
 from manigrasp.cli import main
+from manigrasp.errors import ConfigError
 from manigrasp.graspsets import GraspSet, ObjectRef, acronym, native, read, write
 from manigrasp.protocol.result import PoseRecord, Status, TrialResult
 
@@ -366,21 +367,26 @@ def test_the_native_file_names_the_object_its_labels_were_measured_on(tmp_path):
 def test_a_dataset_records_what_it_was_labelled_under_and_evaluate_runs_under_it(tmp_path, captured, capsys):
     """A set labelled under `lift` with rigid pads re-ran under `standard` with compliant pads by default: its
     labels (drops of a protocol it never ran) no longer described the run. The files now record the protocol
-    with its parameters and the scene's non-default parameters (not the resting pose), and evaluate uses them."""
+    with its parameters and the scene's non-default parameters (rest: most_stable too, one pose; not stable_k's
+    settings), in JSON, NPZ and ACRONYM files alike, and evaluate uses them."""
     _store(tmp_path, [Status.SUCCESS, Status.SLIPPED_LIFT])
     config = parse_config(dict(CONFIG, protocol={"name": "lift", "params": {"hold_s": 1.0}},
                                scene={"pads": "rigid", "rest": "most_stable"}))
     (item,), _ = export_dataset(tmp_path, config)
-    expected = {"protocol": {"name": "lift", "params": {"hold_s": 1.0}}, "scene": {"pads": "rigid"}}
+    expected = {"protocol": {"name": "lift", "params": {"hold_s": 1.0}},
+                "scene": {"pads": "rigid", "rest": "most_stable"}}
     for path in item.files:
         assert read(path).labelled_under == expected, path.suffix
     native_file = next(f for f in item.files if f.suffix == ".json")
+    assert read(write(read(native_file), tmp_path / "copy.npz")).labelled_under == expected  # NPZ keeps it too
     assert main(["evaluate", str(native_file), "--out", str(tmp_path / "ev"), "--quiet"]) == 0
-    assert "protocol lift(hold_s=1.0), as the file was labelled; scene pads=rigid" in capsys.readouterr().err
+    assert "protocol lift(hold_s=1.0), as the file was labelled; scene pads=rigid, rest=most_stable" in \
+        capsys.readouterr().err
     assert main(["evaluate", str(native_file), "--out", str(tmp_path / "ev2"), "--quiet", "--protocol",
                  "standard"]) == 0
     first, second = captured
-    assert (first.protocol.name, dict(first.protocol.params), first.scene.pads) == ("lift", {"hold_s": 1.0}, "rigid")
+    assert (first.protocol.name, dict(first.protocol.params), first.scene.pads, first.scene.rest) == \
+        ("lift", {"hold_s": 1.0}, "rigid", "most_stable")
     assert (second.protocol.name, second.scene.pads) == ("standard", "rigid")  # --protocol wins; the scene stays
     # A file without the record runs as before (standard, default scene); a malformed record is a file error.
     plain = tmp_path / "plain.json"
@@ -393,3 +399,9 @@ def test_a_dataset_records_what_it_was_labelled_under_and_evaluate_runs_under_it
     bad.write_text(json.dumps(data))
     assert main(["evaluate", str(bad), "--out", str(tmp_path / "ev4"), "--quiet"]) == 2
     assert "labelled_under: unknown key 'sceen'" in capsys.readouterr().err
+    other = tmp_path / "other"  # a store of its own: these exports write over the files above
+    _store(other, [Status.SUCCESS])
+    (item,), _ = export_dataset(other, parse_config(dict(CONFIG, scene={"rest": "stable_k", "rest_k": 2})))
+    assert read(item.files[0]).labelled_under["scene"] == {}  # stable_k: each group is one pose (rest_index)
+    with pytest.raises(ConfigError, match="protocol 'lift', which the config does not list"):
+        export_dataset(other, parse_config(dict(CONFIG, protocol="standard")))

@@ -38,7 +38,7 @@ import numpy as np
 
 from manigrasp.bench.config import BenchConfig
 from manigrasp.bench.store import ResultsStore, joints_from_text
-from manigrasp.errors import ManigraspError
+from manigrasp.errors import ConfigError, ManigraspError
 from manigrasp.graspsets import GraspSet, ObjectRef, acronym, native
 from manigrasp.protocol.result import PoseRecord, Status
 from manigrasp.runfiles import META_NAME, STORE_NAME
@@ -190,19 +190,30 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
 def labelled_under(config: BenchConfig, protocol_label: str) -> dict:
     """What a group's labels were measured under (`GraspSet.labelled_under`): the protocol its trials ran
     (``protocol_label``, a label of `BenchConfig.protocol_labels`) with its parameters, and the scene as the
-    parameters that differ from their defaults (the resting-pose settings left out: `evaluate` places a set's
-    grasps on the object's default rest, see `export_dataset`), so that `manigrasp evaluate FILE` re-runs the
-    grasps as they were labelled (under the defaults, a set labelled under `lift` or with rigid pads re-ran under
-    `standard` with compliant pads)."""
+    parameters that differ from their defaults (``rest: most_stable`` with them, the object's one resting pose
+    the labels were measured in; ``stable_k``'s settings left out: each of its groups is one of the k poses,
+    named by the grasps' ``rest_index`` labels, and `evaluate` places them on one pose), so that `manigrasp
+    evaluate FILE` re-runs the grasps as they were labelled (under the defaults, a set labelled under `lift` or
+    with rigid pads re-ran under `standard` with compliant pads)."""
     from manigrasp.config import to_mapping
     from manigrasp.sim.config import SceneConfig
 
     entries = dict(zip(config.protocol_labels, config.protocol_entries, strict=True))
-    entry = entries.get(protocol_label, config.protocol_entries[0])
+    if protocol_label not in entries:
+        raise ConfigError(f"the stored trials ran under protocol {protocol_label!r}, which the config does not "
+                          f"list ({', '.join(entries)}): export with the run's own config")
+    entry = entries[protocol_label]
     plain = json.loads(json.dumps(to_mapping(SceneConfig()), default=str))
     scene = json.loads(json.dumps(to_mapping(config.scene), default=str))
     return {"protocol": {"name": entry.name, "params": json.loads(json.dumps(dict(entry.params), default=str))},
-            "scene": {k: v for k, v in scene.items() if plain.get(k) != v and not k.startswith("rest")}}
+            "scene": {k: v for k, v in scene.items() if plain.get(k) != v and k in _recorded_scene_keys(scene)}}
+
+
+def _recorded_scene_keys(scene: dict) -> set[str]:
+    """The scene parameters `labelled_under` may record: all but the resting-pose ones, and ``rest`` itself when
+    it is ``most_stable`` (one pose, which evaluate can take)."""
+    keep = {k for k in scene if not k.startswith("rest")}
+    return keep | {"rest"} if scene.get("rest") == "most_stable" else keep
 
 
 def native_object(name: str, source) -> ObjectRef:

@@ -202,6 +202,10 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
             raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
                               "use another --out to start a new run")
         changed = _changed_files(old, ident, "grasp_file_sha256")
+        gone = [name for name in changed if not ident["grasp_file_sha256"][name]]
+        if gone:
+            raise ConfigError(f"{run_dir}: the grasp file of planner {', '.join(map(repr, gone))} is missing or "
+                              "unreadable (it was read when this run started); put it back to resume the run")
         if changed:
             raise ConfigError(f"{run_dir}: the grasp file of planner {', '.join(map(repr, changed))} changed since "
                               "this run started (its stored trials ran the old grasps); use another --out to start "

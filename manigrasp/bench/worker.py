@@ -87,9 +87,10 @@ def _asset(group: Group):
         if group.object_key and built != group.object_key:  # a harness fault of the group or trial, not physics
             from manigrasp.errors import MeshError
 
-            raise MeshError(f"object {name}: its mesh changed during the run (built as {built[:12]}, the run's "
-                            f"{group.object_key[:12]}): a trial on it would be of another object; start a new "
-                            "--out for the edited mesh")
+            raise MeshError(f"object {name}: this worker's build differs from the run's (built as {built[:12]}, the "
+                            f"run's {group.object_key[:12]}): its mesh file edited during the run, or another "
+                            "CoACD, trimesh or MeshFix version on this worker; a trial on it would be of another "
+                            "object (an edited mesh: start a new --out)")
         _ASSETS[name] = asset
     return _ASSETS[name]
 

@@ -28,8 +28,8 @@ JSON::
 NPZ: arrays ``poses`` (n, 4, 4) or ``positions`` (n, 3) with ``quaternions`` (n, 4) (w, x, y, z);
 optional ``widths``, ``preshapes``, ``scores`` (n,), ``joints`` (n, 2, n_actuators) (an all-NaN entry: that
 grasp uses the hand's own path); optional scalars ``hand``, ``hand_kind``, ``frame``,
-``object_name``, ``object_mesh``, ``object_scale``, ``object_mass``, ``object_built``; labels as
-``label_<name>`` (n,).
+``object_name``, ``object_mesh``, ``object_scale``, ``object_mass``, ``object_built``, ``labelled_under``
+(JSON text, as in the JSON file); labels as ``label_<name>`` (n,).
 
 The object frame is manigrasp's (origin at the object's centre of mass, axes of its mesh); "mesh"
 means the frame of the object's mesh file scaled by ``object.scale``. TCP: z = approach (hand
@@ -62,7 +62,7 @@ _TOP_KEYS = ("format", "version", "hand", "hand_kind", "frame", "object", "label
 _GRASP_KEYS = ("pose", "position", "quaternion", "width", "preshape", "score", "label", "joints")
 _OBJECT_KEYS = ("name", "mesh", "scale", "mass", "built")
 _NPZ_KEYS = ("poses", "positions", "quaternions", "widths", "preshapes", "scores", "joints", "hand", "hand_kind",
-             "frame", "object_name", "object_mesh", "object_scale", "object_mass", "object_built")
+             "frame", "object_name", "object_mesh", "object_scale", "object_mass", "object_built", "labelled_under")
 
 
 def read(path: str | Path) -> GraspSet:
@@ -289,9 +289,15 @@ def _read_npz(path: Path) -> GraspSet:
                     mass=number("object_mass"), built=bool(number("object_built") or False))
     labels = {k.removeprefix("label_"): v for k, v in arrays.items() if k.startswith("label_")}
     joints = _floats(arrays, "joints", path) if "joints" in arrays else None
+    under = text("labelled_under")
+    if under is not None:
+        try:
+            under = json.loads(under)
+        except ValueError as exc:
+            raise GraspFileError(f"{path}: 'labelled_under' is not JSON text ({exc})") from exc
     return GraspSet(poses, column("widths", math.nan), column("preshapes", 0.0), column("scores", 0.0),
                     frame=text("frame") or "object", hand=text("hand"), hand_kind=text("hand_kind"),
-                    object=ref, labels=labels, source=str(path), joints=joints)
+                    object=ref, labels=labels, source=str(path), joints=joints, labelled_under=under)
 
 
 def _floats(arrays: dict[str, np.ndarray], key: str, path: Path) -> np.ndarray:
@@ -369,5 +375,7 @@ def _write_npz(grasps: GraspSet, path: Path) -> None:
     arrays.update({f"label_{k}": v for k, v in grasps.labels.items()})
     if grasps.joints is not None:
         arrays["joints"] = grasps.joints
+    if grasps.labelled_under is not None:
+        arrays["labelled_under"] = np.array(json.dumps(grasps.labelled_under))  # JSON text, as the .h5 holds it
     with path.open("wb") as handle:
         np.savez_compressed(handle, **arrays)
