@@ -204,20 +204,23 @@ def test_a_parameter_written_out_at_its_default_is_the_same_config(tmp_path, cap
     compares them (it refused them as different configs); a parameter this code does not know is compared as
     recorded, and any other value still differs."""
     payload = json.loads(BASELINE.read_text())
+    payload["run"].pop("effective", None)  # a baseline recorded before run.json held `effective`
+    old = tmp_path / "old_baseline.json"
+    old.write_text(json.dumps(payload))
     config = payload["run"]["config"]
     config["protocol"]["params"].update(lift_height=0.1, finger_hold="balanced")
     config["planners"][0]["params"].update(n_samples=2048, depth_fractions=[0.0, 0.4, 0.8])
     other = tmp_path / "other.json"
     other.write_text(json.dumps(payload))
-    assert main(["compare", str(BASELINE), str(other)]) == 0
+    assert main(["compare", str(old), str(other)]) == 0
     config["protocol"]["params"]["finger_hold_joints"] = False  # no longer a parameter
     other.write_text(json.dumps(payload))
-    assert main(["compare", str(BASELINE), str(other)]) == 2
+    assert main(["compare", str(old), str(other)]) == 2
     assert "protocol.params.finger_hold_joints" in capsys.readouterr().err
     del config["protocol"]["params"]["finger_hold_joints"]
     config["planners"][0]["params"]["n_samples"] = 1024
     other.write_text(json.dumps(payload))
-    assert main(["compare", str(BASELINE), str(other)]) == 2
+    assert main(["compare", str(old), str(other)]) == 2
     assert "planner 'antipodal'.params.n_samples (2048 vs baseline 1024)" in capsys.readouterr().err
 
 
@@ -227,20 +230,23 @@ def test_the_defaults_a_run_recorded_are_compared_not_this_codes(tmp_path, capsy
     record both sides read as this code's and pass. A recorded parameter this code no longer knows is ignored,
     as one it added since is at its default on both sides."""
     payload = json.loads(BASELINE.read_text())
+    payload["run"].pop("effective", None)  # a baseline recorded before run.json held `effective`
+    old = tmp_path / "old_baseline.json"
+    old.write_text(json.dumps(payload))
     assert "n_samples" not in payload["run"]["config"]["planners"][0]["params"]
     other = tmp_path / "other.json"
     other.write_text(json.dumps(payload))
-    assert main(["compare", str(BASELINE), str(other)]) == 0
+    assert main(["compare", str(old), str(other)]) == 0
     payload["run"]["effective"] = {"planners": {"antipodal": {"name": "antipodal", "params": {"n_samples": 1024}}},
                                    "protocols": {"standard": {"name": "standard",
                                                               "params": {"finger_hold_joints": False}}}}
     other.write_text(json.dumps(payload))
-    assert main(["compare", str(BASELINE), str(other)]) == 2
+    assert main(["compare", str(old), str(other)]) == 2
     err = capsys.readouterr().err
     assert "planner 'antipodal'.params.n_samples (2048 vs baseline 1024)" in err and "finger_hold" not in err
     payload["run"]["effective"]["planners"]["antipodal"]["params"]["n_samples"] = 2048
     other.write_text(json.dumps(payload))
-    assert main(["compare", str(BASELINE), str(other)]) == 0
+    assert main(["compare", str(old), str(other)]) == 0
 
 
 def test_a_new_run_records_every_parameter_it_runs_with_and_its_baseline_carries_them(tmp_path, capsys):
