@@ -27,10 +27,17 @@ def test_a_hole_meshfix_leaves_is_closed(monkeypatch):
     mesh = _sphere_with_hexagonal_hole()
     trimesh.repair.fill_holes(mesh)
     assert not mesh.is_watertight  # trimesh cannot close a hexagon
-    monkeypatch.setattr(validate, "_meshfix", lambda m, report: m)  # MeshFix "could not fix everything"
+
+    def meshfix(m, report):  # MeshFix "could not fix everything", and says so
+        report.warnings.append("MeshFix: could not fix everything")
+        return m
+
+    monkeypatch.setattr(validate, "_meshfix", meshfix)
     out, report = validate_and_repair(_sphere_with_hexagonal_hole(), source="hex")
     assert out.is_watertight and out.is_winding_consistent and out.volume > 0
     assert any("fans of triangles" in r for r in report.repairs)
+    # The build line read as a failed repair on a mesh that ended closed.
+    assert report.warnings == ["MeshFix: could not fix everything (the mesh was closed after it)"]
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.03)
     assert out.volume == pytest.approx(sphere.volume, rel=0.01)
 
