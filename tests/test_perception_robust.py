@@ -107,10 +107,13 @@ def _cylinder(handle: bool, n: int = 3000) -> tuple[np.ndarray, np.ndarray]:
 
 def test_near_symmetries_of_a_cylinder_with_and_without_a_handle():
     """With a handle: turns about the axis map most of it onto itself (near-symmetries); without: every turn
-    found is an exact symmetry, so none is kept."""
+    found is an exact symmetry, so none is kept. Which turns pass varies between runs: Open3D's ICP differs in the
+    last bits from call to call (its parallel reductions, whatever OMP_NUM_THREADS says), and the ICP from a 30 deg
+    start ended at 28.6 deg in one whole-suite run; a turn of 20 deg or more moves the 2 cm wide handle, 6 cm out,
+    wholly off itself (its half-width is 9.5 deg)."""
     assert len(find_near_symmetries(*_cylinder(handle=False), voxel=0.005)) == 0
     near = find_near_symmetries(*_cylinder(handle=True), voxel=0.005)
     upright = near[:, 2, 2] > 0.999  # turns about z (the rest: the cylinder upside down)
     angles = np.degrees(np.arctan2(near[upright, 1, 0], near[upright, 0, 0]))
-    assert upright.sum() >= 4 and np.all(np.abs(angles) >= 30.0), angles  # each puts the handle elsewhere
+    assert upright.sum() >= 4 and np.all(np.abs(angles) >= 20.0), angles  # each puts the handle elsewhere
     assert np.all(np.abs(near[~upright, 2, 2] + 1.0) < 1e-3)
