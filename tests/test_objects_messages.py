@@ -50,12 +50,13 @@ def open_cap(tmp_path):
 @pytest.mark.slow
 def test_meshfix_stderr_becomes_a_warning_of_the_object(open_cap, isolated_cache, capfd):
     asset = build_object(open_cap, name="cap", mass=0.1, convex_hull_fallback=True).asset
-    assert asset.metadata["warnings"] == ["MeshFix: could not fix everything"]
+    assert asset.metadata["warnings"] == ["MeshFix: could not fix everything (the mesh ended closed)"]
     assert "could not fix everything" not in capfd.readouterr().err  # not on the terminal raw
     assert main(["objects", "build", "--mesh", str(open_cap), "--convex-hull"]) == 0
     printed = capfd.readouterr()
     lines = [line for line in (printed.out + printed.err).splitlines() if "could not fix" in line]
-    assert len(lines) == 1 and lines[0].startswith("cap: ") and lines[0].endswith("; MeshFix: could not fix everything")
+    assert len(lines) == 1 and lines[0].startswith("cap: ") and \
+        lines[0].endswith("; MeshFix: could not fix everything (the mesh ended closed)")
 
 
 def test_a_watertight_mesh_has_no_warnings(isolated_cache):

@@ -37,7 +37,7 @@ def test_a_hole_meshfix_leaves_is_closed(monkeypatch):
     assert out.is_watertight and out.is_winding_consistent and out.volume > 0
     assert any("fans of triangles" in r for r in report.repairs)
     # The build line read as a failed repair on a mesh that ended closed.
-    assert report.warnings == ["MeshFix: could not fix everything (the mesh was closed after it)"]
+    assert report.warnings == ["MeshFix: could not fix everything (the mesh ended closed)"]
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.03)
     assert out.volume == pytest.approx(sphere.volume, rel=0.01)
 

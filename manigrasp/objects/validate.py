@@ -136,9 +136,9 @@ def _close(
             report.repairs.append(f"closed holes ({holes_before} open edges)" if holes_before else
                                   f"made manifold ({_nonmanifold_edges(mesh_before)} edges shared by more than two "
                                   "faces)")
-            # MeshFix's complaint is about its own output; what came after it closed the mesh (another piece's
-            # repair, the fan fill): say so, or a closed mesh's build line reads as a failed repair.
-            report.warnings[:] = [f"{w} (the mesh was closed after it)" if w.startswith("MeshFix:") else w
+            # MeshFix complains of what it could not fix even where the mesh ends closed (by MeshFix itself, another
+            # piece's repair or the fan fill): say so, or a closed mesh's build line reads as a failed repair.
+            report.warnings[:] = [f"{w} (the mesh ended closed)" if w.startswith("MeshFix:") else w
                                   for w in report.warnings]
         elif convex_hull_fallback:
             report.repairs.append(f"replaced by its convex hull ({holes_before} open edges could not be closed)")
