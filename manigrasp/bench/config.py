@@ -512,6 +512,15 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep)
 
 
+def scene_overrides(scene: Mapping[str, Any]) -> dict[str, Any]:
+    """The parameters of a recorded scene (`SceneConfig` as run.json holds it: plain JSON values) that differ
+    from this version's defaults (a parameter the defaults do not record compares with the default's value)."""
+    plain = SceneConfig()
+    defaults = json.loads(json.dumps(to_mapping(plain), default=str))
+    return {k: v for k, v in scene.items()
+            if v != defaults.get(k, json.loads(json.dumps(getattr(plain, k, None), default=str)))}
+
+
 def load_config(path: str | Path, overrides: Sequence[str] = ()) -> BenchConfig:
     """Read and validate a YAML config file (a key given twice in one mapping is an error)."""
     path = Path(path)

@@ -195,18 +195,17 @@ def labelled_under(config: BenchConfig, protocol_label: str) -> dict:
     named by the grasps' ``rest_index`` labels, and `evaluate` places them on one pose), so that `manigrasp
     evaluate FILE` re-runs the grasps as they were labelled (under the defaults, a set labelled under `lift` or
     with rigid pads re-ran under `standard` with compliant pads)."""
+    from manigrasp.bench.config import scene_overrides
     from manigrasp.config import to_mapping
-    from manigrasp.sim.config import SceneConfig
 
     entries = dict(zip(config.protocol_labels, config.protocol_entries, strict=True))
     if protocol_label not in entries:
         raise ConfigError(f"the stored trials ran under protocol {protocol_label!r}, which the config does not "
                           f"list ({', '.join(entries)}): export with the run's own config")
     entry = entries[protocol_label]
-    plain = json.loads(json.dumps(to_mapping(SceneConfig()), default=str))
-    scene = json.loads(json.dumps(to_mapping(config.scene), default=str))
+    scene = scene_overrides(json.loads(json.dumps(to_mapping(config.scene), default=str)))
     return {"protocol": {"name": entry.name, "params": json.loads(json.dumps(dict(entry.params), default=str))},
-            "scene": {k: v for k, v in scene.items() if plain.get(k) != v and k in _recorded_scene_keys(scene)}}
+            "scene": {k: v for k, v in scene.items() if k in _recorded_scene_keys(scene)}}
 
 
 def _recorded_scene_keys(scene: dict) -> set[str]:

@@ -374,16 +374,12 @@ def _scene_text(config: dict) -> str:
     """"scene: pads=compliant, rest=stable_k, rest_k=3 (every other scene parameter at its default)": the pad model
     always (a rigid-pad run's figures differ from a compliant one's, and its header read the same), then each
     recorded scene parameter that differs from this version's default, sorted; "" when the run records no scene."""
-    from manigrasp.config import to_mapping
-    from manigrasp.sim.config import SceneConfig
+    from manigrasp.bench.config import scene_overrides
 
     scene = config.get("scene")
     if not isinstance(scene, dict):
         return ""
-    plain = SceneConfig()
-    defaults = json.loads(json.dumps(to_mapping(plain), default=str))
-    differ = {k: v for k, v in scene.items()
-              if k != "pads" and v != defaults.get(k, json.loads(json.dumps(getattr(plain, k, None), default=str)))}
+    differ = {k: v for k, v in scene_overrides(scene).items() if k != "pads"}
     shown = ({"pads": scene["pads"]} if "pads" in scene else {}) | dict(sorted(differ.items()))
     text = ", ".join(f"{k}={v if isinstance(v, str) else json.dumps(v)}" for k, v in shown.items())
     return f"; scene: {text or 'defaults'} (every other scene parameter at its default)"

@@ -121,13 +121,13 @@ def _object_entry(args: argparse.Namespace, grasps) -> dict:
     of a shipped object (`ObjectRef.built`) names that object: it is built by its name."""
     from manigrasp.errors import ConfigError
     from manigrasp.objects import catalog, scans
-    from manigrasp.objects.meshio import MESH_SUFFIXES
+    from manigrasp.objects.meshio import names_a_path
 
     ref = grasps.object
     entry: dict = {}
     if args.object:
         given = Path(args.object)
-        if not given.is_file() and (given.suffix.lower() in MESH_SUFFIXES or "/" in args.object or given.exists()):
+        if not given.is_file() and (names_a_path(args.object) or given.exists()):
             what = "a folder, not a mesh file" if given.is_dir() else "no such mesh file"
             raise ConfigError(f"--object {args.object}: {what} (--object is a shipped object's name or a mesh file)")
         entry = {"mesh": str(given.resolve()), "name": args.name or ref.name or given.stem} if given.is_file() \

@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef
+from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef, labelled_under_from_text
 
 # Franka's documented flange-to-TCP distance of the Panda hand (`panda_hand_tcp` in franka_description),
 # the fingertip pads' centre; Contact-GraspNet's "gripper depth" for ACRONYM grasps is the same 0.1034 m.
@@ -109,8 +109,9 @@ def read(path: str | Path) -> GraspSet:
         name = _string(_dataset(handle, NAME_KEY, path), NAME_KEY, path) if NAME_KEY in handle else None
         built = bool(_scalar(_dataset(handle, BUILT_KEY, path), BUILT_KEY, path)) if BUILT_KEY in handle else False
         hand = _string(_dataset(handle, HAND_KEY, path), HAND_KEY, path) if HAND_KEY in handle else None
-        under = _json(_string(_dataset(handle, LABELLED_UNDER_KEY, path), LABELLED_UNDER_KEY, path),
-                      LABELLED_UNDER_KEY, path) if LABELLED_UNDER_KEY in handle else None
+        under = labelled_under_from_text(_string(_dataset(handle, LABELLED_UNDER_KEY, path), LABELLED_UNDER_KEY,
+                                                 path), f"{path}: {LABELLED_UNDER_KEY}") \
+            if LABELLED_UNDER_KEY in handle else None
     scores = _numbers(labels.pop(SCORE_KEY, np.zeros(n)), f"grasps/qualities/{SCORE_KEY}", path)
     labels = _unprefixed(labels, path)
     mesh_path = _string(mesh, "object/file", path)
@@ -120,12 +121,6 @@ def read(path: str | Path) -> GraspSet:
     return GraspSet(poses, widths, np.zeros(n), scores, frame="mesh", hand=hand, hand_kind="parallel", object=ref,
                     labels=labels, source=str(path), labelled_under=under)
 
-
-def _json(text: str, key: str, path: Path) -> Any:
-    try:
-        return json.loads(text)
-    except ValueError as exc:
-        raise GraspFileError(f"{path}: {key!r} is not JSON text ({exc})") from exc
 
 
 def _string(value: Any, key: str, path: Path) -> str:

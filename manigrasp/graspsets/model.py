@@ -77,6 +77,17 @@ def check_labelled_under(value: Any, where: str) -> dict[str, Any]:
     return out
 
 
+def labelled_under_from_text(text: str, where: str) -> Any:
+    """`GraspSet.labelled_under` as a file holds it in one string (NPZ, ACRONYM's HDF5): its JSON, parsed;
+    `GraspFileError` if it is not JSON (the set checks the mapping, `check_labelled_under`)."""
+    import json
+
+    try:
+        return json.loads(text)
+    except ValueError as exc:
+        raise GraspFileError(f"{where}: 'labelled_under' is not JSON text ({exc})") from exc
+
+
 @dataclass(frozen=True, eq=False)
 class GraspSet:
     """Grasps of one hand kind on one object.

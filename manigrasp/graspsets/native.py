@@ -53,7 +53,7 @@ from typing import Any
 import numpy as np
 
 from manigrasp.geometry import pose_from_pos_quat, quaternion_defect
-from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef
+from manigrasp.graspsets.model import GraspFileError, GraspSet, ObjectRef, labelled_under_from_text
 
 FORMAT = "manigrasp.grasps"
 VERSION = 1
@@ -290,11 +290,7 @@ def _read_npz(path: Path) -> GraspSet:
     labels = {k.removeprefix("label_"): v for k, v in arrays.items() if k.startswith("label_")}
     joints = _floats(arrays, "joints", path) if "joints" in arrays else None
     under = text("labelled_under")
-    if under is not None:
-        try:
-            under = json.loads(under)
-        except ValueError as exc:
-            raise GraspFileError(f"{path}: 'labelled_under' is not JSON text ({exc})") from exc
+    under = None if under is None else labelled_under_from_text(under, str(path))
     return GraspSet(poses, column("widths", math.nan), column("preshapes", 0.0), column("scores", 0.0),
                     frame=text("frame") or "object", hand=text("hand"), hand_kind=text("hand_kind"),
                     object=ref, labels=labels, source=str(path), joints=joints, labelled_under=under)

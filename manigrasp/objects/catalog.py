@@ -114,9 +114,9 @@ def shipped(name: str) -> ObjectSource:
 def _user_mesh_hint(name: str, cache_root: Path | None = None) -> str:
     """How to refer to a mesh built earlier as `name` (user objects are named by their mesh file), or to a mesh
     file given where a name goes (``plan --object part.obj``)."""
-    from manigrasp.objects.meshio import MESH_SUFFIXES
+    from manigrasp.objects.meshio import names_a_path
 
-    if Path(name).suffix.lower() in MESH_SUFFIXES or "/" in name:
+    if names_a_path(name):
         return (f"; {name!r} is a path, not an object name: give a mesh file as one (plan --mesh {name}, "
                 f"objects build --mesh {name}, {{mesh: {name}}} in a config)")
     try:

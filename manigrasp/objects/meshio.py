@@ -15,6 +15,13 @@ from manigrasp.errors import MeshError
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
 
+
+def names_a_path(text: str) -> bool:
+    """Whether `text`, given where an object's name goes, names a file instead: a mesh file's suffix, or a
+    folder separator (an object name is an identifier, `catalog.check_name`)."""
+    return Path(text).suffix.lower() in MESH_SUFFIXES or "/" in text
+
+
 # Sub-folders of a YCB object folder, best first (published YCB layout).
 YCB_MESH_FILES = (
     "google_16k/textured.obj",
