@@ -18,6 +18,7 @@ from manigrasp.sim.padtest import PAD_HALF, bumps, jaw_closed_on, press_pad
 MU_RIGID = SceneConfig().hand_friction  # the rigid pads and the rest of the hand
 MU_PAD = SceneConfig().pad_friction  # the compliant pads' rubber
 FORCE = 35.0  # [N], the standard protocol's grip (half of parallel_jaw's 70 N)
+GRIP_MAX = 70.0  # [N], parallel_jaw's full grip
 
 
 def patch_torque(force: float, mu: float = MU_PAD) -> float:
@@ -37,13 +38,19 @@ def test_element_stiffnesses_sum_to_the_pad_stiffness() -> None:
     pad = pads.PadGeometry(center=np.zeros(3), normal=np.array([0, 0, -1.0]), axes=np.eye(3)[:2],
                            half=np.array([0.01, 0.015]), thickness=0.006)
     model = pads.PadModel()
-    points, area, radius = pads.element_grid(pad, model.pitch)
-    assert len(points) == 2 * 3 and radius == pytest.approx(0.005)  # one element per 1 cm cell
+    points, area, semi = pads.element_grid(pad, model.pitch)
+    assert len(points) == 2 * 2  # one element per cell of about 1.5 cm: 1 x 1.5 cm
+    np.testing.assert_allclose(semi, [0.005, 0.0075])  # each spans its cell
     assert area.sum() == pytest.approx(4 * 0.01 * 0.015)
-    np.testing.assert_allclose(np.abs(points[:, :2]).max(axis=0) + radius, [0.01, 0.015])  # they reach the rims
-    np.testing.assert_allclose(area, 1e-4)  # equal cells
+    np.testing.assert_allclose(np.abs(points[:, :2]).max(axis=0) + semi, [0.01, 0.015])  # they reach the rims
+    np.testing.assert_allclose(area, 1.5e-4)  # equal cells
     k = pads.element_stiffness(model, area, pad.thickness)
     assert k.sum() == pytest.approx(model.modulus * 6e-4 / 0.006)  # E A / h
+    # A finer pitch: 2 x 3 cells of 1 cm, round elements.
+    points, area, semi = pads.element_grid(pad, 0.01)
+    assert len(points) == 2 * 3
+    np.testing.assert_allclose(semi, [0.005, 0.005])
+    assert area.sum() == pytest.approx(4 * 0.01 * 0.015)
 
 
 def test_cell_centres_give_the_patch_mean_radius() -> None:
@@ -65,7 +72,7 @@ def test_pressing_a_flat_face_returns_the_press_force(mode: str) -> None:
 
 def test_compliant_pad_holds_the_uniform_patch_torque_and_rigid_pad_overshoots_it() -> None:
     compliant = press_pad("compliant", FORCE)
-    assert compliant.contacts == 6  # every element of the 2 x 3 grid touches the flat face
+    assert compliant.contacts == 4  # every element of the 2 x 2 grid touches the flat face
     assert compliant.holding_torque == pytest.approx(patch_torque(FORCE), rel=0.15)
     # The rigid box touches at its corners (1.8 cm out) plus soft-finger torsion: about 2x too much.
     assert press_pad("rigid", FORCE).holding_torque > 1.5 * patch_torque(FORCE, MU_RIGID)
@@ -103,23 +110,28 @@ def test_the_pad_rubber_friction_is_the_elements_own() -> None:
 
 def test_a_post_under_one_element_meets_that_cells_torsion() -> None:
     """An object touching the pad on one element only (an edge or corner on the pad's rim): the element
-    stands for its 1 x 1 cm cell of rubber, so it resists the cell's patch torque mu F mean(r), 0.383 mu F c,
-    besides its sliding friction. The rig turns the pad about its centre, 5 mm from the post: MuJoCo's
-    elliptic cone lets the element resist F hypot(mu r, mu_t) there, where a point contact gives mu F r."""
+    stands for its 1 x 1.5 cm cell of rubber, so it resists the cell's patch torque mu F mean(r) (mean(r)
+    over a rectangle of half sides a, b in closed form: (2 a b d + a^3 ln((b + d) / a) + b^3 ln((a + d) / b))
+    / (6 a b), d = hypot(a, b)), besides its sliding friction. The rig turns the pad about its centre, 9 mm
+    from the post: MuJoCo's elliptic cone lets the element resist F hypot(mu r, mu_t) there, where a point
+    contact gives mu F r."""
     from manigrasp.sim.padtest import SURFACE_HALF, pad_rig
 
-    n = 81
+    n = 161  # 0.5 mm: the post's top is 4 x 4 mm and its walls steep (at 1 mm an element meets them too)
     grid = np.linspace(-SURFACE_HALF, SURFACE_HALF, n)
     x, y = np.meshgrid(grid, grid, indexing="xy")
-    heights = np.where((np.abs(x - PAD_HALF[0] / 2) < 0.002) & (np.abs(y) < 0.002), 0.002, 0.0)
+    a, b = PAD_HALF[0] / 2, PAD_HALF[1] / 2  # the cell's half sides, and where the element's centre is
+    heights = np.where((np.abs(x - a) < 0.002) & (np.abs(y - b) < 0.002), 0.002, 0.0)
     post = press_pad("compliant", 10.0, heights)
     model = pad_rig("compliant", heights)
     elements = [g for g in range(model.ngeom) if pads.is_element(model.geom(g).name)]
     cell = model.geom_friction[elements[0], 1]
-    assert cell == pytest.approx(0.383 * MU_PAD * 0.01, rel=0.01)
-    r = PAD_HALF[0] / 2  # the post is under the element at (5 mm, 0)
+    d = np.hypot(a, b)
+    mean_r = (2 * a * b * d + a**3 * np.log((b + d) / a) + b**3 * np.log((a + d) / b)) / (6 * a * b)
+    assert cell == pytest.approx(MU_PAD * mean_r, rel=0.01)
+    r = d  # the post is under the element at (5 mm, 7.5 mm)
     assert post.holding_torque == pytest.approx(10.0 * np.hypot(MU_PAD * r, cell), rel=0.05)
-    assert post.holding_torque > 1.2 * MU_PAD * 10.0 * r
+    assert post.holding_torque > 1.08 * MU_PAD * 10.0 * r  # hypot(r, mu_t / mu) = 1.135 r
 
 
 def test_compliant_pad_keeps_its_torque_on_1mm_bumps_and_rigid_pad_loses_it() -> None:
@@ -168,19 +180,19 @@ def test_bad_pad_options_are_config_errors() -> None:
 
 
 def test_an_element_pressed_alone_bottoms_out_at_its_travel() -> None:
-    # A 8 mm post under one corner element carries the whole 35 N: the element's spring (one 1 cm
-    # cell, 5.7e3 N/m) bottoms out at its travel (80 % of the 6 mm pad) and the rigid backing takes
-    # the rest. A soft limit let it sink 2x deeper, past the pad's own thickness.
+    # A 8 mm post under one element carries the jaw's whole 70 N: the element's spring (one 1 x 1.5 cm
+    # cell, 8.5e3 N/m: 8.2 mm unstopped) bottoms out at its travel (80 % of the 6 mm pad) and the rigid
+    # backing takes the rest. A soft limit let it sink 2x deeper, past the pad's own thickness.
     from manigrasp.sim.padtest import SURFACE_HALF, pad_rig
 
     n = 81
     grid = np.linspace(-SURFACE_HALF, SURFACE_HALF, n)
     x, y = np.meshgrid(grid, grid, indexing="xy")
-    heights = np.where((np.abs(x - PAD_HALF[0] / 2) < 0.002) & (np.abs(y - PAD_HALF[1] * 2 / 3) < 0.002), 0.008, 0.0)
+    heights = np.where((np.abs(x - PAD_HALF[0] / 2) < 0.002) & (np.abs(y - PAD_HALF[1] / 2) < 0.002), 0.008, 0.0)
     model = pad_rig("compliant", heights)
     data = mujoco.MjData(model)
     while data.time < 0.6:
-        data.ctrl[0] = -FORCE * min(1.0, data.time / 0.3)
+        data.ctrl[0] = -GRIP_MAX * min(1.0, data.time / 0.3)
         mujoco.mj_step(model, data)
     joints = [j for j in range(model.njnt) if pads.is_element(model.joint(j).name)]
     compression = np.array([abs(data.qpos[model.jnt_qposadr[j]]) for j in joints])

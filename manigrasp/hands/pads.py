@@ -222,6 +222,7 @@ and 0.6 s Python, NumPy and Qhull outside MuJoCo (Qhull 0.12: the metrics' hull 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -263,7 +264,7 @@ class PadModel:
     """
 
     modulus: float = 3.4e5
-    pitch: float = 0.01
+    pitch: float = 0.015
     travel_fraction: float = 0.8
     damping_ratio: float = 1.0
     timestep: float = 0.002
@@ -307,26 +308,27 @@ def pad_geometry(geom: mujoco.MjsGeom, toward: np.ndarray) -> PadGeometry:
                        axes=rot[:, others].T.copy(), half=size[others], thickness=2.0 * float(size[k]))
 
 
-def element_grid(pad: PadGeometry, pitch: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Element nodes on the face (n, 3) [m] in the body frame, their areas (n,) [m^2], and the element radius [m].
+def element_grid(pad: PadGeometry, pitch: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Element nodes on the face (n, 3) [m] in the body frame, their areas (n,) [m^2], and the elements' in-face
+    semi-axes (2,) [m], along the pad's two in-face axes.
 
-    The face is cut into n_u x n_v equal cells, n_i = max(2, round(2 half_i / pitch)),
+    The face is cut into n_u x n_v equal cells no longer than `pitch` (`cell_sides`),
     one node at the centre of each carrying the cell's area (the midpoint rule of the
-    patch integrals), so the areas sum to the face's; the radius is half the smaller
-    cell side, so the elements reach the rims.
+    patch integrals), so the areas sum to the face's; the semi-axes are half the cell's
+    sides, so each element spans its cell and the elements reach the rims.
     """
     sides = cell_sides(pad, pitch)
     axes_nodes = [-h + side * (np.arange(round(2 * h / side)) + 0.5) for h, side in zip(pad.half, sides, strict=True)]
     aa, bb = np.meshgrid(*axes_nodes, indexing="ij")
     points = pad.center + aa.reshape(-1, 1) * pad.axes[0] + bb.reshape(-1, 1) * pad.axes[1]
     area = np.full(len(points), sides[0] * sides[1])
-    return points, area, min(sides) / 2
+    return points, area, sides / 2
 
 
 def cell_sides(pad: PadGeometry, pitch: float) -> np.ndarray:
-    """(2,) sides [m] of the grid's cells along the pad's two in-face axes: n_i = max(2, round(2 half_i / pitch))
-    equal cells per axis."""
-    return np.array([2 * h / max(2, round(2 * h / pitch)) for h in pad.half])
+    """(2,) sides [m] of the grid's cells along the pad's two in-face axes: n_i = max(2, ceil(2 half_i / pitch))
+    equal cells per axis, the fewest no longer than `pitch` (a side within 1e-6 of it counts as equal)."""
+    return np.array([2 * h / max(2, math.ceil(2 * h / pitch - 1e-6)) for h in pad.half])
 
 
 def cell_torsion(friction: float, sides: Sequence[float]) -> float:
@@ -360,16 +362,16 @@ def make_compliant(spec: mujoco.MjSpec, pads: Sequence[tuple[str, np.ndarray]],
         if geom is None:
             raise HandError(f"pad geom {name!r} not in the hand model")
         pad = pad_geometry(geom, np.asarray(toward, float))
-        points, area, radius = element_grid(pad, model.pitch)
-        torsion = cell_torsion(model.friction, cell_sides(pad, model.pitch))
-        thin = min(radius, pad.thickness / 3)  # half-thickness of the flattened element
+        points, area, semi = element_grid(pad, model.pitch)
+        torsion = cell_torsion(model.friction, 2 * semi)
+        thin = min(*semi, pad.thickness / 3)  # half-thickness of the flattened element
         stiffness = element_stiffness(model, area, pad.thickness)
         body = geom.parent
         geom.contype, geom.conaffinity = 0, 0  # kept (its face is the pad's geometry) but no longer touches,
         geom.rgba = [*np.asarray(geom.rgba, float)[:3], 0.0]  # nor drawn: the elements are the pad now
         for i, (point, k) in enumerate(zip(points, stiffness, strict=True)):
             _add_element(body, f"{ELEMENT_PREFIX}{name}_{i:02d}", point - thin * pad.normal, pad,
-                         np.array([radius, radius, thin]), float(k), pad.thickness * model.travel_fraction, model,
+                         np.array([*semi, thin]), float(k), pad.thickness * model.travel_fraction, model,
                          torsion)
     return moved
 

@@ -87,7 +87,7 @@ class SceneConfig:
     open_settle_time: float = 0.5
     pads: str = "compliant"
     pad_modulus: float = 3.4e5
-    pad_pitch: float = 0.01
+    pad_pitch: float = 0.015
     pad_friction: float = PAD_FRICTION
     rest: str = "file"
     rest_k: int | None = field(default=None, metadata={OMIT_DEFAULT: True})
