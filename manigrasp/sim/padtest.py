@@ -26,7 +26,15 @@ from manigrasp.sim.scene import Scene, build_scene
 
 PAD_HALF = (0.01, 0.015, 0.003)  # [m], the parallel_jaw pad box (x, y in the face; z thickness)
 SURFACE_HALF = 0.04  # [m], half side of the square surface
-SLIP_SPEED = 0.05  # [rad/s], the pad counts as slipping once it turns faster than this
+SLIP_SPEED = 0.05  # [rad/s], the pad counts as slipping once its mean speed over SLIP_WINDOW exceeds this
+SLIP_WINDOW = 0.02  # [s]: a contact hopping between height-field prisms jolts the pad by < 1 mrad, not a slip
+# MuJoCo's native CCD ends its EPA at ccd_tolerance (default 1e-6 m): a contact shallower than that may come
+# back with its normal reversed. On the egg-crate an element meets several prisms, each contact 0.3-3 um deep,
+# and 27-40 % of those under 1 um came back reversed (pointing down, 0.3-1.5 N each: the pad turned by itself
+# during the press); the same triangles as mesh geoms do the same. Closing each parallel-jaw hand on a cube,
+# a cylinder and a sphere, the element contacts sank 8-50 um and none of about 110,000 was reversed, so the
+# scenes keep MuJoCo's default; the rig, whose shallow contacts are the case, resolves them.
+CCD_TOLERANCE = 1e-9  # [m]
 
 
 @dataclass(frozen=True)
@@ -60,6 +68,7 @@ def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | 
     spec = mujoco.MjSpec()
     config.apply(spec.option)
     spec.option.gravity = [0.0, 0.0, 0.0]
+    spec.option.ccd_tolerance = CCD_TOLERANCE
     top = 0.0
     if heights is None:
         spec.worldbody.add_geom(name="surface", type=mujoco.mjtGeom.mjGEOM_BOX,
@@ -90,7 +99,7 @@ def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | 
 def press_pad(mode: str, force: float, heights: np.ndarray | None = None, torque_rate: float = 0.2,
               config: SceneConfig | None = None, half: tuple[float, float, float] = PAD_HALF) -> PressResult:
     """Press the pad with `force` [N], measure the normal force, then ramp a torque at
-    `torque_rate` [N m/s] until the pad turns faster than `SLIP_SPEED`. Deterministic."""
+    `torque_rate` [N m/s] until the pad turns faster than `SLIP_SPEED` over `SLIP_WINDOW`. Deterministic."""
     model = pad_rig(mode, heights, config, half)
     data = mujoco.MjData(model)
     surface = model.geom("surface").id
@@ -101,12 +110,15 @@ def press_pad(mode: str, force: float, heights: np.ndarray | None = None, torque
         if data.time > 0.4:  # at rest: the mean over the last 0.1 s (a height field's contacts come and go)
             forces.append(_surface_force(model, data, surface)[0])
     normal, count = float(np.mean(forces)), _surface_force(model, data, surface)[1]
-    turn = model.joint("turn").id
+    turn = model.jnt_qposadr[model.joint("turn").id]
     start, limit = data.time, 10.0
+    window = max(1, round(SLIP_WINDOW / model.opt.timestep))
+    angles = [float(data.qpos[turn])]
     while data.time - start < limit:
         data.ctrl[1] = torque_rate * (data.time - start)
         mujoco.mj_step(model, data)
-        if abs(data.qvel[model.jnt_dofadr[turn]]) > SLIP_SPEED:
+        angles.append(float(data.qpos[turn]))
+        if len(angles) > window and abs(angles[-1] - angles[-1 - window]) > SLIP_SPEED * window * model.opt.timestep:
             break
     return PressResult(normal_force=normal, holding_torque=float(data.ctrl[1]), contacts=count)
 
