@@ -20,20 +20,35 @@ Parameters (`PadModel`) and their source:
   foundation stiffness per area E / h [N/m^3].
 - thickness h: the pad box's own thickness in the hand model (6 mm on
   `parallel_jaw`, 8 mm on `panda`, 2 mm on `robotiq_2f85`).
-- pitch 1 cm: the face is cut into cells of about 1 cm (2 x 3 on a 2 x 3 cm pad)
-  and each cell gets one element at its centre carrying the cell's area, whose
-  ellipsoid spans the cell, so the elements cover the face to its rim. Centred
-  nodes are the midpoint rule of the patch integrals: their torsion capacity
-  mu F mean(r) is 6 % below the uniform patch's on a 2 x 3 cm pad (8 % on 2 x 2), where
-  nodes on the rims and corners (the first version, 3 x 4) put twice the weight
-  at the outline and cost twice the elements. Each element is one extra degree
-  of freedom and up to one contact: the simulation cost grows with their number.
+- pitch 1.5 cm: the face is cut into the fewest equal cells no longer than the
+  pitch along either side, at least 2 x 2 (`cell_sides`): 2 x 2 cells of
+  1 x 1.5 cm on `parallel_jaw`'s 2 x 3 cm pad, 2 x 2 of 0.8 cm on `panda`'s
+  1.6 x 1.6 cm, 2 x 3 of 1 x 1.12 cm on `robotiq_2f85`'s 2 x 3.35 cm. Each cell
+  gets one element at its centre carrying the cell's area, whose ellipsoid spans
+  the cell, so the elements cover the face to its rim. Centred nodes are the
+  midpoint rule of the patch integrals: their torsion capacity mu F mean(r) is
+  7 % below the uniform patch's on the 2 x 3 cm pad (8 % on 2 x 2 square cells,
+  6 % on `robotiq_2f85`'s), where nodes on the rims and corners (the first
+  version, 3 x 4) put twice the weight at the outline and cost twice the
+  elements. Each element is one extra degree of freedom and up to one contact:
+  the simulation cost grows with their number. The pitch was 1 cm (cells of about
+  it, rounded) until 5 Dec 2026: its 2 x 3 round elements on `parallel_jaw` cost
+  2.08x a rigid trial on quick, against a target of 1.5x. The 2 x 2 grid passes
+  the same validation (flat-face torque, egg-crate, post under one element) with
+  two thirds of the elements, at 1.5x (docs/protocol.md, "The 1.5 cm grid").
+  Its elements span their cells: round ones (5 mm, the smaller half side) held
+  the egg-crate as well (0.93-0.95 of the flat torque against 0.87-0.89) but
+  leave 5 mm of the face's middle and 2.5 mm at each end uncovered, where a thin
+  rim would meet no element. No cell is longer than the pitch, rather than
+  cells of about it, so that `robotiq_2f85` keeps its 2 x 3 grid (rounded, 2 x 2
+  cells of 1.68 cm kept 0.67 of the flat torque on the egg-crate at every force,
+  the 2 x 3 grid 0.47-0.90, below).
   Each carries k_i = E A_i / h, so the stiffnesses sum to the pad's k = E A / h
   (3.4e4 N/m on `parallel_jaw`, 1 mm compression at the standard 35 N grip:
   enough to conform to millimetre bumps).
-- element shape: semi-axes half the spacing in the face and h / 3 along the
-  normal, so an object edge pressing on one is pushed back mostly along the
-  normal (a sphere's flank would push it sideways).
+- element shape: semi-axes half the cell's sides in the face and h / 3 (at most
+  the smaller of those) along the normal, so an object edge pressing on one is
+  pushed back mostly along the normal (a sphere's flank would push it sideways).
 - damping: critical for each element (b_i = 2 sqrt(k_i m_i)).
 - travel: 80 % of h, then the element bottoms out on the rigid backing (a joint
   limit), as rubber does.
@@ -120,14 +135,18 @@ Parameters (`PadModel`) and their source:
   187), but cost 25 % more time per trial (the solver iterates more); 0.998 and
   above squeezed a scissors ring out of the grip during the close.
 
-Known limits of the 1 cm grid: a contact strip narrower than the spacing (a pad
+Known limits of the grid: a contact strip narrower than a cell (a pad
 overlapping an object only by its rim, at a slant, or an object's edge) is
 carried by one or two elements, each with the torsion of its whole cell, where a
-real pad has a patch as small as the strip. On a height field an element meets
-several of its prisms at once, each contact with the cell's torsion, so the
-egg-crate case counts it more than once: at the 35 N grip every hand keeps its
-torque within 25 %, but `robotiq_2f85`'s 2 mm pad (1.6 mm travel) reads 1.59x
-at 10 N (`benchmarks/bench_pads.py`).
+real pad has a patch as small as the strip. A thin pad cannot follow bumps at a
+light grip: `robotiq_2f85`'s 2 mm pad sinks 0.09 mm on average at 10 N, so on
+the egg-crate little beyond the crest touches and it keeps 0.47 of its flat
+torque (0.68-0.77 at 35 N, 0.89-0.90 at 70 N, at height fields of 81-161
+samples; `benchmarks/bench_pads.py`); the 6 and 8 mm pads keep 0.87-0.95 at
+every force. Figures before 5 Dec 2026 (1.59x at 10 N, 0.81 at 35 N on
+`robotiq_2f85`) were the validation rig's artifacts: contacts shallower than
+MuJoCo's CCD tolerance came back with reversed normals and the pad turned by
+itself (`manigrasp.sim.padtest`).
 
 Cost of the first version (`benchmarks/bench_pad_speed.py --profile`, quick on `parallel_jaw`, one
 shared 2-core machine): a compliant trial took 1.70x a rigid one's time

@@ -57,7 +57,8 @@ class SceneConfig:
             modelled, at `hand_friction`: the model of runs before the switch, kept to reproduce
             them; every run.json records which).
         pad_modulus: Young's modulus of the compliant pads' rubber [Pa].
-        pad_pitch: spacing of the compliant pads' contact elements [m].
+        pad_pitch: longest side of a compliant pad's cells, one contact element each [m]: the face is cut
+            into the fewest equal cells no longer than it, at least 2 x 2 (`manigrasp.hands.pads.cell_sides`).
         pad_friction: sliding friction of the compliant pads' rubber against objects [-]
             (sourced in `manigrasp.hands.pads`), and of a dexterous hand's fingertips with
             compliant pads; rigid pads and the rest of the hand use `hand_friction`.
