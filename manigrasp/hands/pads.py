@@ -103,11 +103,12 @@ Parameters (`PadModel`) and their source:
   0.0097 mu F; the rigid box touching at its corners gives about twice that).
   Each element stands for its cell of rubber, so its contact is a soft finger
   (condim 4) whose torsional friction is its own cell's patch, mu mean(r) over
-  the cell (0.383 mu c for a square of side c, `cell_torsion`). MuJoCo's
-  elliptic cone couples it with the element's sliding friction, so on a full
-  face it adds little (the 2 x 3 grid then holds 1.03 of the uniform patch
-  instead of 0.94) but an object touching one element, its edge or corner on
-  the pad's rim, still meets a 1 cm patch's torsion, not a point's zero.
+  the cell (0.383 mu c for a square of side c, 4.84 mm at mu 1 on a 1 x 1.5 cm
+  cell, `cell_torsion`). MuJoCo's elliptic cone couples it with the element's
+  sliding friction, so on a full face it adds little (the 2 x 2 grid then holds
+  1.06 of the uniform patch instead of 0.93) but an object touching one element,
+  its edge or corner on the pad's rim, still meets its cell's torsion, not a
+  point's zero.
   The hand geoms have contact priority over objects and the table, so MuJoCo
   uses the element's friction as it is (with equal priorities it would take the
   larger of the two geoms' values, element by element).
