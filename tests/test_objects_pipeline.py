@@ -327,3 +327,39 @@ def test_the_convex_hull_of_a_flat_mesh_is_a_mesh_error_not_a_qhull_traceback():
     triangle = trimesh.Trimesh([[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0]], [[0, 1, 2]], process=False)
     with pytest.raises(MeshError, match="encloses no volume .*convex hull cannot be built"):
         validate_and_repair(triangle, convex_hull_fallback=True)
+
+
+def test_a_loose_default_cover_is_decomposed_again_finer_and_kept_if_closer(isolated_cache, monkeypatch):
+    """A mesh whose default decomposition covers more than REFINE_ABOVE of its volume (a scanned bowl's cavity
+    filled) is decomposed again with REFINED and the closer cover kept, recorded in the metadata and the build
+    line; explicit settings are used as given. CoACD is stood in for by exact parts of an L (the default: its
+    hull, 1.4 of its volume; finer: its two boxes)."""
+    from manigrasp.objects import catalog, pipeline
+    from manigrasp.objects.decompose import DecompositionParams
+
+    long_arm = trimesh.creation.box((0.06, 0.02, 0.02), trimesh.transformations.translation_matrix([0.03, 0.01, 0]))
+    short_arm = trimesh.creation.box((0.02, 0.04, 0.02), trimesh.transformations.translation_matrix([0.01, 0.04, 0]))
+    ell = trimesh.boolean.union([long_arm, short_arm], engine="manifold")
+    calls = []
+
+    def standin(mesh, params):
+        calls.append((params.threshold, params.max_convex_hull))
+        if params.threshold == pipeline.REFINED["threshold"]:
+            return [part.convex_hull.apply_translation(mesh.centroid - ell.centroid) for part in (long_arm, short_arm)]
+        return [mesh.convex_hull]
+
+    monkeypatch.setattr(pipeline, "decompose", standin)
+    result = build_object(ell, name="ell", mass=0.1)
+    assert calls == [(0.04, 32), (0.03, -1)]
+    meta = result.asset.metadata
+    assert result.asset.n_parts == 2 and meta["coverage"] == pytest.approx(1.0, abs=0.01)
+    assert meta["decomposition"]["threshold"] == 0.03 and meta["decomposition"]["max_convex_hull"] == -1
+    assert meta["refined_from"]["coverage"] == pytest.approx(28 / 20, rel=0.01) and meta["refined_from"]["n_hulls"] == 1
+    line = catalog.summary(catalog.BuildOutcome("ell", result, None))
+    assert "the default settings covered 1.40 with 1 hulls; decomposed again finer" in line
+    again = build_object(ell, name="ell", mass=0.1)  # both decompositions cached: none runs, the same is kept
+    assert again.cached and calls == [(0.04, 32), (0.03, -1)] and again.asset.n_parts == 2
+    calls.clear()
+    given = build_object(ell, name="ell_given", mass=0.1, params=DecompositionParams())
+    assert calls == [] and given.asset.n_parts == 1  # explicit settings: as given (the default's cached cover)
+    assert "refined_from" not in given.asset.metadata

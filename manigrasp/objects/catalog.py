@@ -157,11 +157,11 @@ def build(source: ObjectSource, params: DecompositionParams | None = None,
           cache_root: Path | None = None) -> BuildResult:
     """Build one object from its source.
 
-    `params` defaults to `DecompositionParams()`, with a shipped recipe's own
-    overrides applied.
+    `params` defaults, for a shipped recipe, to `DecompositionParams()` with the recipe's own overrides; for a mesh
+    or a YCB folder to `build_object`'s (the defaults, decomposed again finer where they cover the mesh loosely).
     """
-    if params is None:
-        params = recipe_params(source.recipe) if source.recipe is not None else DecompositionParams()
+    if params is None and source.recipe is not None:
+        params = recipe_params(source.recipe)
     common = {"name": source.name, "params": params, "cache_root": cache_root}
     if source.recipe is not None:
         recipe = recipes.get(source.recipe)
@@ -238,6 +238,10 @@ def summary(outcome: BuildOutcome) -> str:
     r = outcome.result
     line = (f"{outcome.name}: {r.asset.n_parts} hulls, coverage {r.asset.metadata['coverage']:.2f}, "
             f"{r.seconds:.1f} s, {'cached' if r.cached else 'built'}")
+    first = r.asset.metadata.get("refined_from")
+    if first:
+        line += (f" (the default settings covered {first['coverage']:.2f} with {first['n_hulls']} hulls; "
+                 f"decomposed again finer)")
     warnings = r.asset.metadata.get("warnings") or []
     return line + (f"; {'; '.join(warnings)}" if warnings else "")
 
