@@ -209,3 +209,18 @@ def test_planning_time_tick_labels_do_not_overlap(figures, tmp_path, times):
     shown = [t for t in ax.xaxis.get_majorticklocs() if np.prod(ax.get_xlim()) and min(ax.get_xlim()) <= t <= max(
         ax.get_xlim())]
     assert len(shown) >= 2  # still labelled
+
+
+def test_failure_mode_shares_read_as_the_tables_rates(figures, tmp_path):
+    """294/400 read 0.73 in the tables and 74% in the plot, 34/400 0.09 and 8%: both now round the exact fraction
+    half up (0.74 and 74%, 0.09 and 9%)."""
+    from manigrasp.bench.report import format_rate
+
+    results = _trials("antipodal", {"success": 294, "no_contact": 106}) + _trials(
+        "random", {"success": 34, "no_contact": 366})
+    report = summarize(results)
+    plots.failure_modes(report, tmp_path / "f.png")
+    texts = {t.get_text() for t in figures[0].axes[0].texts}
+    assert {"74%", "27%", "9%", "92%"} <= texts  # 106/400 = 0.265: 27%
+    rates = [format_rate(r) for r in report.by_method.values()]
+    assert rates[0].startswith("0.74 [") and rates[1].startswith("0.09 [")

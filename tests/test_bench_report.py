@@ -693,3 +693,30 @@ def test_a_ground_truth_line_names_its_observation_in_a_run_with_perception(tmp_
     assert any(line.startswith("parallel_jaw / antipodal / estimated_pose: 5/6") for line in lines)
     alone = [item for item in mixed if item[0].observation == "ground_truth"]
     assert lead_lines(summarize(alone)) == ["parallel_jaw / antipodal: 5/6 successes, rate 0.83 [0.44, 0.97]"]
+
+
+@pytest.mark.parametrize(("k", "n", "table", "plot"), [
+    (294, 400, "0.74", "74%"),  # 0.735: the float is 0.73499..., f"{:.2f}" gave 0.73 and the plot 74%
+    (250, 400, "0.63", "63%"),  # 0.625 exactly: f"{:.2f}" rounds half to even, 0.62
+    (34, 400, "0.09", "9%"),  # 0.085: the table read 0.09 and the plot 8%
+    (1, 8, "0.13", "13%"),
+    (0, 20, "0.00", "0%"),
+    (20, 20, "1.00", "100%"),
+])
+def test_a_rate_reads_the_same_in_a_table_and_a_plot_rounded_half_up_from_its_counts(k, n, table, plot):
+    from manigrasp.bench.report import Rate, format_rate, format_share
+    from manigrasp.bench.stats import wilson_interval
+
+    assert format_share(k, n) == table and format_share(k, n, percent=True) == plot
+    rate = Rate(n, k, k / n, *wilson_interval(k, n))
+    assert format_rate(rate).startswith(f"{table} [")
+
+
+def test_wilson_bounds_print_by_the_same_rule():
+    from fractions import Fraction
+
+    from manigrasp.bench.report import Rate, format_rate, round_half_up
+
+    assert round_half_up(0.125) == "0.13" and round_half_up(Fraction(-5, 8)) == "-0.63"
+    assert round_half_up(Fraction(-1, 1000)) == "0.00" and round_half_up(Fraction(29, 2), 0) == "15"
+    assert format_rate(Rate(8, 1, 0.125, 0.125, 0.625)) == "0.13 [0.13, 0.63]"

@@ -12,7 +12,15 @@ from pathlib import Path
 
 import numpy as np
 
-from manigrasp.bench.report import PREDICTORS, Method, Rate, Report, metric_label, planning_call_times
+from manigrasp.bench.report import (
+    PREDICTORS,
+    Method,
+    Rate,
+    Report,
+    format_share,
+    metric_label,
+    planning_call_times,
+)
 from manigrasp.bench.store import TrialKey
 from manigrasp.protocol.result import TrialResult
 
@@ -172,15 +180,16 @@ def failure_modes(report: Report, path: Path) -> Path:
     y = np.arange(len(methods))
     left = np.zeros(len(methods))
     for mode in ["success", *modes]:
-        counts = np.array([report.by_method[m].successes if mode == "success"
-                           else report.by_method[m].failure_modes.get(mode, 0) for m in methods], float)
-        share = counts / np.maximum(1, [report.by_method[m].trials for m in methods])
+        counts = [report.by_method[m].successes if mode == "success"
+                  else report.by_method[m].failure_modes.get(mode, 0) for m in methods]
+        trials = [report.by_method[m].trials for m in methods]
+        share = np.array(counts, float) / np.maximum(1, trials)
         colour = status_colour(mode)
         ax.barh(y, share, left=left, color=colour, edgecolor="black" if colour == _UNKNOWN_COLOUR else "white",
                 linewidth=0.5, label=mode)
-        for yi, li, si in zip(y, left, share, strict=True):
-            if si >= 0.06:
-                ax.text(li + si / 2, yi, f"{si:.0%}", ha="center", va="center", fontsize=7,
+        for yi, li, si, k, n in zip(y, left, share, counts, trials, strict=True):
+            if si >= 0.06:  # the share from its counts, rounded as the tables round it (`format_share`)
+                ax.text(li + si / 2, yi, format_share(k, n, percent=True), ha="center", va="center", fontsize=7,
                         color=_label_colour(colour))
         left = left + share
     ax.set_yticks(y, [f"{label_of(report, m)}\n(n = {report.by_method[m].trials})"

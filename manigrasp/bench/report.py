@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections import Counter, defaultdict
 from dataclasses import asdict, dataclass, field, replace
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -392,11 +393,34 @@ def metric_aucs(results: list[TrialResult]) -> dict[str, AucEstimate]:
     return out
 
 
+def round_half_up(value: Fraction | float | int, places: int = 2) -> str:
+    """`value` as a decimal with `places` digits, rounded half up on its exact value (a float is read as the binary
+    fraction it holds, never through its shortest decimal text): the one rounding rule of every printed rate and
+    share, so a rate reads the same in a table, a console line and a plot. ``round_half_up(Fraction(5, 8))`` is
+    "0.63" (Python's format gives "0.62": half to even); a negative value rounds its magnitude (-0.625: "-0.63")."""
+    exact = Fraction(value)
+    scale = 10 ** places
+    units = math.floor(abs(exact) * scale + Fraction(1, 2))
+    sign = "-" if exact < 0 and units else ""
+    whole, part = divmod(units, scale)
+    return f"{sign}{whole}" + (f".{part:0{places}d}" if places else "")
+
+
+def format_share(successes: int, trials: int, percent: bool = False) -> str:
+    """The share `successes` / `trials` from its counts (`round_half_up` of the exact fraction): "0.63" for 250 of
+    400, or "63%" with `percent` (a plot's label: the same figure in hundredths); "-" without trials."""
+    if trials == 0:
+        return "-"
+    share = Fraction(successes) / Fraction(trials)
+    return f"{round_half_up(100 * share, 0)}%" if percent else round_half_up(share)
+
+
 def format_rate(rate: Rate) -> str:
-    """"0.85 [0.64, 0.95]" style."""
+    """"0.85 [0.64, 0.95]" style: the rate from its counts (`format_share`) and its Wilson interval's bounds by the
+    same rule (`round_half_up` of the floats' exact values)."""
     if rate.trials == 0:
         return "-"
-    return f"{rate.success_rate:.2f} [{rate.ci_low:.2f}, {rate.ci_high:.2f}]"
+    return f"{format_share(rate.successes, rate.trials)} [{round_half_up(rate.ci_low)}, {round_half_up(rate.ci_high)}]"
 
 
 def format_auc(estimate: AucEstimate) -> str:
