@@ -287,7 +287,7 @@ def test_report_has_a_scan_vs_recipe_section_when_a_scan_and_its_twin_ran(tmp_pa
     text = write_markdown(summarize(results), results, tmp_path, {"config": {}}).read_text()
     section = text[text.index("## Scan vs recipe"):]
     row = next(line for line in section.splitlines() if line.startswith("| parallel_jaw | antipodal | ground_truth"))
-    assert "6/20" in row and "19/20" in row and "+65" in row and row.rstrip().endswith("| no |")
+    assert "6/20" in row and "19/20" in row and "+65" in row and row.rstrip().endswith("| no | 3.9e-05 |")
     plain = _results({("025_mug", "antipodal"): 18})
     assert "Scan vs recipe" not in write_markdown(summarize(plain), plain, tmp_path, {"config": {}}).read_text()
 
@@ -720,3 +720,14 @@ def test_wilson_bounds_print_by_the_same_rule():
     assert round_half_up(0.125) == "0.13" and round_half_up(Fraction(-5, 8)) == "-0.63"
     assert round_half_up(Fraction(-1, 1000)) == "0.00" and round_half_up(Fraction(29, 2), 0) == "15"
     assert format_rate(Rate(8, 1, 0.125, 0.125, 0.625)) == "0.13 [0.13, 0.63]"
+
+
+def test_report_json_lists_the_scan_vs_recipe_rows(tmp_path):
+    results = _results({("003_cracker_box_scan", "antipodal"): 6, ("003_cracker_box", "antipodal"): 9})
+    (row,) = json.loads(json.dumps(summarize(results).to_json(), allow_nan=False))["scan_vs_recipe"]
+    assert row["scan"] == "003_cracker_box_scan" and row["object"] == "003_cracker_box"
+    assert (row["scan_successes"], row["scan_trials"], row["recipe_successes"], row["recipe_trials"]) == (6, 20, 9, 20)
+    assert row["gap_points"] == pytest.approx(15.0) and row["verdict"] == "no"
+    assert row["fisher_p"] == pytest.approx(0.5145, abs=1e-4)
+    plain = _results({("025_mug", "antipodal"): 18})
+    assert summarize(plain).to_json()["scan_vs_recipe"] == []

@@ -43,8 +43,8 @@ def test_markdown_section_shows_counts_rates_and_verdicts() -> None:
     lines = table.splitlines()
     assert len(lines) == 2 + 2
     assert "| 003_cracker_box | 003_cracker_box_scan | 6/20 |" in lines[2] and "| 19/20 |" in lines[2]
-    assert "| +65.0 | no |" in lines[2]
-    assert lines[3].endswith("| +5.0 | yes |")
+    assert "| +65.0 | no | 3.9e-05 |" in lines[2]
+    assert lines[3].endswith("| +5.0 | yes | 1 |")
 
 
 def test_a_gap_just_over_ten_points_does_not_print_as_ten() -> None:
@@ -53,7 +53,7 @@ def test_a_gap_just_over_ten_points_does_not_print_as_ten() -> None:
         groups = {("h", "p", "o", "x_scan"): rate(15, 18), ("h", "p", "o", "x"): rate(15, 16)}
 
     (_, _, table) = markdown_section(FakeReport())  # type: ignore[arg-type]
-    assert table.splitlines()[2].endswith("| +10.4 | no |")
+    assert table.splitlines()[2].endswith("| +10.4 | no | 0.6 |")
 
 
 def test_no_pairs_no_section() -> None:
@@ -87,7 +87,8 @@ def test_a_recipe_never_held_gets_no_verdict() -> None:
 
     (_, _, table) = markdown_section(FakeReport())  # type: ignore[arg-type]
     rows = table.splitlines()[2:]
-    assert rows[0].endswith("| +0.0 | n/a (recipe never held) |") and rows[1].endswith("| +50.0 | no |")
+    assert rows[0].endswith("| +0.0 (not judged) | n/a (recipe never held) | 1 |")
+    assert rows[1].endswith("| +50.0 | no | 0.18 |")
 
 
 def test_resting_poses_are_pooled_not_paired_by_rank() -> None:
@@ -129,3 +130,29 @@ def test_a_ycb_download_is_named_apart_from_its_recipe_and_paired_with_it(tmp_pa
               ("parallel_jaw", "antipodal", "ground_truth", "025_mug_ycb"): rate(9)}
     (row,) = twin_rows(groups)
     assert (row.scan, row.recipe, row.gap_points) == ("025_mug_ycb", "025_mug", pytest.approx(30.0))
+
+
+def test_a_gap_comes_with_its_fisher_p_and_the_text_says_what_it_means() -> None:
+    """6/20 against 9/20: a 15-point gap, "no" on the point estimates, but Fisher p = 0.51: noise at 20 trials."""
+    class FakeReport:
+        groups = {("h", "p", "o", "x_scan"): rate(6), ("h", "p", "o", "x"): rate(9)}
+
+    (row,) = twin_rows(FakeReport.groups)
+    assert row.fisher_p == pytest.approx(0.5145, abs=1e-4) and row.verdict == "no"
+    _, note, table = markdown_section(FakeReport())  # type: ignore[arg-type]
+    assert table.splitlines()[0].endswith("| within 10 points | Fisher p |")
+    assert table.splitlines()[2].endswith("| +15.0 | no | 0.51 |")
+    assert "Fisher exact" in note and "not evidence that the meshes differ" in note
+    assert "not evidence that they agree either" in note
+
+
+def test_where_the_recipe_never_held_the_gap_is_shown_but_not_judged() -> None:
+    class FakeReport:
+        groups = {("h", "p", "o", "x_scan"): rate(3), ("h", "p", "o", "x"): rate(0),
+                  ("h", "p", "o", "y_scan"): rate(0), ("h", "p", "o", "y"): rate(0)}
+
+    _, note, table = markdown_section(FakeReport())  # type: ignore[arg-type]
+    x, y = table.splitlines()[2:]
+    assert "| -15.0 (not judged) | n/a (recipe never held) |" in x
+    assert "| +0.0 (not judged) | n/a (recipe never held) |" in y  # 0/20 against 0/20 is no agreement
+    assert "shown for information only" in note

@@ -222,7 +222,10 @@ class Report:
         return sorted({m[3] for m in self.by_method})
 
     def to_json(self) -> dict:
-        """The JSON form printed by ``manigrasp report --json`` (NaN as null)."""
+        """The JSON form printed by ``manigrasp report --json`` (NaN as null); ``scan_vs_recipe``: the rows of
+        report.md's "Scan vs recipe" (`manigrasp.bench.twins.TwinRow.to_json`), empty without scans."""
+        from manigrasp.bench import twins
+
         return _finite({
             "overall": {"pools": POOLED, **asdict(self.overall)},
             "methods": [{**_method(m), **asdict(r)} for m, r in self.by_method.items()],
@@ -231,6 +234,7 @@ class Report:
             "auc_pooled": [{"pools": POOLED, "metric": m, **asdict(e)} for m, e in self.auc_pooled.items()],
             "pose_errors": [{**_method(k), **asdict(e)} for k, e in self.pose_errors.items()],
             "views": [{**_method(k), "views": v} for k, v in self.views.items()],
+            "scan_vs_recipe": twins.json_rows(self.groups),
         })
 
 

@@ -18,14 +18,17 @@ matched pose for pose without registering the two meshes.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from fractions import Fraction
 
-from manigrasp.bench.report import Rate, Report, format_rate, pooled_rate
+from manigrasp.bench.report import Rate, Report, format_rate, pooled_rate, round_half_up
 from manigrasp.objects.catalog import YCB_SUFFIX
 from manigrasp.objects.scans import SCAN_SUFFIX
 
 GAP_POINTS = 10.0  # [percentage points], the largest scan-recipe gap the benchmark accepts
+NOT_JUDGED = "n/a (recipe never held)"  # the verdict where the benchmark does not judge the gap (`TwinRow.verdict`)
 
 
 @dataclass(frozen=True)
@@ -45,14 +48,56 @@ class TwinRow:
     recipe_rate: Rate
 
     @property
+    def gap(self) -> Fraction | None:
+        """Recipe rate minus scan rate [percentage points], exact from the counts (positive: the scan does worse);
+        None if either has no trial (every one a harness fault)."""
+        if not (self.recipe_rate.trials and self.scan_rate.trials):
+            return None
+        return 100 * (Fraction(self.recipe_rate.successes, self.recipe_rate.trials)
+                      - Fraction(self.scan_rate.successes, self.scan_rate.trials))
+
+    @property
     def gap_points(self) -> float:
-        """Recipe rate minus scan rate [percentage points] (positive: the scan does worse)."""
-        return 100.0 * (self.recipe_rate.success_rate - self.scan_rate.success_rate)
+        """`gap` as a float [percentage points] (NaN: none)."""
+        return math.nan if self.gap is None else float(self.gap)
 
     @property
     def within(self) -> bool:
-        """True if the scan's rate is within `GAP_POINTS` of the recipe's (either way)."""
-        return abs(self.gap_points) <= GAP_POINTS + 1e-9  # 16/20 - 14/20 is 10.000000000000009 points in floats
+        """True if the scan's rate is within `GAP_POINTS` of the recipe's (either way), on the exact gap (16/20 -
+        14/20 is 10.000000000000009 points in floats)."""
+        return self.gap is not None and abs(self.gap) <= Fraction(GAP_POINTS)
+
+    @property
+    def fisher_p(self) -> float:
+        """Two-sided Fisher exact p of the scan's successes/failures against the recipe's: how likely a split at
+        least this uneven is if both meshes held equally often. At 20 trials each, 6/20 against 9/20 (a 15-point
+        gap) gives p = 0.51: a gap with a large p is not evidence that the meshes differ, and a gap within
+        `GAP_POINTS` with a large p is not evidence that they agree either."""
+        from scipy.stats import fisher_exact
+
+        s, r = self.scan_rate, self.recipe_rate
+        return float(fisher_exact([[s.successes, s.trials - s.successes],
+                                   [r.successes, r.trials - r.successes]]).pvalue)
+
+    @property
+    def verdict(self) -> str:
+        """"yes"/"no", or "n/a" where the recipe was never held (the benchmark asks for the gap only where the
+        recipe can be grasped: 0 of 6 against 0 of 6, every trial a planner error, is no agreement)."""
+        if self.gap is None:
+            return "n/a (no trials)"
+        if self.recipe_rate.successes == 0:
+            return NOT_JUDGED
+        return "yes" if self.within else "no"
+
+    def to_json(self) -> dict:
+        """The row as ``manigrasp report --json`` gives it (under ``scan_vs_recipe``)."""
+        return {**dict(zip(("hand", "planner", "observation", "protocol"), self.method, strict=False)),
+                "object": self.recipe, "scan": self.scan,
+                "scan_successes": self.scan_rate.successes, "scan_trials": self.scan_rate.trials,
+                "scan_rate": self.scan_rate.success_rate,
+                "recipe_successes": self.recipe_rate.successes, "recipe_trials": self.recipe_rate.trials,
+                "recipe_rate": self.recipe_rate.success_rate, "gap_points": self.gap_points,
+                "within_points": GAP_POINTS, "verdict": self.verdict, "fisher_p": self.fisher_p}
 
     @property
     def intervals_overlap(self) -> bool:
@@ -88,12 +133,18 @@ def _pooled_over_rest(groups: Mapping[tuple[str, ...], Rate]) -> dict[tuple[str,
     return {key: rates[0] if len(rates) == 1 else pooled_rate(rates) for key, rates in parts.items()}
 
 
-def _verdict(row: TwinRow) -> str:
-    """"yes"/"no", or "n/a" where the recipe was never held (the benchmark asks for the gap only where the recipe
-    can be grasped: 0 of 6 against 0 of 6, every trial a planner error, is no agreement)."""
-    if row.recipe_rate.successes == 0:
-        return "n/a (recipe never held)"
-    return "yes" if row.within else "no"
+def json_rows(groups: Mapping[tuple[str, ...], Rate]) -> list[dict]:
+    """Every scan/recipe pair of `groups` (`twin_rows`) as ``manigrasp report --json`` lists it."""
+    return [row.to_json() for row in twin_rows(groups)]
+
+
+def _gap_cell(row: TwinRow) -> str:
+    """The gap [points] to one decimal (rounded half up on the exact gap, as every figure of the report), "(not
+    judged)" after it where the recipe was never held: a "+0.0" of 0/20 against 0/20 is no agreement."""
+    if row.gap is None:
+        return "-"
+    gap = ("+" if row.gap >= 0 else "") + round_half_up(row.gap, 1)
+    return gap + (" (not judged)" if row.verdict == NOT_JUDGED else "")
 
 
 def markdown_section(report: Report) -> list[str]:
@@ -105,17 +156,24 @@ def markdown_section(report: Report) -> list[str]:
     header = ["hand", "planner", "observation", *(["protocol"] if protocols else []), "object (recipe twin)",
               "scan", "scan: successes/trials",
               "scan rate [95% CI]", "recipe: successes/trials", "recipe rate [95% CI]", "gap [points]",
-              f"within {GAP_POINTS:g} points"]
+              f"within {GAP_POINTS:g} points", "Fisher p"]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:
         cells = [*r.method[:4 if protocols else 3], r.recipe, r.scan, f"{r.scan_rate.successes}/{r.scan_rate.trials}",
                  format_rate(r.scan_rate),
                  f"{r.recipe_rate.successes}/{r.recipe_rate.trials}", format_rate(r.recipe_rate),
-                 f"{r.gap_points:+.1f}", _verdict(r)]  # .0f showed 10.4 as "+10 | no"
+                 _gap_cell(r), r.verdict, f"{r.fisher_p:.2g}"]  # .0f showed 10.4 as "+10 | no"
         lines.append("| " + " | ".join(cells) + " |")
     note = ("The same physical object as a real scan (`<name>_scan`, or a YCB download's `<name>_ycb`) and as its "
             "clean recipe twin (`<name>`), each "
             "over all of its resting poses where the run has several (`rest: stable_k`: a pose's rank is not the "
             "same physical pose on two meshes); gap = recipe rate - scan rate. The benchmark asks for a gap within "
-            f"{GAP_POINTS:g} points wherever the recipe can be grasped; rates with 95 % Wilson intervals.")
+            f"{GAP_POINTS:g} points wherever the recipe can be grasped: the verdict is on the two point estimates. "
+            "Where the recipe was never held the verdict is n/a (the benchmark does not judge the gap there): the "
+            "scan's rate and the gap are shown for information only. Fisher p is the two-sided Fisher exact test of "
+            "the scan's successes and failures against the recipe's: how often a split at least this uneven comes "
+            "from two meshes that hold equally often. With a few tens of trials a large gap can be noise (6/20 "
+            "against 9/20, 15 points, p = 0.51): a gap with a large p is not evidence that the meshes differ, and a "
+            "\"yes\" with a large p is not evidence that they agree either (only that the draw did not tell them "
+            "apart). Rates with 95 % Wilson intervals.")
     return ["## Scan vs recipe", note, "\n".join(lines)]
