@@ -123,31 +123,60 @@ def _errorbars(rates: list[Rate]) -> np.ndarray:
     return np.vstack([rate - [r.ci_low for r in rates], [r.ci_high for r in rates] - rate])
 
 
+# success_by_object's layout: at most this many bars in one row of a panel (objects wrap into further rows),
+# and the figure's width bounds [in] (at `DPI` 110: 1540 px at most, readable at page width).
+BARS_PER_ROW = 30
+OBJECT_PLOT_WIDTH = (6.0, 14.0)
+
+
 def success_by_object(report: Report, path: Path) -> Path:
-    """Grouped bars: success rate per object, one bar per method, Wilson 95 % intervals, k/n over each bar."""
+    """Success rate per object: one panel per hand x planner, stacked, with one bar per object (per observation x
+    protocol side by side, coloured, where the run has several), Wilson 95 % intervals, k/n over each bar. The
+    objects of a panel wrap into further rows past `BARS_PER_ROW` bars, so a large run keeps its width (20 objects x
+    3 hands x 2 planners drew one 3510 px row of 120 thin bars)."""
     plt = _pyplot()
-    objects = sorted({k[4] for k in report.groups})
-    methods = list(report.by_method)
-    width = 0.8 / max(1, len(methods))
-    fig, ax = plt.subplots(figsize=(max(6.0, min(32.0, 0.4 * len(objects) * max(1, len(methods)) + 4)), 4.8))
-    x = np.arange(len(objects))
-    colours = method_colours(len(methods))
-    for i, method in enumerate(methods):
-        present = [(j, report.groups[(*method, obj)]) for j, obj in enumerate(objects)
-                   if (*method, obj) in report.groups]
-        xs = x[[j for j, _ in present]] + (i - (len(methods) - 1) / 2) * width
-        rates = [r for _, r in present]
-        ax.bar(xs, [r.success_rate for r in rates], width, yerr=_errorbars(rates), capsize=2,
-               color=colours[i], label=label_of(report, method))
-        for xi, r in zip(xs, rates, strict=True):
-            ax.text(xi, r.ci_high + 0.02, f"{r.successes}/{r.trials}", ha="center", va="bottom", fontsize=7,
-                    rotation=90 if len(methods) > 2 else 0)
-    ax.set_xticks(x, objects, rotation=30, ha="right")
-    ax.set_ylim(0, 1.25)
-    ax.set_yticks(np.linspace(0, 1, 6))
-    ax.set_ylabel("success rate (95 % Wilson interval)")
-    ax.set_title("Success per object (successes/trials over each bar)", fontsize=10)
-    _legend_outside(ax)
+    panels: dict[tuple[str, str], list[Method]] = defaultdict(list)
+    for method in report.by_method:
+        panels[method[:2]].append(method)
+    variants = list(dict.fromkeys(m[2:] for m in report.by_method))  # observation x protocol, in report order
+    colours = dict(zip(variants, method_colours(len(variants)), strict=True))
+    several = len(variants) > 1
+    differ = [len({v[i] for v in variants}) > 1 for i in range(2)]  # the legend names what differs (observation...)
+    rows = []  # (hand x planner, objects of the row)
+    for key, methods in panels.items():
+        objects = sorted({g[4] for g in report.groups if g[:4] in methods})
+        per_row = max(1, BARS_PER_ROW // max(1, len(methods)))
+        rows += [(key, objects[i:i + per_row]) for i in range(0, max(1, len(objects)), per_row)]
+    widest = max((len(objs) * len(panels[key]) for key, objs in rows), default=1)
+    low, high = OBJECT_PLOT_WIDTH
+    fig, axes = plt.subplots(len(rows), 1, figsize=(max(low, min(high, 0.38 * widest + 2.5)), 3.0 * len(rows)),
+                             squeeze=False)
+    for ax, (key, objects) in zip(axes[:, 0], rows, strict=True):
+        methods = panels[key]
+        width = 0.8 / len(methods)
+        x = np.arange(len(objects))
+        for i, method in enumerate(methods):
+            present = [(j, report.groups[(*method, obj)]) for j, obj in enumerate(objects)
+                       if (*method, obj) in report.groups and report.groups[(*method, obj)].trials]
+            if not present:
+                continue
+            xs = x[[j for j, _ in present]] + (i - (len(methods) - 1) / 2) * width
+            rates = [r for _, r in present]
+            ax.bar(xs, [r.success_rate for r in rates], width, yerr=_errorbars(rates), capsize=2,
+                   color=colours[method[2:]], label=" / ".join(v for v, d in zip(method[2:], differ, strict=True) if d))
+            for xi, r in zip(xs, rates, strict=True):
+                ax.text(xi, r.ci_high + 0.02, f"{r.successes}/{r.trials}", ha="center", va="bottom", fontsize=7,
+                        rotation=90 if len(methods) > 2 else 0)
+        ax.set_xticks(x, objects, rotation=30, ha="right", fontsize=8)
+        ax.set_xlim(-0.6, max(len(objects), 1) - 0.4)
+        ax.set_ylim(0, 1.4 if len(methods) > 2 else 1.2)
+        ax.set_yticks(np.linspace(0, 1, 6))
+        ax.set_ylabel("success rate")
+        first = ax is axes[0, 0]
+        ax.set_title(("Success per object (95 % Wilson intervals, successes/trials over each bar)\n" if first else "")
+                     + f"{key[0]} / {key[1]}", fontsize=10, loc="left")
+        if several:
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return _save(fig, path)
 
 
