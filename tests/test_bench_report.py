@@ -731,3 +731,18 @@ def test_report_json_lists_the_scan_vs_recipe_rows(tmp_path):
     assert row["fisher_p"] == pytest.approx(0.5145, abs=1e-4)
     plain = _results({("025_mug", "antipodal"): 18})
     assert summarize(plain).to_json()["scan_vs_recipe"] == []
+
+
+def test_the_auc_section_says_which_metrics_leave_out_trials_that_never_touched(tmp_path):
+    results = _results({("025_mug", "antipodal"): 18})
+    text = write_markdown(summarize(results), results, tmp_path, RUN_META).read_text()
+    auc = text[text.index("## Analytic metrics"):]
+    assert "`sim_epsilon_l1` is measured on the contacts the simulation produced" in auc
+    assert "`pregrasp_collision`, `no_contact`" in auc and "touched the object only" in auc
+
+
+def test_the_planning_time_note_says_a_call_without_candidates_is_not_divided(tmp_path):
+    results = _results({("025_mug", "antipodal"): 18})
+    text = " ".join(write_markdown(summarize(results), results, tmp_path, RUN_META).read_text().split())
+    assert "divided by the number of candidates it returned, or the whole call where it returned none" in text
+

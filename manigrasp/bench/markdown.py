@@ -17,6 +17,7 @@ from manigrasp.bench.report import (
     GOOD_POSE_RULE,
     PLANNING_TIME_HEADER,
     POOLED,
+    PREDICTORS,
     Method,
     PoseErrors,
     Rate,
@@ -103,6 +104,22 @@ def auc_rows(report: Report) -> list[list[str]]:
         rows += [[*pooled, metric_label(metric), f"{e.n} ({e.successes})", format_auc(e)]
                  for metric, e in report.auc_pooled.items()]
     return rows
+
+
+def simulated_contact_note() -> str:
+    """What report.md says of the metrics measured on the simulated contacts after the close (`PREDICTORS`'
+    ``simulated`` ones): a trial that never touched the object has no value of them, so their n is smaller than
+    the planned metrics' and their AUC ranks the touching grasps only."""
+    names = [metric_label(name) for name, (part, _, _) in PREDICTORS.items() if part == "simulated"]
+    if not names:
+        return ""
+    listed = ", ".join(f"`{n}`" for n in names)
+    one = len(names) == 1
+    return (f"{listed} {'is' if one else 'are'} measured on the contacts the simulation produced at the end of the "
+            "close, so a trial that did not hold the object there (`pregrasp_collision`, `no_contact`, or one stopped "
+            f"before: `timeout`, `unstable`) has no value: {'its' if one else 'their'} n is smaller than "
+            f"`planner_score`'s in the same group, and {'its' if one else 'their'} AUC ranks the grasps that touched "
+            "the object only (it says nothing of telling those failures from successes).")
 
 
 def lead_lines(report: Report, order: list[str] | None = None) -> list[str]:
@@ -420,8 +437,9 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
                  format_planning_time(r)] for m, r in report.by_method.items()]),
         "Planning time: the wall time of one planning call, which plans every candidate of one object (what "
         "`manigrasp plan` prints as `planning_time_s`; the exported table's `plan_time_s`, whose `planning_time_s` "
-        "is that call divided by its candidates); the median is over the calls. A call that ran out of its budget "
-        "has no time (its trials end `timeout`) and is counted apart (\"1 more timed out\").",
+        "is that call divided by the number of candidates it returned, or the whole call where it returned none: "
+        "its trials end `planner_error` or `no_grasp`); the median is over the calls. A call that ran out of its "
+        "budget has no time (its trials end `timeout`) and is counted apart (\"1 more timed out\").",
         *_protocols(report, results, meta),
         "## Per object",
         _table([*headers, "object", "trials", "successes", "rate [95% CI]", "failure modes"],
@@ -435,7 +453,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         "ranking the trials by the metric's better values (higher, or lower where it says so: above 0.5 the better "
         "value goes with success), with a 95 % bootstrap interval (resampled within successes and failures, fixed "
         "seed). n counts the simulated trials with a value of the metric (successes in brackets). A metric with a "
-        "single value in a group cannot rank its trials: its AUC is undefined, not 0.5."
+        "single value in a group cannot rank its trials: its AUC is undefined, not 0.5. " + simulated_contact_note()
         + (f" Rows `all` pool every trial of every {' x '.join(headers)}: there a metric partly tells those "
            "apart (planners, protocols) instead of ranking the grasps of one." if len(report.auc) > 1 else ""),
         _table([*headers, "metric", "n (successes)", "AUC [95% CI]"], auc_rows(report)),
