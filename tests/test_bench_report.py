@@ -733,6 +733,30 @@ def test_report_json_lists_the_scan_vs_recipe_rows(tmp_path):
     assert summarize(plain).to_json()["scan_vs_recipe"] == []
 
 
+def test_every_status_has_one_meaning_and_the_report_explains_those_of_its_run(tmp_path):
+    from manigrasp.bench.report import STATUS_MEANINGS
+
+    assert set(STATUS_MEANINGS) == set(Status)
+    results = _results({("025_mug", "antipodal"): 18})
+    results.append((TrialKey("025_mug", "parallel_jaw", "antipodal", "ground_truth", "standard", 20),
+                    TrialResult(Status.DROPPED_PERTURB, detail="only 0 finger(s) touch the object at the end (need 2)",
+                                last_phase="perturb")))
+    text = write_markdown(summarize(results), results, tmp_path, RUN_META).read_text()
+    legend = [line for line in text.splitlines() if line.startswith("- `")]
+    assert [line.split("`")[1] for line in legend] == ["success", "no_contact", "dropped_perturb"]
+    assert f"- `no_contact`: {STATUS_MEANINGS[Status.NO_CONTACT]}." in legend
+    dropped = STATUS_MEANINGS[Status.DROPPED_PERTURB]
+    assert "without one" in dropped and "fewer than 2 finger bodies touch it at the end" in dropped
+
+
+def test_docs_results_lists_every_status_as_the_report_defines_it():
+    from manigrasp.bench.report import STATUS_MEANINGS
+
+    docs = " ".join((Path(__file__).parents[1] / "docs" / "results.md").read_text().split())
+    for status, meaning in STATUS_MEANINGS.items():
+        assert f"`{status.value}`: {meaning}" in docs, status
+
+
 def test_the_auc_section_says_which_metrics_leave_out_trials_that_never_touched(tmp_path):
     results = _results({("025_mug", "antipodal"): 18})
     text = write_markdown(summarize(results), results, tmp_path, RUN_META).read_text()
@@ -745,4 +769,3 @@ def test_the_planning_time_note_says_a_call_without_candidates_is_not_divided(tm
     results = _results({("025_mug", "antipodal"): 18})
     text = " ".join(write_markdown(summarize(results), results, tmp_path, RUN_META).read_text().split())
     assert "divided by the number of candidates it returned, or the whole call where it returned none" in text
-

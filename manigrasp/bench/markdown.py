@@ -18,6 +18,7 @@ from manigrasp.bench.report import (
     PLANNING_TIME_HEADER,
     POOLED,
     PREDICTORS,
+    STATUS_MEANINGS,
     Method,
     PoseErrors,
     Rate,
@@ -30,7 +31,7 @@ from manigrasp.bench.report import (
 )
 from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import REST_LABEL, LeftOut, left_out
-from manigrasp.protocol.result import PoseRecord, Status, TrialResult
+from manigrasp.protocol.result import DIRECTIONS, PoseRecord, Status, TrialResult
 from manigrasp.runfiles import REPORT_NAME
 
 
@@ -104,6 +105,21 @@ def auc_rows(report: Report) -> list[list[str]]:
         rows += [[*pooled, metric_label(metric), f"{e.n} ({e.successes})", format_auc(e)]
                  for metric, e in report.auc_pooled.items()]
     return rows
+
+
+def status_legend(report: Report) -> str:
+    """What the outcomes that occur in the run mean (`STATUS_MEANINGS`), one line each, in the plots' order of
+    outcomes; `dropped_perturb` once for all its directions. Empty for a run without trials."""
+    seen = {Status.SUCCESS} if any(r.successes for r in report.by_method.values()) else set()
+    for r in report.by_method.values():
+        seen |= {s for s in Status for mode in r.failure_modes if mode == s.value
+                 or mode.startswith(s.value) and mode[len(s.value):] in DIRECTIONS}  # dropped_perturb+x
+        seen |= {Status.HARNESS_FAULT} if r.harness_faults else set()
+    if not seen:
+        return ""
+    lines = [f"- `{status.value}`: {STATUS_MEANINGS[status]}." for status in Status if status in seen]
+    return ("Outcomes of this run's trials (the `standard` protocol's limits are named; docs/protocol.md has every "
+            "protocol's):\n\n" + "\n".join(lines))
 
 
 def simulated_contact_note() -> str:
@@ -440,6 +456,7 @@ def write_markdown(report: Report, results: list[tuple[TrialKey, TrialResult]], 
         "is that call divided by the number of candidates it returned, or the whole call where it returned none: "
         "its trials end `planner_error` or `no_grasp`); the median is over the calls. A call that ran out of its "
         "budget has no time (its trials end `timeout`) and is counted apart (\"1 more timed out\").",
+        *filter(None, [status_legend(report)]),
         *_protocols(report, results, meta),
         "## Per object",
         _table([*headers, "object", "trials", "successes", "rate [95% CI]", "failure modes"],

@@ -117,6 +117,35 @@ def _mode(result: TrialResult) -> str:
     return result.status.value + (result.perturb_direction if result.status is Status.DROPPED_PERTURB else "")
 
 
+# What each trial status means, one line each: report.md's legend of the outcomes that occur in a run
+# (`manigrasp.bench.markdown.status_legend`) and docs/results.md's list (a test keeps them the same). The limits
+# named are the `standard` protocol's defaults (docs/protocol.md); another protocol, or other params, has its own.
+STATUS_MEANINGS: dict[Status, str] = {
+    Status.SUCCESS: "every phase passed (lift, hold, the perturbations) and at least 2 finger bodies touch the "
+                    "object at the end",
+    Status.PREGRASP_COLLISION: "the open hand, placed 10 cm back along the approach before moving in, already "
+                               "touches the object or the table",
+    Status.NO_CONTACT: "no finger touches the object at the end of the close: the hand closed without touching it, "
+                       "or gripped it and squeezed it out (the detail says which)",
+    Status.SLIPPED_LIFT: "the object moved over 2 cm or 15 deg in the hand during the lift and hold, or was left "
+                         "behind",
+    Status.DROPPED_PERTURB: "with a direction (`dropped_perturb+x`...): the object moved over 2 cm or 15 deg in the "
+                            "hand under the push along it (`six_direction`: or fewer than 2 fingers touched it after "
+                            "that push); without one: it went through every push within those limits but fewer "
+                            "than 2 finger bodies touch it at the end (detail \"only N finger(s) touch the object at "
+                            "the end (need 2)\"), or (`shake`) it moved too far in the shake",
+    Status.UNSTABLE: "the simulation failed: a NaN state, a MuJoCo warning or a divergence",
+    Status.PLANNER_ERROR: "the planner (or the perception before it) raised, crashed its worker or returned an "
+                          "invalid candidate; never simulated, counted against the planner",
+    Status.NO_GRASP: "the planner returned fewer candidates than the trials asked for, so this trial had no grasp "
+                     "to try; never simulated, counted against the planner",
+    Status.INVALID_GRASP: "the grasp could not be executed as given (it cannot be read, or its pose or joints are "
+                          "invalid); never simulated",
+    Status.TIMEOUT: "a time budget ran out: the planning call's (the detail begins \"planning\") or the trial's",
+    Status.HARNESS_FAULT: "a fault of manigrasp itself, neither the planner nor the physics: left out of every "
+                          "rate and count",
+}
+
 # The rule of `PoseErrors.share_good`, as report.md says it under its perception table.
 GOOD_POSE_RULE = ("One pose estimate per object (or object x resting pose). A pose is good when its translation error "
                   "is below 1 cm and its rotation error below 5 deg, or, for an object with a symmetry, its ADD-S "
