@@ -6,7 +6,6 @@ import json
 import math
 from collections import defaultdict
 from dataclasses import astuple, replace
-from fractions import Fraction
 from itertools import combinations
 from pathlib import Path
 
@@ -26,8 +25,8 @@ from manigrasp.bench.report import (
     format_auc,
     format_planning_time,
     format_rate,
+    format_stored_share,
     metric_label,
-    round_half_up,
 )
 from manigrasp.bench.store import TrialKey
 from manigrasp.bench.trials import REST_LABEL, LeftOut, left_out
@@ -90,10 +89,7 @@ def _pose_cells(e: PoseErrors | None) -> tuple[str, ...]:
     rotation = f"{e.median_rotation_deg:.1f} / {e.p90_rotation_deg:.1f}" if e.objects > e.symmetric else "-"
     errors = (rotation, f"{e.median_translation_mm:.1f} / {e.p90_translation_mm:.1f}", f"{e.median_add_s_mm:.1f}"
               ) if e.objects else ("-",) * 3
-    # share_good is a count over a count stored as a float: its fraction recovered (denominators are a few
-    # hundred estimates at most) and rounded as every rate is (`round_half_up`)
-    good = round_half_up(Fraction(e.share_good).limit_denominator(10 ** 6)) if math.isfinite(e.share_good) else "-"
-    return estimates, *errors, good
+    return estimates, *errors, format_stored_share(e.share_good)
 
 
 def auc_rows(report: Report) -> list[list[str]]:

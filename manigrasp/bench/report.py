@@ -448,6 +448,16 @@ def format_share(successes: int, trials: int, percent: bool = False) -> str:
     return f"{round_half_up(100 * share, 0)}%" if percent else round_half_up(share)
 
 
+def format_stored_share(share: float, percent: bool = False) -> str:
+    """A share held as a float that is a count over a count (`PoseErrors.share_good`), printed as `format_share`
+    prints one from its counts: its fraction recovered (denominators of a few hundred at most) and rounded half up;
+    "-" for NaN."""
+    if not math.isfinite(share):
+        return "-"
+    exact = Fraction(share).limit_denominator(10 ** 6)
+    return f"{round_half_up(100 * exact, 0)}%" if percent else round_half_up(exact)
+
+
 def format_rate(rate: Rate) -> str:
     """"0.85 [0.64, 0.95]" style: the rate from its counts (`format_share`) and its Wilson interval's bounds by the
     same rule (`round_half_up` of the floats' exact values)."""

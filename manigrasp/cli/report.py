@@ -120,7 +120,7 @@ def _print_tables(report, meta: dict) -> None:
         pooled_line,
         protocol_order,
     )
-    from manigrasp.bench.report import PLANNING_TIME_HEADER, format_planning_time, format_rate
+    from manigrasp.bench.report import PLANNING_TIME_HEADER, format_planning_time, format_rate, format_stored_share
 
     report = in_protocol_order(report, protocol_order(report, meta))
     headers = method_headers(report)
@@ -141,8 +141,9 @@ def _print_tables(report, meta: dict) -> None:
                     f"{e.objects - e.symmetric} {'not known to have' if e.unrecorded else 'without'} a symmetry, "
                     if e.objects > e.symmetric else "")
         notes = "".join(f"; {note}" for note in e.notes())
+        good = format_stored_share(e.share_good, percent=True)
         print(f"pose errors {'/'.join(method_cells(report, m))}: {rotation}translation median "
-              f"{e.median_translation_mm:.1f} mm (p90 {e.p90_translation_mm:.1f}); {e.share_good:.0%} of "
+              f"{e.median_translation_mm:.1f} mm (p90 {e.p90_translation_mm:.1f}); {good} of "
               f"{e.objects + e.failed} pose estimate{'s' if e.objects + e.failed != 1 else ''} (one per object, or "
               f"object x resting pose{notes}) good: translation < 1 cm and rotation < 5 deg, or ADD-S < 5 mm for "
               f"an object with a symmetry")
