@@ -13,7 +13,7 @@ import pytest
 from manigrasp.errors import ConfigError
 from manigrasp.hands import load, pads
 from manigrasp.sim import SceneConfig, build_scene
-from manigrasp.sim.padtest import PAD_HALF, bumps, jaw_closed_on, press_pad
+from manigrasp.sim.padtest import PAD_HALF, bumps, jaw_closed_on, pad_rig, press_pad
 
 MU_RIGID = SceneConfig().hand_friction  # the rigid pads and the rest of the hand
 MU_PAD = SceneConfig().pad_friction  # the compliant pads' rubber
@@ -138,8 +138,8 @@ def test_the_thin_pad_on_bumps_reads_the_same_at_every_field_resolution() -> Non
     """`robotiq_2f85`'s 2 mm pad at 70 N on the egg-crate sampled 81 x 81 and 121 x 121: the same physics, so
     the same holding torque, within 25 % of the flat face's. Its element contacts there are under a micrometre
     deep, where MuJoCo's default CCD tolerance (1e-6 m) let a third of them come back with reversed normals and
-    the pad turned by itself during the press (0.011 and 0.17 of the flat torque; the rig resolves them, and
-    calls a slip over 20 ms, not on one jolt)."""
+    the pad turned by itself during the press (0.011 and 0.17 of the flat torque; every scene now resolves them,
+    `SceneConfig.ccd_tolerance`, and the rig calls a slip over 20 ms, not on one jolt)."""
     spec = load("robotiq_2f85").build_spec()
     name, toward = pads.pad_directions(spec, load("robotiq_2f85").pad_geoms, load("robotiq_2f85").tcp_site)[0]
     pad = pads.pad_geometry(spec.geom(name), toward)
@@ -148,6 +148,17 @@ def test_the_thin_pad_on_bumps_reads_the_same_at_every_field_resolution() -> Non
     ratios = [press_pad("compliant", GRIP_MAX, bumps(n), half=half).holding_torque / flat for n in (81, 121)]
     assert abs(ratios[0] - ratios[1]) < 0.03
     assert min(ratios) > 0.75
+
+
+def test_scenes_resolve_contacts_to_a_nanometre() -> None:
+    """MuJoCo's EPA stops at `ccd_tolerance`; the compliant elements' contacts can be shallower than its default
+    1e-6 m, and then came back with reversed normals in quick's trials: the scenes set 1e-9."""
+    spec = mujoco.MjSpec()
+    SceneConfig().apply(spec.option)
+    assert spec.compile().opt.ccd_tolerance == pytest.approx(1e-9)
+    assert pad_rig("compliant").opt.ccd_tolerance == pytest.approx(1e-9)  # the validation rig's scene too
+    with pytest.raises(ConfigError, match="ccd_tolerance"):
+        SceneConfig(ccd_tolerance=0.0)
 
 
 def test_compliant_pad_keeps_its_torque_on_1mm_bumps_and_rigid_pad_loses_it() -> None:

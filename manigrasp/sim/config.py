@@ -39,6 +39,13 @@ class SceneConfig:
         cone: friction cone, "elliptic" or "pyramidal".
         impratio: ratio of frictional to normal constraint impedance [-].
         gravity: (3,) [m/s^2].
+        ccd_tolerance: MuJoCo's convex collision tolerance [m] (`opt.ccd_tolerance`, 1e-6 by default): its EPA
+            stops refining a penetration there, and a contact shallower than about that could come back with its
+            normal reversed. The compliant pads' ellipsoid elements meet objects at such depths: on quick, at
+            1e-6, 124 of 200 compliant trials had reversed element contacts (4,451 contact-steps, 26 of them
+            over 10 N, up to 79 N), at 1e-9 none above 0.07 N; no outcome of quick changed, rigid pads' and
+            dexterous hands' trials are bit for bit the same (their contacts are between flat faces or deeper),
+            and a compliant step costs about 6 % more (`manigrasp.sim.padtest`, the validation rig, found it).
         hand_friction: sliding friction of every hand collision geom; the hand
             geoms get a higher contact priority than the object and table, so
             this is the hand-object (and hand-table) friction coefficient [-].
@@ -79,6 +86,7 @@ class SceneConfig:
     cone: str = "elliptic"
     impratio: float = 10.0
     gravity: tuple[float, float, float] = (0.0, 0.0, -STANDARD_GRAVITY)
+    ccd_tolerance: float = 1e-9
     hand_friction: float = STANDARD_MU
     hand_torsional_friction: float = STANDARD_TORSION_M
     hand_condim: int = 4
@@ -107,7 +115,7 @@ class SceneConfig:
         if self.hand_condim not in (1, 3, 4, 6):
             raise ConfigError(f"hand_condim must be 1, 3, 4 or 6, got {self.hand_condim}")
         positive = {"pad_modulus": self.pad_modulus, "pad_pitch": self.pad_pitch, "pad_friction": self.pad_friction,
-                    "timestep": self.timestep,
+                    "timestep": self.timestep, "ccd_tolerance": self.ccd_tolerance,
                      "impratio": self.impratio, "table_friction": self.table_friction}
         for key, value in positive.items():
             if not value > 0:
@@ -140,3 +148,4 @@ class SceneConfig:
         option.cone = CONES[self.cone]
         option.impratio = self.impratio
         option.gravity = list(self.gravity)
+        option.ccd_tolerance = self.ccd_tolerance

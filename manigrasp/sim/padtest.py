@@ -28,13 +28,6 @@ PAD_HALF = (0.01, 0.015, 0.003)  # [m], the parallel_jaw pad box (x, y in the fa
 SURFACE_HALF = 0.04  # [m], half side of the square surface
 SLIP_SPEED = 0.05  # [rad/s], the pad counts as slipping once its mean speed over SLIP_WINDOW exceeds this
 SLIP_WINDOW = 0.02  # [s]: a contact hopping between height-field prisms jolts the pad by < 1 mrad, not a slip
-# MuJoCo's native CCD ends its EPA at ccd_tolerance (default 1e-6 m): a contact shallower than that may come
-# back with its normal reversed. On the egg-crate an element meets several prisms, each contact 0.3-3 um deep,
-# and 27-40 % of those under 1 um came back reversed (pointing down, 0.3-1.5 N each: the pad turned by itself
-# during the press); the same triangles as mesh geoms do the same. Closing each parallel-jaw hand on a cube,
-# a cylinder and a sphere, the element contacts sank 8-50 um and none of about 110,000 was reversed, so the
-# scenes keep MuJoCo's default; the rig, whose shallow contacts are the case, resolves them.
-CCD_TOLERANCE = 1e-9  # [m]
 
 
 @dataclass(frozen=True)
@@ -68,7 +61,6 @@ def pad_rig(mode: str, heights: np.ndarray | None = None, config: SceneConfig | 
     spec = mujoco.MjSpec()
     config.apply(spec.option)
     spec.option.gravity = [0.0, 0.0, 0.0]
-    spec.option.ccd_tolerance = CCD_TOLERANCE
     top = 0.0
     if heights is None:
         spec.worldbody.add_geom(name="surface", type=mujoco.mjtGeom.mjGEOM_BOX,
