@@ -146,8 +146,9 @@ torque (0.68-0.77 at 35 N, 0.89-0.90 at 70 N, at height fields of 81-161
 samples; `benchmarks/bench_pads.py`); the 6 and 8 mm pads keep 0.87-0.95 at
 every force. Figures before 5 Dec 2026 (1.59x at 10 N, 0.81 at 35 N on
 `robotiq_2f85`) were the validation rig's artifacts: contacts shallower than
-MuJoCo's CCD tolerance came back with reversed normals and the pad turned by
-itself (`manigrasp.sim.padtest`).
+MuJoCo's default CCD tolerance came back with reversed normals and the pad
+turned by itself; every scene now resolves contacts to 1e-9 m
+(`SceneConfig.ccd_tolerance`).
 
 Cost of the first version (`benchmarks/bench_pad_speed.py --profile`, quick on `parallel_jaw`, one
 shared 2-core machine): a compliant trial took 1.70x a rigid one's time
