@@ -33,9 +33,11 @@ Parameters (`PadModel`) and their source:
   elements. Each element is one extra degree of freedom and up to one contact:
   the simulation cost grows with their number. The pitch was 1 cm (cells of about
   it, rounded) until 5 Dec 2026: its 2 x 3 round elements on `parallel_jaw` cost
-  2.08x a rigid trial on quick, against a target of 1.5x. The 2 x 2 grid passes
+  2.08x a rigid trial's simulation on quick (1.76x with planning), against a
+  target of 1.5x. The 2 x 2 grid passes
   the same validation (flat-face torque, egg-crate, post under one element) with
-  two thirds of the elements, at 1.5x (docs/protocol.md, "The 1.5 cm grid").
+  two thirds of the elements, at 1.38x a rigid trial with planning, 1.59x the
+  simulation alone (docs/protocol.md, "The 1.5 cm grid").
   Its elements span their cells: round ones (5 mm, the smaller half side) held
   the egg-crate as well (0.93-0.95 of the flat torque against 0.87-0.89) but
   leave 5 mm of the face's middle and 2.5 mm at each end uncovered, where a thin
