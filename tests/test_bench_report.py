@@ -769,3 +769,12 @@ def test_the_planning_time_note_says_a_call_without_candidates_is_not_divided(tm
     results = _results({("025_mug", "antipodal"): 18})
     text = " ".join(write_markdown(summarize(results), results, tmp_path, RUN_META).read_text().split())
     assert "divided by the number of candidates it returned, or the whole call where it returned none" in text
+
+
+def test_the_plots_of_a_run_without_trials_are_drawn_empty(tmp_path):
+    """A run stopped while planning stores no trial: its report (and the per-object plot, which lays out one panel
+    per hand x planner) still comes out, with an empty panel, instead of failing on zero panels."""
+    from manigrasp.bench.plots import success_by_object
+
+    path = success_by_object(summarize([]), tmp_path / "success_by_object.png")
+    assert path.is_file() and path.stat().st_size > 0

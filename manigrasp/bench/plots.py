@@ -147,13 +147,15 @@ def success_by_object(report: Report, path: Path) -> Path:
         objects = sorted({g[4] for g in report.groups if g[:4] in methods})
         per_row = max(1, BARS_PER_ROW // max(1, len(methods)))
         rows += [(key, objects[i:i + per_row]) for i in range(0, max(1, len(objects)), per_row)]
-    widest = max((len(objs) * len(panels[key]) for key, objs in rows), default=1)
+    if not rows:  # no trial stored yet (a run stopped while planning): one empty panel
+        rows = [(("", ""), [])]
+    widest = max((len(objs) * len(panels.get(key, ())) for key, objs in rows), default=1)
     low, high = OBJECT_PLOT_WIDTH
     fig, axes = plt.subplots(len(rows), 1, figsize=(max(low, min(high, 0.38 * widest + 2.5)), 3.0 * len(rows)),
                              squeeze=False)
     for ax, (key, objects) in zip(axes[:, 0], rows, strict=True):
-        methods = panels[key]
-        width = 0.8 / len(methods)
+        methods = panels.get(key, [])
+        width = 0.8 / max(1, len(methods))
         x = np.arange(len(objects))
         for i, method in enumerate(methods):
             present = [(j, report.groups[(*method, obj)]) for j, obj in enumerate(objects)
@@ -174,7 +176,7 @@ def success_by_object(report: Report, path: Path) -> Path:
         ax.set_ylabel("success rate")
         first = ax is axes[0, 0]
         ax.set_title(("Success per object (95 % Wilson intervals, successes/trials over each bar)\n" if first else "")
-                     + f"{key[0]} / {key[1]}", fontsize=10, loc="left")
+                     + (f"{key[0]} / {key[1]}" if methods else "no trial stored yet"), fontsize=10, loc="left")
         if several:
             ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return _save(fig, path)
