@@ -13,6 +13,7 @@ import collections.abc
 import dataclasses
 import math
 import numbers
+import re
 import types
 import typing
 from collections.abc import Mapping, Sequence
@@ -115,6 +116,9 @@ def _convert(hint: Any, value: Any, where: str) -> Any:
     return _scalar(hint, value, where)
 
 
+_EXPONENT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
+
+
 def _scalar(hint: Any, value: Any, where: str) -> Any:
     if hint is bool:
         if not isinstance(value, bool | np.bool_):
@@ -125,6 +129,8 @@ def _scalar(hint: Any, value: Any, where: str) -> Any:
             raise ConfigError(f"{where}: expected an integer, got {_kind(value)}")
         return int(value)
     if hint is float:
+        if isinstance(value, str) and _EXPONENT.fullmatch(value.strip()):
+            value = float(value)  # YAML 1.1 (PyYAML) reads 1e-6, without a dot, as a string; YAML 1.2 and JSON do not
         if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
             raise ConfigError(f"{where}: expected a number, got {_kind(value)}")
         if not math.isfinite(float(value)):

@@ -156,3 +156,23 @@ def test_a_grasp_file_gone_since_the_run_started_is_named_as_gone_not_changed(tm
         rundir.check(tmp_path / "run", config)
     (tmp_path / "moved.json").rename(grasps)
     assert rundir.check(tmp_path / "run", config) is not None
+
+
+def test_a_run_recorded_before_a_scene_parameter_existed_keeps_the_physics_it_ran_with(tmp_path):
+    """A run.json written before `scene.ccd_tolerance` was recorded ran at MuJoCo's default 1e-6, not today's 1e-9:
+    read back (resume check, replay, report), its scene says 1e-6; resuming it under today's defaults is refused
+    with the override that resumes it, and that override (written 1e-6, which YAML 1.1 reads as a string) does."""
+    from manigrasp.sim.config import LEGACY_SCENE, SceneConfig
+
+    run = tmp_path / "run"
+    rundir.prepare(run, parse_config(ONE))
+    meta = json.loads((run / "run.json").read_text())
+    assert meta["config"]["scene"]["ccd_tolerance"] == SceneConfig().ccd_tolerance == 1e-9
+    del meta["config"]["scene"]["ccd_tolerance"]  # as a run.json before 645f8e2
+    (run / "run.json").write_text(json.dumps(meta))
+    assert rundir.load_meta(run)["config"]["scene"]["ccd_tolerance"] == LEGACY_SCENE["ccd_tolerance"] == 1e-6
+    with pytest.raises(ConfigError, match=r"scene.ccd_tolerance: 1e-06 -> 1e-09.*give scene.ccd_tolerance=1e-06"):
+        rundir.check(run, parse_config(ONE))
+    assert rundir.check(run, parse_config(ONE, ["scene.ccd_tolerance=1e-6"])) is not None
+    with pytest.raises(ConfigError, match="expected a number"):
+        parse_config(ONE, ["scene.ccd_tolerance=tiny"])

@@ -190,8 +190,13 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
         old_config, resolved = shipped_names(existing["config"]), recorded_config(config)
         if old_config != resolved:
             keys = differing_keys(old_config, resolved)
+            from manigrasp.sim.config import LEGACY_SCENE
+
+            older = [k.removeprefix("scene.") for k in keys if k.removeprefix("scene.") in LEGACY_SCENE]
+            hint = "".join(f"; a run recorded before scene.{k} was recorded ran at {LEGACY_SCENE[k]:g}: give "
+                           f"scene.{k}={LEGACY_SCENE[k]:g} to resume it with that physics" for k in older)
             raise ConfigError(f"{run_dir} holds a run with a different config ({_describe(keys, old_config, resolved)}"
-                              "); use another --out to start a new run")
+                              f"); use another --out to start a new run{hint}")
         old, ident = existing.get("identity", {}), identity(config, base)
         changed = _changed_files(old, ident, "mesh_sha256")
         gone = [name for name in changed if not ident["mesh_sha256"][name]]  # `_content_hash`: "" if unreadable
@@ -342,7 +347,9 @@ def read_meta(run_dir: Path) -> dict:
         raise ConfigError(f"{path} is not readable run metadata ({type(exc).__name__}); use another --out") from None
     if not isinstance(meta, dict) or not isinstance(meta.get("config"), dict):
         raise ConfigError(f"{path} is not run metadata (expected a JSON object with a 'config'); use another --out")
-    return meta
+    from manigrasp.sim.config import with_legacy_scene
+
+    return {**meta, "config": with_legacy_scene(meta["config"])}  # what an older run's scene ran at
 
 
 @contextmanager

@@ -29,6 +29,21 @@ MAX_REST_K = 64
 CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
+LEGACY_SCENE = {"ccd_tolerance": 1e-6}
+"""Scene parameters added after runs were recorded, with the value such a run used (MuJoCo's default then): a
+recorded config without one ran at it (`with_legacy_scene`), not at today's default."""
+
+
+def with_legacy_scene(config: dict) -> dict:
+    """A copy of a recorded config (run.json's ``config``) whose scene holds each `LEGACY_SCENE` parameter it lacks, at
+    the value the run used: replay, resume checks and reports then read the physics the run had."""
+    scene = config.get("scene")
+    if scene is not None and not isinstance(scene, dict):
+        return config
+    missing = {k: v for k, v in LEGACY_SCENE.items() if k not in (scene or {})}
+    return {**config, "scene": {**(scene or {}), **missing}} if missing else config
+
+
 @dataclass(frozen=True)
 class SceneConfig:
     """Physics and scene parameters (every number a config field).
