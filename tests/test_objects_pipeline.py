@@ -356,10 +356,31 @@ def test_a_loose_default_cover_is_decomposed_again_finer_and_kept_if_closer(isol
     assert meta["decomposition"]["threshold"] == 0.03 and meta["decomposition"]["max_convex_hull"] == -1
     assert meta["refined_from"]["coverage"] == pytest.approx(28 / 20, rel=0.01) and meta["refined_from"]["n_hulls"] == 1
     line = catalog.summary(catalog.BuildOutcome("ell", result, None))
-    assert "the default settings covered 1.40 with 1 hulls; decomposed again finer" in line
+    assert "(the default CoACD settings covered 1.40 of its volume with 1 hulls; decomposed again at threshold " \
+           "0.03, no hull cap)" in line
     again = build_object(ell, name="ell", mass=0.1)  # both decompositions cached: none runs, the same is kept
     assert again.cached and calls == [(0.04, 32), (0.03, -1)] and again.asset.n_parts == 2
     calls.clear()
     given = build_object(ell, name="ell_given", mass=0.1, params=DecompositionParams())
     assert calls == [] and given.asset.n_parts == 1  # explicit settings: as given (the default's cached cover)
     assert "refined_from" not in given.asset.metadata
+
+
+def test_a_finer_cover_that_misses_more_than_the_default_adds_is_not_kept(isolated_cache, monkeypatch):
+    """The closer cover is kept, not the smaller: a finer decomposition that leaves out part of the object (0.4 of
+    the L's volume, 0.6 off) loses to the default's hull (1.4, 0.4 off)."""
+    from manigrasp.objects import pipeline
+
+    long_arm = trimesh.creation.box((0.06, 0.02, 0.02), trimesh.transformations.translation_matrix([0.03, 0.01, 0]))
+    short_arm = trimesh.creation.box((0.02, 0.04, 0.02), trimesh.transformations.translation_matrix([0.01, 0.04, 0]))
+    ell = trimesh.boolean.union([long_arm, short_arm], engine="manifold")
+
+    def standin(mesh, params):
+        if params.threshold == pipeline.REFINED["threshold"]:
+            return [short_arm.convex_hull.apply_translation(mesh.centroid - ell.centroid)]
+        return [mesh.convex_hull]
+
+    monkeypatch.setattr(pipeline, "decompose", standin)
+    meta = build_object(ell, name="ell", mass=0.1).asset.metadata
+    assert meta["coverage"] == pytest.approx(1.4, rel=0.01) and "refined_from" not in meta
+    assert meta["decomposition"]["threshold"] == 0.04

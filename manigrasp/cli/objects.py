@@ -122,13 +122,9 @@ def _show(args: argparse.Namespace) -> int:
             print(f"{key:14s} {' '.join(f'{v:g}' for v in value) if isinstance(value, list) else value}")
     print(f"{'repairs':14s} {asset.metadata.get('repairs') or 'none'}")
     print(f"{'coverage':14s} {asset.metadata.get('coverage'):.3f} (hull union volume / mesh volume)")
-    first = asset.metadata.get("refined_from")
-    if first:
-        kept = asset.metadata.get("decomposition", {})
-        cap = kept.get("max_convex_hull")
-        print(f"{'':14s} the default CoACD settings covered {first['coverage']:.3f} with {first['n_hulls']} hulls; "
-              f"decomposed again at threshold {kept.get('threshold')}, "
-              f"{'no hull cap' if cap == -1 else f'at most {cap} hulls'}")
+    refined = catalog.refinement_note(asset.metadata)
+    if refined:
+        print(f"{'':14s} {refined}")
     return 0
 
 

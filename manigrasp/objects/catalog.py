@@ -230,6 +230,19 @@ class BuildOutcome:
     error: str | None
 
 
+def refinement_note(metadata: dict) -> str | None:
+    """What a built object's decomposition was redone for (`pipeline.REFINE_ABOVE`), e.g. "the default CoACD
+    settings covered 1.72 of its volume with 32 hulls; decomposed again at threshold 0.03, no hull cap"; None if
+    it was not."""
+    first, kept = metadata.get("refined_from"), metadata.get("decomposition") or {}
+    if not first:
+        return None
+    cap = kept.get("max_convex_hull")
+    return (f"the default CoACD settings covered {first['coverage']:.2f} of its volume with {first['n_hulls']} "
+            f"hulls; decomposed again at threshold {kept.get('threshold')}, "
+            f"{'no hull cap' if cap == -1 else f'at most {cap} hulls'}")
+
+
 def summary(outcome: BuildOutcome) -> str:
     """One line on a built (or failed) object: hulls, coverage, time, cached, and what repair tools
     warned of (MeshFix's "could not fix everything"), e.g. ``mug: 24 hulls, coverage 1.12, 0.3 s, cached``."""
@@ -238,10 +251,9 @@ def summary(outcome: BuildOutcome) -> str:
     r = outcome.result
     line = (f"{outcome.name}: {r.asset.n_parts} hulls, coverage {r.asset.metadata['coverage']:.2f}, "
             f"{r.seconds:.1f} s, {'cached' if r.cached else 'built'}")
-    first = r.asset.metadata.get("refined_from")
-    if first:
-        line += (f" (the default settings covered {first['coverage']:.2f} with {first['n_hulls']} hulls; "
-                 f"decomposed again finer)")
+    refined = refinement_note(r.asset.metadata)
+    if refined:
+        line += f" ({refined})"
     warnings = r.asset.metadata.get("warnings") or []
     return line + (f"; {'; '.join(warnings)}" if warnings else "")
 

@@ -38,7 +38,8 @@ finer (`REFINED`), and the closer cover kept. CoACD's defaults (concavity thresh
 thin shell's cavity: a scanned bowl (`manigrasp.objects.pseudoscan`) came out 1.72, its jaw-width rim a solid wall
 thicker than the real one; every shipped object decomposed with the defaults stays below 1.16 (the scissors)."""
 REFINED = {"threshold": 0.03, "max_convex_hull": -1}
-"""The finer settings, the bowl recipe's (`assets/objects/ycb_like.yaml`): the scanned bowl 1.72 -> 1.39 (32 -> 81
+"""The finer settings, the bowl recipe's threshold and hull cap (`assets/objects/ycb_like.yaml`; it also turns
+CoACD's pre-processing off, which a scan that is not manifold needs): the scanned bowl 1.72 -> 1.39 (32 -> 81
 hulls; 58 and 95 s of CoACD on one core, once: cached)."""
 MAX_FACES = 250_000
 """Largest mesh built (faces): CoACD's time and memory grow with the face count (a 2-million-face
@@ -128,7 +129,7 @@ def build_object(
     if refine and hull_meta["coverage"] > REFINE_ABOVE:
         finer = DecompositionParams(**{**params.as_dict(), **REFINED})
         finer_hulls, finer_meta, finer_cached = _hulls(mesh, finer, cache)
-        if finer_meta["coverage"] < hull_meta["coverage"]:
+        if abs(finer_meta["coverage"] - 1.0) < abs(hull_meta["coverage"] - 1.0):  # the closer cover
             refined_from = {"coverage": hull_meta["coverage"], "n_hulls": len(hulls), "decomposition": params.as_dict()}
             hulls, hull_meta, params = finer_hulls, finer_meta, finer
         cached = cached and finer_cached
