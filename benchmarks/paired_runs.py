@@ -7,8 +7,9 @@ planner, observation, protocol, grasp rank: the same planning and trial seeds). 
 planner x observation x protocol x object) with a change: successes on each side, the pairs only A held and only
 B held, and the exact McNemar p (two-sided binomial test of the discordant pairs), then the totals per hand x
 planner x observation x protocol. A pair with a `harness_fault` on either side, or a trial run on one side only,
-is left out (and counted). Groups are sorted by p; `*` marks p < 0.05 before any correction for the many groups,
-so with 100 groups about five such marks come by chance.
+is left out (and counted). Runs of another seed or number of grasps per object are refused (their trial ids name
+other draws); other differences of the configs beyond the scene are printed. Groups are sorted by p; `*` marks
+p < 0.05 before any correction for the many groups, so with 100 groups about five such marks come by chance.
 
     .venv/bin/python benchmarks/paired_runs.py runs/std_before runs/std_after
     .venv/bin/python benchmarks/paired_runs.py runs/A runs/B --all     # also the groups that did not move
@@ -37,6 +38,19 @@ def outcomes(run: Path) -> dict[str, tuple[tuple[str, ...], bool | None]]:
                 for key, result in db.results()}
 
 
+def config_differences(a: Path, b: Path) -> list[str]:
+    """Keys (dotted) of the two runs' recorded configs that differ, the scene's aside (the change compared);
+    `SystemExit` if the seed or the grasps per object differ: then a trial id names other draws on each side."""
+    from manigrasp.bench.rundir import differing_keys, load_meta
+
+    configs = [{k: v for k, v in load_meta(run)["config"].items() if k != "scene"} for run in (a, b)]
+    keys = differing_keys(*configs)
+    drawn = [k for k in keys if k.split(".")[0] in ("seed", "grasps_per_object")]
+    if drawn:
+        raise SystemExit(f"{a} and {b} differ in {', '.join(drawn)}: their trials are other draws, not pairs")
+    return keys
+
+
 def mcnemar(only_a: int, only_b: int) -> float:
     """Exact two-sided McNemar p of `only_a` against `only_b` discordant pairs (1.0 with none)."""
     return binomtest(only_a, only_a + only_b).pvalue if only_a + only_b else 1.0
@@ -48,6 +62,7 @@ def main() -> None:
     parser.add_argument("b", type=Path, help="run directory B (after)")
     parser.add_argument("--all", action="store_true", help="also list the groups with no discordant pair")
     args = parser.parse_args()
+    differ = config_differences(args.a, args.b)
     a, b = outcomes(args.a), outcomes(args.b)
     common = sorted(a.keys() & b.keys())
     faults = sum(a[t][1] is None or b[t][1] is None for t in common)
@@ -65,6 +80,9 @@ def main() -> None:
         cell[4] += y and not x
     print(f"# A = {args.a}, B = {args.b}: {len(common)} trials in both ({faults} with a harness_fault left out), "
           f"{len(a.keys() - b.keys())} in A only, {len(b.keys() - a.keys())} in B only")
+    if differ:
+        print(f"# the configs differ beyond the scene in {', '.join(differ)}: the trials of a group defined "
+              "differently on each side are not the same experiment")
     header = f"{'hand':<14} {'planner':<10} {'observation':<12} {'protocol':<10} {'object':<22}"
     print(f"{header} {'A':>7} {'B':>7} {'only A':>6} {'only B':>6} {'McNemar p':>9}")
     rows = [(mcnemar(c[3], c[4]), g, c) for g, c in cells.items() if args.all or c[3] + c[4]]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 import sys
 from pathlib import Path
 
@@ -21,7 +22,10 @@ def _script():
     return module
 
 
-def _run(folder: Path, outcomes: dict[tuple[str, int], Status]) -> Path:
+def _run(folder: Path, outcomes: dict[tuple[str, int], Status], seed: int = 0) -> Path:
+    folder.mkdir(parents=True)
+    (folder / "run.json").write_text(json.dumps({"config": {"seed": seed, "grasps_per_object": 10,
+                                                            "scene": {"pad_pitch": 0.01 + 0.005 * seed}}}))
     with ResultsStore(folder / "results.sqlite") as store:
         for (obj, rank), status in outcomes.items():
             store.add(TrialKey(obj, "parallel_jaw", "antipodal", "ground_truth", "standard", rank), TrialResult(status))
@@ -52,3 +56,13 @@ def test_two_runs_are_paired_by_trial_and_faults_and_unpaired_trials_left_out(tm
     assert rows["box"] == ["8/10", "8/10", "2", "2", "1"]
     assert rows["mug"] == ["0/9", "9/9", "0", "9", f"{2 * 0.5**9:.3g}", "*"]
     assert rows["(all)"] == ["8/19", "17/19", "2", "11", f"{_script().mcnemar(2, 11):.3g}"]
+
+
+def test_runs_of_another_seed_are_refused_as_pairs(tmp_path, monkeypatch) -> None:
+    """Trial ids of runs with other seeds name other draws of grasps: not pairs. A differing scene (the change being
+    compared) is what the script is for."""
+    a = _run(tmp_path / "a", {("box", 0): Status.SUCCESS})
+    b = _run(tmp_path / "b", {("box", 0): Status.SUCCESS}, seed=1)
+    monkeypatch.setattr(sys, "argv", ["paired_runs.py", str(a), str(b)])
+    with pytest.raises(SystemExit, match="differ in seed"):
+        _script().main()
