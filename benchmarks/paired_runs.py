@@ -21,8 +21,7 @@ import argparse
 from collections import defaultdict
 from pathlib import Path
 
-from scipy.stats import binomtest
-
+from manigrasp.bench.stats import mcnemar_p as mcnemar
 from manigrasp.bench.store import ResultsStore
 from manigrasp.protocol.result import Status
 
@@ -49,11 +48,6 @@ def config_differences(a: Path, b: Path) -> list[str]:
     if drawn:
         raise SystemExit(f"{a} and {b} differ in {', '.join(drawn)}: their trials are other draws, not pairs")
     return keys
-
-
-def mcnemar(only_a: int, only_b: int) -> float:
-    """Exact two-sided McNemar p of `only_a` against `only_b` discordant pairs (1.0 with none)."""
-    return binomtest(only_a, only_a + only_b).pvalue if only_a + only_b else 1.0
 
 
 def main() -> None:

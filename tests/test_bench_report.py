@@ -99,7 +99,11 @@ def test_report_json_is_json_only_with_the_runs_config_and_versions(tmp_path, ca
     assert _files(run) == ["results.sqlite", "run.json"]  # (SQLite's own -wal/-shm aside)
     group = next(g for g in payload["groups"] if g["planner"] == "antipodal")
     assert {"hand", "planner", "object", "trials", "successes", "success_rate", "ci_low", "ci_high"} <= set(group)
-    assert payload["run"]["config"] == RUN_META["config"] and payload["run"]["versions"]["mujoco"] == "4.0.0"
+    assert payload["run"]["versions"]["mujoco"] == "4.0.0"
+    # the config as recorded, its scene with the parameters it predates at the values it ran with (LEGACY_SCENE)
+    from manigrasp.sim.config import with_legacy_scene
+
+    assert payload["run"]["config"] == with_legacy_scene(RUN_META["config"]) != RUN_META["config"]
     assert payload["overall"]["pools"] == POOLED
 
 

@@ -205,7 +205,7 @@ def paired_rows(report: Report, results: list[tuple[TrialKey, TrialResult]], ord
     first, only the second, neither, and the exact McNemar p-value (two-sided binomial test of the discordant
     pairs: how likely a split this uneven is if the protocols were equally hard). A pair with a `harness_fault`
     on either side is left out, as every rate leaves those trials out (a bug of manigrasp is neither outcome)."""
-    from scipy.stats import binomtest
+    from manigrasp.bench.stats import mcnemar_p
 
     outcome: dict[tuple, dict[str, TrialResult]] = defaultdict(dict)
     for key, result in results:
@@ -220,7 +220,7 @@ def paired_rows(report: Report, results: list[tuple[TrialKey, TrialResult]], ord
                 wins = [(x.success, y.success) for x, y in pairs]
                 both, first, second = (sum(x and y for x, y in wins), sum(x and not y for x, y in wins),
                                        sum(y and not x for x, y in wins))
-                p = binomtest(first, first + second).pvalue if first + second else 1.0
+                p = mcnemar_p(first, second)
                 rows.append([*method, f"{a} vs {b}", len(pairs), same, both, first, second,
                              len(pairs) - both - first - second, f"{p:.3g}"])
     return rows

@@ -19,6 +19,14 @@ def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tu
     return float(ci.low), float(ci.high)
 
 
+def mcnemar_p(only_first: int, only_second: int) -> float:
+    """Exact two-sided McNemar p of paired outcomes: the binomial test of the discordant pairs (those only the first
+    side held against those only the second held), how likely a split this uneven is if both sides were equally
+    good; 1.0 with no discordant pair."""
+    total = only_first + only_second
+    return float(stats.binomtest(only_first, total).pvalue) if total else 1.0
+
+
 @dataclass(frozen=True)
 class ProportionTest:
     """One-sided two-proportion z-test of "new rate < baseline rate".
