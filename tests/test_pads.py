@@ -180,7 +180,9 @@ def test_every_parallel_jaw_hand_gets_compliant_pads(hand: str) -> None:
     rigid = build_scene(hand, config=SceneConfig(pads="rigid")).model
     compliant = build_scene(hand, config=SceneConfig(pads="compliant")).model
     elements = [g for g in range(compliant.ngeom) if pads.is_element(compliant.geom(g).name.split("/")[-1])]
-    assert len(elements) >= 8  # at least 2 x 2 per pad
+    # cells no longer than 1.5 cm: 2 x 2 on parallel_jaw's 2 x 3 cm and panda's 1.6 x 1.6 cm pads, 2 x 3 on
+    # robotiq_2f85's 2 x 3.35 cm (rounding the count would give it 2 x 2 cells of 1.68 cm)
+    assert len(elements) == 2 * {"parallel_jaw": 4, "panda": 4, "robotiq_2f85": 6}[hand]
     assert not any(pads.is_element(rigid.geom(g).name.split("/")[-1]) for g in range(rigid.ngeom))
     for name in load(hand).pad_geoms + load(hand).pad_backing:  # the rigid boxes stay, without collisions
         g = mujoco.mj_name2id(compliant, mujoco.mjtObj.mjOBJ_GEOM, f"hand/{name}")

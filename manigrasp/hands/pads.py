@@ -172,9 +172,14 @@ the pad's rim and the finger's back (standard's antipodal `parallel_jaw`, of
 before the creep fix above, against this model's 16 and 17; with the fix, 3 of
 8 of the 5 mm spheres' failed trials held on replay); a 2 x 2 grid on the
 2 x 3 cm pad costs 38 us but holds scissors 6, and on the egg-crate keeps 1.49x
-its flat torque; a looser CCD tolerance (1e-4) saved 2 us; condim 3 saves about
-1 us and loses the cell torsion a one-element contact needs. This model costs
+its flat torque (round elements, before the creep fix and measured on the rig
+before its reversed normals were found: the 2 x 2 grid of cell-spanning elements
+is today's model, "pitch" above); a looser CCD tolerance (1e-4) saved 2 us; condim 3 saves about
+1 us and loses the cell torsion a one-element contact needs. That (1 cm grid) model cost
 2.08x a rigid trial's CPU time on quick (docs/protocol.md, "Cost of compliant pads").
+
+The history below measured the 1 cm grid: 12 elements on `parallel_jaw`, where
+today's has 8.
 
 Where this version's time goes (thread CPU per step, `parallel_jaw` closing on a 5 cm mesh cube on the
 table, 500 warm consecutive steps; quick's own from `benchmarks/bench_pad_speed.py`): rigid 15.5 us,
