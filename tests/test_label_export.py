@@ -367,14 +367,18 @@ def test_the_native_file_names_the_object_its_labels_were_measured_on(tmp_path):
 def test_a_dataset_records_what_it_was_labelled_under_and_evaluate_runs_under_it(tmp_path, captured, capsys):
     """A set labelled under `lift` with rigid pads re-ran under `standard` with compliant pads by default: its
     labels (drops of a protocol it never ran) no longer described the run. The files now record the protocol
-    with its parameters and the scene's non-default parameters (rest: most_stable too, one pose; not stable_k's
-    settings), in JSON, NPZ and ACRONYM files alike, and evaluate uses them."""
+    with its parameters and every scene parameter (a default changed since does not change the re-run; rest:
+    most_stable too, one pose; not stable_k's settings), in JSON, NPZ and ACRONYM files alike, and evaluate uses
+    them; a record of the non-default parameters only (files of before 5 Dec 2026) still runs."""
+    from manigrasp.config import to_mapping
+
     _store(tmp_path, [Status.SUCCESS, Status.SLIPPED_LIFT])
     config = parse_config(dict(CONFIG, protocol={"name": "lift", "params": {"hold_s": 1.0}},
                                scene={"pads": "rigid", "rest": "most_stable"}))
     (item,), _ = export_dataset(tmp_path, config)
-    expected = {"protocol": {"name": "lift", "params": {"hold_s": 1.0}},
-                "scene": {"pads": "rigid", "rest": "most_stable"}}
+    scene = json.loads(json.dumps(to_mapping(config.scene), default=str))
+    expected = {"protocol": {"name": "lift", "params": {"hold_s": 1.0}}, "scene": scene}
+    assert scene["pads"] == "rigid" and scene["rest"] == "most_stable" and scene["pad_pitch"] == 0.015
     for path in item.files:
         assert read(path).labelled_under == expected, path.suffix
     native_file = next(f for f in item.files if f.suffix == ".json")
@@ -388,6 +392,14 @@ def test_a_dataset_records_what_it_was_labelled_under_and_evaluate_runs_under_it
     assert (first.protocol.name, dict(first.protocol.params), first.scene.pads, first.scene.rest) == \
         ("lift", {"hold_s": 1.0}, "rigid", "most_stable")
     assert (second.protocol.name, second.scene.pads) == ("standard", "rigid")  # --protocol wins; the scene stays
+    # A default changed after labelling (the pads' grid, say) does not change the re-run: the file's value runs.
+    # An older file's record of the non-default parameters only runs under today's defaults for the rest.
+    for name, recorded in (("older_default.json", {**scene, "pad_pitch": 0.01}),
+                           ("diff_only.json", {"pads": "rigid", "rest": "most_stable"})):
+        write(replace(read(native_file), labelled_under={**expected, "scene": recorded}), tmp_path / name)
+        assert main(["evaluate", str(tmp_path / name), "--out", str(tmp_path / f"ev_{name}"), "--quiet"]) == 0
+        assert (captured[-1].scene.pads, captured[-1].scene.rest) == ("rigid", "most_stable")
+        assert captured[-1].scene.pad_pitch == recorded.get("pad_pitch", 0.015)
     # A file without the record runs as before (standard, default scene); a malformed record is a file error.
     plain = tmp_path / "plain.json"
     write(replace(read(native_file), labelled_under=None), plain)
@@ -402,6 +414,7 @@ def test_a_dataset_records_what_it_was_labelled_under_and_evaluate_runs_under_it
     other = tmp_path / "other"  # a store of its own: these exports write over the files above
     _store(other, [Status.SUCCESS])
     (item,), _ = export_dataset(other, parse_config(dict(CONFIG, scene={"rest": "stable_k", "rest_k": 2})))
-    assert read(item.files[0]).labelled_under["scene"] == {}  # stable_k: each group is one pose (rest_index)
+    recorded = read(item.files[0]).labelled_under["scene"]  # stable_k: each group is one pose (rest_index)
+    assert recorded["pads"] == "compliant" and not any(k.startswith("rest") for k in recorded)
     with pytest.raises(ConfigError, match="protocol 'lift', which the config does not list"):
         export_dataset(other, parse_config(dict(CONFIG, protocol="standard")))

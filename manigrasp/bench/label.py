@@ -189,13 +189,13 @@ def export_dataset(run_dir: Path, config: BenchConfig | None = None, base: Path 
 
 def labelled_under(config: BenchConfig, protocol_label: str) -> dict:
     """What a group's labels were measured under (`GraspSet.labelled_under`): the protocol its trials ran
-    (``protocol_label``, a label of `BenchConfig.protocol_labels`) with its parameters, and the scene as the
-    parameters that differ from their defaults (``rest: most_stable`` with them, the object's one resting pose
+    (``protocol_label``, a label of `BenchConfig.protocol_labels`) with its parameters, and the scene, every
+    parameter (so that a default changed since, as the pads' grid on 5 Dec 2026, does not change what `evaluate`
+    re-runs; ``rest: most_stable`` with them, the object's one resting pose
     the labels were measured in; ``stable_k``'s settings left out: each of its groups is one of the k poses,
     named by the grasps' ``rest_index`` labels, and `evaluate` places them on one pose), so that `manigrasp
     evaluate FILE` re-runs the grasps as they were labelled (under the defaults, a set labelled under `lift` or
     with rigid pads re-ran under `standard` with compliant pads)."""
-    from manigrasp.bench.config import scene_overrides
     from manigrasp.config import to_mapping
 
     entries = dict(zip(config.protocol_labels, config.protocol_entries, strict=True))
@@ -203,7 +203,7 @@ def labelled_under(config: BenchConfig, protocol_label: str) -> dict:
         raise ConfigError(f"the stored trials ran under protocol {protocol_label!r}, which the config does not "
                           f"list ({', '.join(entries)}): export with the run's own config")
     entry = entries[protocol_label]
-    scene = scene_overrides(json.loads(json.dumps(to_mapping(config.scene), default=str)))
+    scene = json.loads(json.dumps(to_mapping(config.scene), default=str))
     return {"protocol": {"name": entry.name, "params": json.loads(json.dumps(dict(entry.params), default=str))},
             "scene": {k: v for k, v in scene.items() if k in _recorded_scene_keys(scene)}}
 

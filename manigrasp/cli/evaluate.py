@@ -99,7 +99,10 @@ def _evaluate(args: argparse.Namespace) -> int:
         data["scene"] = under["scene"]
     if under:
         shown = protocol if isinstance(protocol, str) else _entry_text(protocol)
-        scene = ", ".join(f"{k}={v}" for k, v in sorted(under.get("scene", {}).items())) or "defaults"
+        from manigrasp.bench.config import scene_overrides
+
+        scene = ", ".join(f"{k}={v}" for k, v in sorted(scene_overrides(under.get("scene", {})).items())) \
+            or "today's defaults"
         print(f"evaluate: protocol {shown}{' (--protocol)' if args.protocol else ', as the file was labelled'}; "
               f"scene {scene}, as the file was labelled", file=sys.stderr)
     config = parse_config(data, where=f"evaluate ({args.grasps.name}: labelled_under)" if under else "evaluate")
