@@ -137,11 +137,16 @@ def test_a_mesh_file_gone_since_the_run_started_is_named_as_gone_not_changed(tmp
     mesh = tmp_path / "part.stl"
     trimesh.creation.box((0.05, 0.04, 0.03)).export(mesh)
     config = parse_config(dict(ONE, objects=[{"mesh": str(mesh), "name": "part"}]))
+    _moved_away_and_back(tmp_path, config, mesh, "mesh file of part is missing or unreadable .* put it back")
+
+
+def _moved_away_and_back(tmp_path, config, path, refusal: str) -> None:
+    """A run of `config` started, `path` moved away: resuming is refused with `refusal`; moved back: it resumes."""
     rundir.prepare(tmp_path / "run", config)
-    mesh.rename(tmp_path / "moved.stl")
-    with pytest.raises(ConfigError, match="mesh file of part is missing or unreadable .* put it back"):
+    moved = path.rename(tmp_path / f"moved{path.suffix}")
+    with pytest.raises(ConfigError, match=refusal):
         rundir.check(tmp_path / "run", config)
-    (tmp_path / "moved.stl").rename(mesh)
+    moved.rename(path)
     assert rundir.check(tmp_path / "run", config) is not None
 
 
@@ -150,12 +155,8 @@ def test_a_grasp_file_gone_since_the_run_started_is_named_as_gone_not_changed(tm
     grasps = tmp_path / "g.json"
     grasps.write_text(json.dumps({"object": {"name": "004_sugar_box"}, "grasps": [{"pose": np.eye(4).tolist()}]}))
     config = parse_config(dict(ONE, planners=[{"name": "file", "params": {"path": str(grasps)}}]))
-    rundir.prepare(tmp_path / "run", config)
-    grasps.rename(tmp_path / "moved.json")
-    with pytest.raises(ConfigError, match="grasp file of planner 'file' is missing or unreadable .* put it back"):
-        rundir.check(tmp_path / "run", config)
-    (tmp_path / "moved.json").rename(grasps)
-    assert rundir.check(tmp_path / "run", config) is not None
+    _moved_away_and_back(tmp_path, config, grasps,
+                         "grasp file of planner 'file' is missing or unreadable .* put it back")
 
 
 def test_a_run_recorded_before_a_scene_parameter_existed_keeps_the_physics_it_ran_with(tmp_path):

@@ -21,7 +21,7 @@ import platform
 import socket
 import subprocess
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
@@ -198,29 +198,31 @@ def check(run_dir: Path, config: BenchConfig, base: Path | None = None) -> dict 
             raise ConfigError(f"{run_dir} holds a run with a different config ({_describe(keys, old_config, resolved)}"
                               f"); use another --out to start a new run{hint}")
         old, ident = existing.get("identity", {}), identity(config, base)
-        changed = _changed_files(old, ident, "mesh_sha256")
-        gone = [name for name in changed if not ident["mesh_sha256"][name]]  # `_content_hash`: "" if unreadable
-        if gone:  # was "changed": the file is missing or unreadable, which another --out does not mend
-            raise ConfigError(f"{run_dir}: the mesh file of {', '.join(gone)} is missing or unreadable (it was "
-                              "read when this run started); put it back to resume the run")
-        if changed:
-            raise ConfigError(f"{run_dir}: the mesh file of {', '.join(changed)} changed since this run started; "
-                              "use another --out to start a new run")
-        changed = _changed_files(old, ident, "grasp_file_sha256")
-        gone = [name for name in changed if not ident["grasp_file_sha256"][name]]
-        if gone:
-            raise ConfigError(f"{run_dir}: the grasp file of planner {', '.join(map(repr, gone))} is missing or "
-                              "unreadable (it was read when this run started); put it back to resume the run")
-        if changed:
-            raise ConfigError(f"{run_dir}: the grasp file of planner {', '.join(map(repr, changed))} changed since "
-                              "this run started (its stored trials ran the old grasps); use another --out to start "
-                              "a new run")
+        _refuse_changed_files(run_dir, old, ident, "mesh_sha256", "mesh file of {}", str, "")
+        _refuse_changed_files(run_dir, old, ident, "grasp_file_sha256", "grasp file of planner {}", repr,
+                              " (its stored trials ran the old grasps)")
         return existing
     stray = [p.name for p in (run_dir / STORE_NAME, run_dir / RECORDINGS_DIR) if p.exists()]
     if stray:
         raise ConfigError(f"{run_dir} holds {' and '.join(stray)} but no run.json, so the config that made them is "
                           "unknown; use another --out (or restore run.json)")
     return None
+
+
+def _refuse_changed_files(run_dir: Path, old: dict, new: dict, key: str, what: str, name: Callable[[str], str],
+                          stored: str) -> None:
+    """Raise `ConfigError` if a file recorded under identity `key` (`_changed_files`) is gone (missing or unreadable:
+    `_content_hash` gave "", which another --out does not mend: put it back) or changed (start a new run); `what`
+    names the files ("mesh file of {}", filled with their `name`s), `stored` says what the stored trials ran."""
+    changed = _changed_files(old, new, key)
+    gone = [n for n in changed if not new[key][n]]
+    listed = ", ".join(map(name, gone or changed))
+    if gone:
+        raise ConfigError(f"{run_dir}: the {what.format(listed)} is missing or unreadable (it was read when this run "
+                          "started); put it back to resume the run")
+    if changed:
+        raise ConfigError(f"{run_dir}: the {what.format(listed)} changed since this run started{stored}; use another "
+                          "--out to start a new run")
 
 
 def _changed_files(old: dict, new: dict, key: str) -> list[str]:
