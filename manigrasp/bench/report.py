@@ -442,20 +442,19 @@ def round_half_up(value: Fraction | float | int, places: int = 2) -> str:
 def format_share(successes: int, trials: int, percent: bool = False) -> str:
     """The share `successes` / `trials` from its counts (`round_half_up` of the exact fraction): "0.63" for 250 of
     400, or "63%" with `percent` (a plot's label: the same figure in hundredths); "-" without trials."""
-    if trials == 0:
-        return "-"
-    share = Fraction(successes) / Fraction(trials)
-    return f"{round_half_up(100 * share, 0)}%" if percent else round_half_up(share)
+    return "-" if trials == 0 else _share_text(Fraction(successes, trials), percent)
 
 
 def format_stored_share(share: float, percent: bool = False) -> str:
     """A share held as a float that is a count over a count (`PoseErrors.share_good`), printed as `format_share`
     prints one from its counts: its fraction recovered (denominators of a few hundred at most) and rounded half up;
     "-" for NaN."""
-    if not math.isfinite(share):
-        return "-"
-    exact = Fraction(share).limit_denominator(10 ** 6)
-    return f"{round_half_up(100 * exact, 0)}%" if percent else round_half_up(exact)
+    return _share_text(Fraction(share).limit_denominator(10 ** 6), percent) if math.isfinite(share) else "-"
+
+
+def _share_text(share: Fraction, percent: bool) -> str:
+    """An exact share as `round_half_up` prints it: "0.63", or "63%" with `percent`."""
+    return f"{round_half_up(100 * share, 0)}%" if percent else round_half_up(share)
 
 
 def format_rate(rate: Rate) -> str:

@@ -7,6 +7,7 @@ cache folder. Every repair is recorded in the asset's metadata.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -127,7 +128,7 @@ def build_object(
     hulls, hull_meta, cached = _hulls(mesh, params, cache)
     refined_from = None
     if refine and hull_meta["coverage"] > REFINE_ABOVE:
-        finer = DecompositionParams(**{**params.as_dict(), **REFINED})
+        finer = dataclasses.replace(params, **REFINED)
         finer_hulls, finer_meta, finer_cached = _hulls(mesh, finer, cache)
         if abs(finer_meta["coverage"] - 1.0) < abs(hull_meta["coverage"] - 1.0):  # the closer cover
             refined_from = {"coverage": hull_meta["coverage"], "n_hulls": len(hulls), "decomposition": params.as_dict()}
