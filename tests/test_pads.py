@@ -13,7 +13,7 @@ import pytest
 from manigrasp.errors import ConfigError
 from manigrasp.hands import load, pads
 from manigrasp.sim import SceneConfig, build_scene
-from manigrasp.sim.padtest import PAD_HALF, bumps, jaw_closed_on, pad_rig, press_pad
+from manigrasp.sim.padtest import PAD_HALF, SURFACE_HALF, bumps, jaw_closed_on, pad_rig, press_pad
 
 MU_RIGID = SceneConfig().hand_friction  # the rigid pads and the rest of the hand
 MU_PAD = SceneConfig().pad_friction  # the compliant pads' rubber
@@ -115,8 +115,6 @@ def test_a_post_under_one_element_meets_that_cells_torsion() -> None:
     / (6 a b), d = hypot(a, b)), besides its sliding friction. The rig turns the pad about its centre, 9 mm
     from the post: MuJoCo's elliptic cone lets the element resist F hypot(mu r, mu_t) there, where a point
     contact gives mu F r."""
-    from manigrasp.sim.padtest import SURFACE_HALF, pad_rig
-
     n = 161  # 0.5 mm: the post's top is 4 x 4 mm and its walls steep (at 1 mm an element meets them too)
     grid = np.linspace(-SURFACE_HALF, SURFACE_HALF, n)
     x, y = np.meshgrid(grid, grid, indexing="xy")
@@ -212,8 +210,6 @@ def test_an_element_pressed_alone_bottoms_out_at_its_travel() -> None:
     # A 8 mm post under one element carries the jaw's whole 70 N: the element's spring (one 1 x 1.5 cm
     # cell, 8.5e3 N/m: 8.2 mm unstopped) bottoms out at its travel (80 % of the 6 mm pad) and the rigid
     # backing takes the rest. A soft limit let it sink 2x deeper, past the pad's own thickness.
-    from manigrasp.sim.padtest import SURFACE_HALF, pad_rig
-
     n = 81
     grid = np.linspace(-SURFACE_HALF, SURFACE_HALF, n)
     x, y = np.meshgrid(grid, grid, indexing="xy")
